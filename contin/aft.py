@@ -1,0 +1,203 @@
+"""Alternating frequency-time (AFT) kernels, compiled with numba.
+
+Coefficients follow the ordering table of :mod:`contin.harmonics`: a matrix
+``U`` of shape ``(2H+1, n)`` whose rows are ``a_0, a_1, b_1, ..., a_H, b_H``.
+Transforms are real FFTs of length ``N`` (numba support for ``numpy.fft`` is
+provided by ``rocket-fft``). ``N >= 2H+1`` is required so that every
+retained harmonic is resolved.
+
+The Jacobian is carried through the AFT analytically: the time samples of a
+matrix field ``G(theta)`` (for example ``df/dx``) are transformed once, and the
+coefficient-space matrix of "multiply by G" follows from the product-to-sum
+identities
+
+    <G cos k cos l> = (C(k-l) + C(k+l))/2     <G cos k sin l> = (S(k+l) - S(k-l))/2
+    <G sin k cos l> = (S(k+l) + S(k-l))/2     <G sin k sin l> = (C(k-l) - C(k+l))/2
+
+with ``C(m) = <G cos m theta>`` and ``S(m) = <G sin m theta>`` the discrete
+averages over the ``N`` samples (aliasing included, so the result is the
+exact derivative of the discrete residual). The cost is
+``O(n^2 (N log N + H^2))`` instead of the ``O(n^2 N H^2)`` of the dense
+``E^T diag(G) E`` product.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+import rocket_fft  # noqa: F401  (registers numpy.fft for numba)
+
+__all__ = [
+    "synthesize",
+    "project",
+    "multiplication_matrix",
+    "assemble_jacobian",
+    "matvec_samples",
+]
+
+
+@nb.njit(cache=True)
+def synthesize(U, N):
+    """Time samples of ``x`` and of ``dx/dtheta``.
+
+    Parameters
+    ----------
+    U : ndarray, shape (2H+1, n)
+    N : int
+        Sample count, ``N >= 2H+1``.
+
+    Returns
+    -------
+    x, xp : ndarray, shape (N, n)
+        ``x(theta_j)`` and its derivative with respect to ``theta``.
+    """
+    H = (U.shape[0] - 1) // 2
+    n = U.shape[1]
+    X = np.zeros((N // 2 + 1, n), dtype=np.complex128)
+    Xp = np.zeros((N // 2 + 1, n), dtype=np.complex128)
+    half = 0.5 * N
+    for i in range(n):
+        X[0, i] = N * U[0, i]
+    for k in range(1, H + 1):
+        for i in range(n):
+            a = U[2 * k - 1, i]
+            b = U[2 * k, i]
+            X[k, i] = half * (a - 1j * b)
+            # d/dtheta: a cos + b sin -> k(b cos - a sin)
+            Xp[k, i] = half * k * (b + 1j * a)
+    x = np.fft.irfft(X, N, axis=0)
+    xp = np.fft.irfft(Xp, N, axis=0)
+    return x, xp
+
+
+@nb.njit(cache=True)
+def project(f, H):
+    """Fourier coefficients of sampled values (the discrete Galerkin projection).
+
+    Parameters
+    ----------
+    f : ndarray, shape (N, n)
+    H : int
+
+    Returns
+    -------
+    ndarray, shape (2H+1, n)
+        ``a_0 = mean``, ``a_k = (2/N) sum f cos``, ``b_k = (2/N) sum f sin``.
+    """
+    N = f.shape[0]
+    n = f.shape[1]
+    F = np.fft.rfft(f, axis=0)
+    out = np.empty((2 * H + 1, n))
+    inv = 1.0 / N
+    for i in range(n):
+        out[0, i] = F[0, i].real * inv
+    for k in range(1, H + 1):
+        for i in range(n):
+            out[2 * k - 1, i] = 2.0 * inv * F[k, i].real
+            out[2 * k, i] = -2.0 * inv * F[k, i].imag
+    return out
+
+
+@nb.njit(cache=True)
+def _cs(Ghat, m, N):
+    """``C(m), S(m)`` from the rfft of a real signal, folded for aliasing."""
+    mm = m % N
+    if mm <= N // 2:
+        z = Ghat[mm]
+        return z.real / N, -z.imag / N
+    z = Ghat[N - mm]
+    return z.real / N, z.imag / N
+
+
+@nb.njit(cache=True)
+def _fill_block(Ghat, N, H, n, a, b, T, scale):
+    # Block of "multiply by G_ab" between dof a (rows) and dof b (columns).
+    for k in range(H + 1):
+        wk = scale if k == 0 else 2.0 * scale
+        rc = (0 if k == 0 else 2 * k - 1) * n + a
+        rs = 2 * k * n + a
+        for l in range(H + 1):
+            cc = (0 if l == 0 else 2 * l - 1) * n + b
+            cs = 2 * l * n + b
+            Cm, Sm = _cs(Ghat, k - l, N)
+            Cp, Sp = _cs(Ghat, k + l, N)
+            T[rc, cc] += wk * 0.5 * (Cm + Cp)
+            if l > 0:
+                T[rc, cs] += wk * 0.5 * (Sp - Sm)
+            if k > 0:
+                T[rs, cc] += wk * 0.5 * (Sp + Sm)
+                if l > 0:
+                    T[rs, cs] += wk * 0.5 * (Cm - Cp)
+
+
+@nb.njit(cache=True)
+def multiplication_matrix(G, H, T, scale):
+    """Accumulate the coefficient-space matrix of ``g(theta) = G(theta) v(theta)``.
+
+    Parameters
+    ----------
+    G : ndarray, shape (N, n, n)
+        Samples of the matrix field.
+    H : int
+    T : ndarray, shape (n(2H+1), n(2H+1))
+        Accumulated in place: ``T += scale * [v -> proj(G v)]``.
+    scale : float
+    """
+    N = G.shape[0]
+    n = G.shape[1]
+    for a in range(n):
+        for b in range(n):
+            g = np.ascontiguousarray(G[:, a, b])
+            if np.max(np.abs(g)) == 0.0:
+                continue  # skip uncoupled dof pairs (common for local contacts)
+            Ghat = np.fft.rfft(g)
+            _fill_block(Ghat, N, H, n, a, b, T, scale)
+
+
+@nb.njit(cache=True)
+def assemble_jacobian(dfdx, dfdxd, Omega, H, J):
+    """Accumulate ``d proj(f(x, xdot)) / du`` into ``J``.
+
+    ``xdot = Omega * D u`` with ``D`` the ``d/dtheta`` operator, whose action on
+    harmonic ``l`` maps ``(a_l, b_l) -> (l b_l, -l a_l)``. Hence the velocity
+    part is the matrix of ``dfdxd`` with columns ``a_l <- -Omega l (b_l column)``
+    and ``b_l <- Omega l (a_l column)``.
+
+    Parameters
+    ----------
+    dfdx, dfdxd : ndarray, shape (N, n, n)
+    Omega : float
+        Base frequency ``w/nu``.
+    H : int
+    J : ndarray, shape (n(2H+1), n(2H+1)), accumulated in place.
+    """
+    n = dfdx.shape[1]
+    m = n * (2 * H + 1)
+    multiplication_matrix(dfdx, H, J, 1.0)
+    if np.max(np.abs(dfdxd)) == 0.0:
+        return
+    Tv = np.zeros((m, m))
+    multiplication_matrix(dfdxd, H, Tv, 1.0)
+    for l in range(1, H + 1):
+        for b in range(n):
+            ca = (2 * l - 1) * n + b
+            cb = 2 * l * n + b
+            s = Omega * l
+            for r in range(m):
+                J[r, ca] -= s * Tv[r, cb]
+                J[r, cb] += s * Tv[r, ca]
+
+
+@nb.njit(cache=True)
+def matvec_samples(G, v):
+    """Per-sample product ``G_j v_j``; shapes (N, n, n) x (N, n) -> (N, n)."""
+    N = G.shape[0]
+    n = G.shape[1]
+    out = np.zeros((N, n))
+    for j in range(N):
+        for a in range(n):
+            s = 0.0
+            for b in range(n):
+                s += G[j, a, b] * v[j, b]
+            out[j, a] = s
+    return out

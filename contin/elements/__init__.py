@@ -1,0 +1,10 @@
+"""Registered force and excitation elements.
+
+Importing this package registers the built-in element kinds in
+:data:`contin.model.FORCE_ELEMENTS` and :data:`contin.model.EXCITATION_ELEMENTS`.
+"""
+
+from contin.elements.harmonic import HarmonicExcitation
+from contin.elements.polynomial import PolynomialForce
+
+__all__ = ["PolynomialForce", "HarmonicExcitation"]

@@ -1,0 +1,368 @@
+"""Harmonic balance with AFT: a model, H, nu and N turned into R(u, lambda).
+
+For ``M x'' + C x' + K x + f_nl(x, x', tau) = f_ext(tau)`` and the ansatz of
+:mod:`contin.harmonics` (base phase ``theta = w t / nu``, base frequency
+``Omega = w/nu``), the residual is
+
+    R(u, lambda) = A(Omega, p) u + P f_nl(x(theta_j), Omega x'(theta_j), nu theta_j) - P f_ext(nu theta_j),
+
+where ``P`` is the discrete Fourier projection of :func:`contin.aft.project`
+and ``A`` is block diagonal: ``K`` on the mean and, for harmonic ``k``,
+
+    [ K - (k Omega)^2 M     k Omega C        ]  acting on (a_k, b_k).
+    [ -k Omega C            K - (k Omega)^2 M ]
+
+The residual is in force units with the same normalisation as the
+coefficients, so a linear system's residual is ``Z(k Omega) X - F``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numba as nb
+import numpy as np
+
+from contin import aft
+from contin.harmonics import coefficient_blocks, default_samples, sample_phases
+from contin.model import Model, suggest
+
+__all__ = ["HBOptions", "HarmonicBalance", "linear_operator"]
+
+
+@dataclass(frozen=True)
+class HBOptions:
+    """Discretisation of the harmonic-balance problem.
+
+    Parameters
+    ----------
+    harmonics : int
+        ``H``, number of harmonics of the base frequency ``w/nu`` (>= 1).
+    subharmonic : int
+        ``nu``, the solution period is ``2 pi nu / w`` (>= 1).
+    samples : int or None
+        AFT sample count ``N`` per period (>= 2H+1). ``None`` takes
+        :func:`contin.harmonics.default_samples` for the model's degree
+        (``4H+1`` for cubic forces) and at least the model's ``min_samples``.
+    """
+
+    harmonics: int = 5
+    subharmonic: int = 1
+    samples: int | None = None
+
+    def __post_init__(self):
+        for name in ("harmonics", "subharmonic"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+                raise ValueError(f"HBOptions.{name} must be an integer >= 1, got {v!r}")
+        if self.samples is not None:
+            s = self.samples
+            if isinstance(s, bool) or not isinstance(s, (int, np.integer)) or s < 2 * self.harmonics + 1:
+                raise ValueError(
+                    f"HBOptions.samples must be an integer >= 2*harmonics+1 = {2 * self.harmonics + 1}, got {s!r}"
+                )
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "HBOptions":
+        names = [f.name for f in dataclasses.fields(cls)]
+        for key in d:
+            if key not in names:
+                raise ValueError(f"HBOptions: unknown option '{key}'{suggest(key, names)}; expected one of {names}")
+        return cls(**d)
+
+
+@nb.njit(cache=True)
+def linear_operator(M, C, K, Omega, H, out, dOmega_only):
+    """Fill the block-diagonal linear operator ``A`` (or ``dA/dOmega``).
+
+    Parameters
+    ----------
+    M, C, K : ndarray, shape (n, n)
+    Omega : float
+    H : int
+    out : ndarray, shape (n(2H+1), n(2H+1)), overwritten on the diagonal blocks
+        (added to, so pass zeros).
+    dOmega_only : bool
+        If True, fill ``dA/dOmega`` instead of ``A``.
+    """
+    n = M.shape[0]
+    for a in range(n):
+        for b in range(n):
+            if not dOmega_only:
+                out[a, b] += K[a, b]
+            for k in range(1, H + 1):
+                rc = (2 * k - 1) * n
+                rs = 2 * k * n
+                if dOmega_only:
+                    diag = -2.0 * k * k * Omega * M[a, b]
+                    off = k * C[a, b]
+                else:
+                    diag = K[a, b] - (k * Omega) ** 2 * M[a, b]
+                    off = k * Omega * C[a, b]
+                out[rc + a, rc + b] += diag
+                out[rs + a, rs + b] += diag
+                out[rc + a, rs + b] += off
+                out[rs + a, rc + b] -= off
+
+
+class HarmonicBalance:
+    """The residual ``R(u, lambda)`` of a model's periodic solutions.
+
+    Parameters
+    ----------
+    model : Model
+    parameter : str
+        Name of the continuation parameter ``lambda`` (any model parameter:
+        the frequency ``w``, a force amplitude, a stiffness, ...).
+    options : HBOptions
+    params : dict, optional
+        Values overriding the model's parameters.
+
+    Attributes
+    ----------
+    n : int
+        Degrees of freedom.
+    H, nu, N : int
+        Harmonics, subharmonic order, samples.
+    size : int
+        ``n*(2H+1)``, length of ``u``.
+    """
+
+    def __init__(self, model: Model, parameter: str, options: HBOptions = HBOptions(), params=None):
+        self.model = model
+        self.options = options
+        self.n = model.n_dof
+        self.H = options.harmonics
+        self.nu = options.subharmonic
+        N = options.samples
+        if N is None:
+            N = max(default_samples(self.H, model.degree), model.min_samples)
+        self.N = int(N)
+        self.size = self.n * (2 * self.H + 1)
+        self.parameter = parameter
+        self.k = model.parameter_index(parameter)
+        self.kw = model.parameter_index(model.frequency)
+        self.p0 = model.parameter_vector(params)
+        self.theta = sample_phases(self.N)
+        self.tau = self.nu * self.theta
+        for el in model.excitations:
+            q = el.max_order() * self.nu
+            if abs(q - round(q)) > 1e-12 or round(q) > self.H:
+                raise ValueError(
+                    f"excitation of order {el.max_order():g} in tau needs harmonic {q:g} of w/nu with nu={self.nu}; "
+                    f"it must be an integer <= harmonics={self.H}"
+                )
+        for el in model.forces:
+            for o in el.tau_orders():
+                if abs(o * self.nu - round(o * self.nu)) > 1e-12:
+                    raise ValueError(
+                        f"force '{el.kind}' varies as cos({o:g}*tau), which is not periodic with the solution "
+                        f"period 2*pi*nu/w for nu={self.nu}"
+                    )
+        self._fext_key = None
+        self._work = (
+            np.zeros((self.N, self.n)),
+            np.zeros((self.N, self.n, self.n)),
+            np.zeros((self.N, self.n, self.n)),
+        )
+        self.evaluations = 0
+
+    # -- parameters -------------------------------------------------------
+    def params_at(self, lam: float) -> np.ndarray:
+        """Parameter vector with the continuation parameter set to ``lam``."""
+        p = self.p0.copy()
+        p[self.k] = lam
+        return p
+
+    def with_options(self, **changes) -> "HarmonicBalance":
+        """A new problem with changed :class:`HBOptions` (same model and parameters)."""
+        opts = dataclasses.replace(self.options, **changes)
+        if "harmonics" in changes and "samples" not in changes:
+            opts = dataclasses.replace(opts, samples=None)
+        params = dict(zip(self.model.param_names, self.p0))
+        return HarmonicBalance(self.model, self.parameter, opts, params)
+
+    # -- linear part ------------------------------------------------------
+    def linear_matrix(self, p: np.ndarray) -> np.ndarray:
+        """The linear operator ``A(Omega, p)``, shape (size, size)."""
+        M, C, K = self.model.linear(p)
+        A = np.zeros((self.size, self.size))
+        linear_operator(M, C, K, p[self.kw] / self.nu, self.H, A, False)
+        return A
+
+    def _linear_matrix_dp(self, p: np.ndarray) -> np.ndarray:
+        M, C, K = self.model.linear(p)
+        dM, dC, dK = self.model.linear_dp(p, self.k)
+        Omega = p[self.kw] / self.nu
+        dA = np.zeros((self.size, self.size))
+        linear_operator(dM, dC, dK, Omega, self.H, dA, False)
+        if self.k == self.kw:
+            dOm = np.zeros((self.size, self.size))
+            linear_operator(M, C, K, Omega, self.H, dOm, True)
+            dA += dOm / self.nu
+        return dA
+
+    # -- excitation -------------------------------------------------------
+    def excitation(self, p: np.ndarray):
+        """Fourier coefficients of ``f_ext`` and their ``lambda`` derivative, shape (size,)."""
+        key = p.tobytes()
+        if key != self._fext_key:
+            f = np.zeros((self.N, self.n))
+            df = np.zeros((self.N, self.n))
+            for el in self.model.excitations:
+                el.evaluate(self.tau, p, f)
+                el.evaluate_dp(self.tau, p, self.k, df)
+            self._fext = aft.project(f, self.H).reshape(-1)
+            self._dfext = aft.project(df, self.H).reshape(-1)
+            self._fext_key = key
+        return self._fext, self._dfext
+
+    # -- time domain ------------------------------------------------------
+    def samples_of(self, u: np.ndarray, lam: float):
+        """Time samples of the solution.
+
+        Returns
+        -------
+        x, xd : ndarray, shape (N, n)
+            Displacements and velocities (d/dt) at ``theta_j``.
+        xp : ndarray, shape (N, n)
+            ``dx/dtheta``.
+        """
+        U = np.ascontiguousarray(coefficient_blocks(u, self.n))
+        x, xp = aft.synthesize(U, self.N)
+        Omega = lam / self.nu if self.k == self.kw else self.p0[self.kw] / self.nu
+        return x, Omega * xp, xp
+
+    def sample_jacobians(self, u: np.ndarray, lam: float):
+        """Nonlinear force and its derivatives at the samples.
+
+        Returns
+        -------
+        f : ndarray, shape (N, n)
+        dfdx, dfdxd : ndarray, shape (N, n, n)
+        """
+        p = self.params_at(lam)
+        x, xd, _ = self.samples_of(u, lam)
+        f, dfdx, dfdxd = (np.zeros_like(a) for a in self._work)
+        for el in self.model.forces:
+            el.evaluate(x, xd, self.tau, p, f, dfdx, dfdxd)
+        return f, dfdx, dfdxd
+
+    # -- residual and Jacobian -------------------------------------------
+    def residual(self, u: np.ndarray, lam: float) -> np.ndarray:
+        """``R(u, lambda)``, shape (size,)."""
+        p = self.params_at(lam)
+        fext, _ = self.excitation(p)
+        R = self.linear_matrix(p) @ u - fext
+        if self.model.forces:
+            x, xd, _ = self.samples_of(u, lam)
+            f, dfdx, dfdxd = self._work
+            f[:] = 0.0
+            dfdx[:] = 0.0
+            dfdxd[:] = 0.0
+            for el in self.model.forces:
+                el.evaluate(x, xd, self.tau, p, f, dfdx, dfdxd)
+            R += aft.project(f, self.H).reshape(-1)
+        self.evaluations += 1
+        return R
+
+    def linearize(self, u: np.ndarray, lam: float):
+        """Residual and analytic Jacobians.
+
+        Returns
+        -------
+        R : ndarray, shape (size,)
+        Ju : ndarray, shape (size, size)
+            ``dR/du``.
+        Jlam : ndarray, shape (size,)
+            ``dR/dlambda``.
+        """
+        p = self.params_at(lam)
+        fext, dfext = self.excitation(p)
+        J = self.linear_matrix(p)
+        R = J @ u - fext
+        Jlam = self._linear_matrix_dp(p) @ u - dfext
+        if self.model.forces:
+            x, xd, xp = self.samples_of(u, lam)
+            f, dfdx, dfdxd = self._work
+            f[:] = 0.0
+            dfdx[:] = 0.0
+            dfdxd[:] = 0.0
+            for el in self.model.forces:
+                el.evaluate(x, xd, self.tau, p, f, dfdx, dfdxd)
+            R += aft.project(f, self.H).reshape(-1)
+            aft.assemble_jacobian(dfdx, dfdxd, p[self.kw] / self.nu, self.H, J)
+            dfdp = np.zeros((self.N, self.n))
+            for el in self.model.forces:
+                if el.depends_on(self.k):
+                    el.evaluate_dp(x, xd, self.tau, p, self.k, dfdp)
+            if self.k == self.kw:
+                # xdot = (w/nu) x'(theta): the velocity depends on w
+                dfdp += aft.matvec_samples(dfdxd, xp) / self.nu
+            Jlam += aft.project(dfdp, self.H).reshape(-1)
+        self.evaluations += 1
+        return R, J, Jlam
+
+    def hill_matrices(self, u: np.ndarray, lam: float):
+        """Coefficient-space matrices of Hill's quadratic eigenproblem.
+
+        A perturbation ``e^{s t} y(theta)`` of the periodic solution, with
+        ``y`` expanded as in :mod:`contin.harmonics` (coefficients ``q``),
+        satisfies ``(Delta0 + s Delta1 + s^2 Delta2) q = 0`` with
+
+        - ``Delta0 = dR/du`` (the harmonic-balance Jacobian),
+        - ``Delta1 = I (x) C + T(df/dx') + 2 Omega (I (x) M) D``,
+        - ``Delta2 = I (x) M``,
+
+        where ``T(G)`` is the matrix of multiplication by the sampled field
+        ``G`` and ``D`` the ``d/dtheta`` operator (Hill's method in the form
+        of von Groll & Ewins, J. Sound Vib. 241 (2001) 223-233, and Detroux
+        et al., CMAME 296 (2015) 18-38).
+
+        Returns
+        -------
+        Delta0, Delta1, Delta2 : ndarray, shape (size, size)
+        """
+        p = self.params_at(lam)
+        M, C, _ = self.model.linear(p)
+        _, D0, _ = self.linearize(u, lam)
+        H = self.H
+        Omega = p[self.kw] / self.nu
+        I = np.eye(2 * H + 1)
+        D2 = np.kron(I, M)
+        D1 = np.kron(I, C) + 2.0 * Omega * D2 @ self.derivative_operator()
+        if self.model.forces:
+            _, _, dfdxd = self.sample_jacobians(u, lam)
+            aft.multiplication_matrix(dfdxd, H, D1, 1.0)
+        return D0, D1, D2
+
+    def derivative_operator(self) -> np.ndarray:
+        """The ``d/dtheta`` operator on coefficient vectors, shape (size, size)."""
+        Dop = np.zeros((2 * self.H + 1, 2 * self.H + 1))
+        for k in range(1, self.H + 1):
+            Dop[2 * k - 1, 2 * k] = k
+            Dop[2 * k, 2 * k - 1] = -k
+        return np.kron(Dop, np.eye(self.n))
+
+    def unknown_scale(self):
+        """No per-component scale: the engine scales ``u`` as a whole."""
+        return None
+
+    # -- starting points --------------------------------------------------
+    def linear_solution(self, lam: float) -> np.ndarray:
+        """Solution of the linear part alone (nonlinear forces dropped).
+
+        Used as the start guess. Falls back to a least-squares solution when
+        ``A`` is singular (for example a free rigid-body mode).
+        """
+        p = self.params_at(lam)
+        A = self.linear_matrix(p)
+        fext, _ = self.excitation(p)
+        try:
+            u = np.linalg.solve(A, fext)
+            if np.all(np.isfinite(u)):
+                return u
+        except np.linalg.LinAlgError:
+            pass
+        return np.linalg.lstsq(A, fext, rcond=None)[0]

@@ -1,0 +1,8 @@
+"""Built-in models of contin, installed as the package ``contin.models``.
+
+Importing it registers every model in :data:`contin.catalog.MODELS`.
+"""
+
+from contin.models import duffing, mathieu, polynomial  # noqa: F401
+
+__all__ = ["duffing", "mathieu", "polynomial"]
