@@ -34,6 +34,9 @@ __all__ = [
 NUMERICAL_ERRORS = (ArithmeticError, np.linalg.LinAlgError)
 
 
+_GETRF_GECON_D = get_lapack_funcs(("getrf", "gecon"), (np.empty((1, 1)),))
+
+
 class SingularMatrixError(np.linalg.LinAlgError):
     """Raised by :func:`factorize` for a matrix that cannot be factorised."""
 
@@ -126,7 +129,7 @@ def factorize(a: np.ndarray, *, equilibrate: bool = True) -> LUFactor:
     else:
         row_scale = np.ones(n)
         work = a.copy()
-    getrf, gecon = get_lapack_funcs(("getrf", "gecon"), (work,))
+    getrf, gecon = _GETRF_GECON_D if work.dtype == np.float64 else get_lapack_funcs(("getrf", "gecon"), (work,))
     anorm = float(np.max(np.sum(np.abs(work), axis=0))) if n else 0.0
     lu, piv, info = getrf(work, overwrite_a=True)
     if info > 0:

@@ -4,7 +4,8 @@ Importing this package registers the built-in element kinds in
 :data:`contin.model.FORCE_ELEMENTS` and :data:`contin.model.EXCITATION_ELEMENTS`.
 """
 
+from contin.elements.gap import GapForce, RadialGapForce
 from contin.elements.harmonic import HarmonicExcitation
 from contin.elements.polynomial import PolynomialForce
 
-__all__ = ["PolynomialForce", "HarmonicExcitation"]
+__all__ = ["PolynomialForce", "HarmonicExcitation", "GapForce", "RadialGapForce"]

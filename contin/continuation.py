@@ -1,0 +1,988 @@
+"""Pseudo-arclength continuation of ``R(u, lam) = 0`` for any problem object.
+
+The engine knows nothing about the origin of ``R``: it only calls the
+:class:`Problem` protocol. It traces a branch of solutions ``(u, lam)``,
+``u`` of shape (m,), from a start point, passing folds, detecting and locating
+special points (events) and ending with a :class:`~contin.branch.BranchStatus`
+instead of raising on numerical trouble.
+
+Method
+------
+- Scaled variables ``x = (u / su, lam / sl)`` (see :class:`Scaling`); the step
+  size, the arclength and the tangents are in these coordinates.
+- Predictor: Euler step ``x_pred = x + ds t`` along the unit tangent.
+- Corrector: Newton on the bordered system
+  ``[R(u, lam) = 0; t . (x - x_pred) = 0]`` (LU of the (m+1)x(m+1) matrix).
+- New tangent: ``[[Ju su, Jlam sl], [t_old^T]] z = [0, 1]``, ``t = z/|z|``,
+  which keeps the orientation through folds. The same factorisation gives
+  the sign of the bordered determinant (branch-point test) and a condition
+  estimate.
+- Step control: growth by ``grow`` after easy steps, shrinking by ``shrink``
+  after a failure (no convergence, a corrector moving farther than ``ds``
+  from the prediction, or a tangent turning by more than ``max_angle_deg``,
+  which prevents jumping onto another branch).
+- Range ends are landed on exactly (Newton at fixed ``lam = end``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import enum
+import math
+import numbers
+from typing import Any, Callable, Iterable, Mapping, Protocol, runtime_checkable
+
+import numpy as np
+
+from .branch import Branch, BranchBuilder, BranchStatus, PointRejected, SpecialKind, SpecialPoint
+from .events import (
+    BranchPointEvent,
+    Event,
+    FoldEvent,
+    PointInfo,
+    changed_components,
+    evaluate_test,
+)
+from .newton import NUMERICAL_ERRORS, LUFactor, SingularMatrixError, factorize, newton
+
+__all__ = ["ContinuationOptions", "Monitor", "Problem", "Scaling", "continuation"]
+
+
+@runtime_checkable
+class Problem(Protocol):
+    """What the engine needs from a problem (duck-typed).
+
+    Methods
+    -------
+    residual(u, lam) -> ndarray, shape (m,)
+        ``R(u, lam)``. Not called by the engine itself (which always needs
+        the Jacobians too) but part of the protocol for users and tests.
+    linearize(u, lam) -> (R, Ju, Jlam)
+        Residual (m,), ``dR/du`` (m, m) and ``dR/dlam`` (m,), all analytic:
+        the engine never uses finite differences.
+
+    Optional
+    --------
+    unknown_scale() -> ndarray of shape (m,), float or None
+        Typical magnitudes of the unknowns, used for scaling when
+        ``ContinuationOptions.scaling`` is ``AUTO`` and
+        ``ContinuationOptions.unknown_scale`` is not given. Non-positive
+        components are replaced by the largest one.
+
+    Numerical failures inside these methods should show up as non-finite
+    values or as ``ArithmeticError`` / ``numpy.linalg.LinAlgError``; the
+    engine treats both as a failed evaluation (the step is retried with a
+    smaller step). Other exceptions are programming errors and propagate.
+    """
+
+    def residual(self, u: np.ndarray, lam: float) -> np.ndarray: ...
+
+    def linearize(self, u: np.ndarray, lam: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
+
+
+#: ``monitor(u, lam, Ju, Jlam) -> {name: float or ndarray}``, evaluated at every
+#: stored and located point; values go to ``Branch.point_data`` and ``PointInfo.data``.
+Monitor = Callable[[np.ndarray, float, np.ndarray, np.ndarray], Mapping[str, Any]]
+
+
+class Scaling(str, enum.Enum):
+    """Scaling of the variables.
+
+    AUTO
+        ``sl = hi - lo`` for a finite non-empty range, else ``max(|lam0|, 1)``;
+        ``su = problem.unknown_scale()`` if available, else the single scalar
+        ``||u_start||_inf`` (1 if the start is exactly zero, at least 1e-12)
+        for all components.
+    NONE
+        ``su = 1``, ``sl = 1``.
+
+    Explicit ``parameter_scale`` / ``unknown_scale`` options override both.
+    """
+
+    AUTO = "auto"
+    NONE = "none"
+
+    def __str__(self) -> str:
+        return self.value
+
+
+def _is_int(v) -> bool:
+    return isinstance(v, numbers.Integral) and not isinstance(v, bool)
+
+
+def _is_real(v) -> bool:
+    return isinstance(v, numbers.Real) and not isinstance(v, bool)
+
+
+@dataclasses.dataclass(frozen=True)
+class ContinuationOptions:
+    """Options of :func:`continuation` (validated; use :meth:`replace` or
+    :func:`dataclasses.replace` for changes, :meth:`from_dict` for
+    configuration files).
+
+    Attributes
+    ----------
+    ds : float
+        Initial step, in scaled arclength units.
+    ds_min, ds_max : float
+        Step bounds; the branch stops with ``STEP_TOO_SMALL`` below ``ds_min``.
+    max_points : int
+        Maximum number of stored points (including the start).
+    newton_tol : float
+        Tolerance on ``||R||_inf`` (unscaled residual).
+    newton_max_iter : int
+        Maximum Newton updates per corrector.
+    newton_easy : int
+        A step converging in at most this many updates lets ``ds`` grow.
+    grow, shrink : float
+        Step growth (>= 1) and shrink (in (0, 1)) factors.
+    max_angle_deg : float
+        Largest accepted angle between consecutive tangents (scaled
+        coordinates); larger turns reject the step.
+    direction : int
+        +1 or -1: sign of ``dlam`` at the start (ignored if a start tangent
+        is given).
+    scaling : Scaling
+        ``AUTO`` or ``NONE`` (strings accepted).
+    parameter_scale : float or None
+        Explicit ``sl``.
+    unknown_scale : float, sequence of float, or None
+        Explicit ``su`` (scalar or one value per unknown; stored as a tuple).
+    locate_tol : float
+        Relative tolerance on the parameter for event location.
+    locate_max_iter : int
+        Maximum solves per located event.
+    detect_folds, detect_branch_points : bool
+        Enable the built-in fold / branch-point events.
+    """
+
+    ds: float = 0.02
+    ds_min: float = 1e-8
+    ds_max: float = 0.2
+    max_points: int = 2000
+    newton_tol: float = 1e-10
+    newton_max_iter: int = 12
+    newton_easy: int = 4
+    grow: float = 1.5
+    shrink: float = 0.5
+    max_angle_deg: float = 20.0
+    direction: int = 1
+    scaling: Scaling = Scaling.AUTO
+    parameter_scale: float | None = None
+    unknown_scale: Any = None
+    locate_tol: float = 1e-10
+    locate_max_iter: int = 60
+    detect_folds: bool = True
+    detect_branch_points: bool = True
+
+    def __post_init__(self):
+        def bad(field, requirement, value):
+            raise ValueError(f"ContinuationOptions.{field} must be {requirement}, got {value!r}")
+
+        def positive(field):
+            v = getattr(self, field)
+            if not _is_real(v) or not (math.isfinite(v) and v > 0):
+                bad(field, "a positive finite number", v)
+
+        positive("ds")
+        if not _is_real(self.ds_min) or not (self.ds_min > 0 and self.ds_min <= self.ds):
+            bad("ds_min", "positive and <= ds", self.ds_min)
+        if not _is_real(self.ds_max) or not (math.isfinite(self.ds_max) and self.ds_max >= self.ds):
+            bad("ds_max", "finite and >= ds", self.ds_max)
+        if not _is_int(self.max_points) or self.max_points < 1:
+            bad("max_points", "an integer >= 1", self.max_points)
+        positive("newton_tol")
+        if not _is_int(self.newton_max_iter) or self.newton_max_iter < 1:
+            bad("newton_max_iter", "an integer >= 1", self.newton_max_iter)
+        if not _is_int(self.newton_easy) or self.newton_easy < 0:
+            bad("newton_easy", "an integer >= 0", self.newton_easy)
+        if not _is_real(self.grow) or not (math.isfinite(self.grow) and self.grow >= 1):
+            bad("grow", "a finite number >= 1", self.grow)
+        if not _is_real(self.shrink) or not (0 < self.shrink < 1):
+            bad("shrink", "in (0, 1)", self.shrink)
+        if not _is_real(self.max_angle_deg) or not (0 < self.max_angle_deg < 180):
+            bad("max_angle_deg", "in (0, 180)", self.max_angle_deg)
+        if not _is_real(self.direction) or self.direction not in (1, -1):
+            bad("direction", "+1 or -1", self.direction)
+        try:
+            scaling = Scaling(self.scaling.lower() if isinstance(self.scaling, str) else self.scaling)
+        except ValueError:
+            bad("scaling", "'auto' or 'none'", self.scaling)
+        object.__setattr__(self, "scaling", scaling)
+        if self.parameter_scale is not None:
+            positive("parameter_scale")
+            object.__setattr__(self, "parameter_scale", float(self.parameter_scale))
+        if self.unknown_scale is not None:
+            try:
+                arr = np.asarray(self.unknown_scale, dtype=float)
+            except (TypeError, ValueError):
+                bad("unknown_scale", "None, a positive number or a sequence of positive numbers", self.unknown_scale)
+            if arr.ndim > 1 or arr.size == 0 or not np.all(np.isfinite(arr)) or not np.all(arr > 0):
+                bad("unknown_scale", "None, a positive number or a sequence of positive numbers", self.unknown_scale)
+            value = float(arr) if arr.ndim == 0 else tuple(float(v) for v in arr)
+            object.__setattr__(self, "unknown_scale", value)
+        positive("locate_tol")
+        if not _is_int(self.locate_max_iter) or self.locate_max_iter < 1:
+            bad("locate_max_iter", "an integer >= 1", self.locate_max_iter)
+        for field in ("detect_folds", "detect_branch_points"):
+            v = getattr(self, field)
+            if not isinstance(v, (bool, np.bool_)):
+                bad(field, "a bool", v)
+            object.__setattr__(self, field, bool(v))
+        for field in ("max_points", "newton_max_iter", "newton_easy", "locate_max_iter", "direction"):
+            object.__setattr__(self, field, int(getattr(self, field)))
+        for field in ("ds", "ds_min", "ds_max", "newton_tol", "grow", "shrink", "max_angle_deg", "locate_tol"):
+            object.__setattr__(self, field, float(getattr(self, field)))
+
+    @classmethod
+    def field_names(cls) -> list[str]:
+        return [f.name for f in dataclasses.fields(cls)]
+
+    @classmethod
+    def _check_keys(cls, keys: Iterable[str]) -> None:
+        valid = cls.field_names()
+        for key in keys:
+            if key not in valid:
+                close = difflib.get_close_matches(str(key), valid, n=1)
+                hint = f"; did you mean {close[0]!r}?" if close else f"; valid options: {', '.join(valid)}"
+                raise ValueError(f"ContinuationOptions: unknown option {key!r}{hint}")
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> "ContinuationOptions":
+        """Build from a mapping; unknown keys raise ``ValueError`` naming the
+        closest valid option."""
+        cls._check_keys(d)
+        return cls(**dict(d))
+
+    def replace(self, **changes) -> "ContinuationOptions":
+        """Copy with some fields changed (validated, unknown names rejected)."""
+        self._check_keys(changes)
+        return dataclasses.replace(self, **changes)
+
+    def to_dict(self) -> dict:
+        d = dataclasses.asdict(self)
+        d["scaling"] = self.scaling.value
+        return d
+
+
+# ---------------------------------------------------------------------------
+# engine internals
+# ---------------------------------------------------------------------------
+
+_ILL_RCOND = 1e-15
+
+
+class _Failure(Exception):
+    """Internal: a numerical failure ending the branch with a status."""
+
+    def __init__(self, status: BranchStatus, message: str):
+        super().__init__(message)
+        self.status = status
+        self.message = message
+
+
+class _ScaledProblem:
+    """Evaluates the problem in scaled variables ``x = (u / su, lam / sl)``."""
+
+    def __init__(self, problem, m: int, su: np.ndarray, sl: float):
+        self.problem = problem
+        self.m = m
+        self.su = su
+        self.sl = sl
+        self.calls = 0
+        self.last = None  # (u, lam, R, Ju, Jlam) of the latest evaluation
+        self._Jh = np.empty((m, m + 1))
+
+    def evaluate(self, u: np.ndarray, lam: float):
+        """Raw linearisation with shape checks; records it as ``last``."""
+        self.calls += 1
+        R, Ju, Jlam = self.problem.linearize(u, lam)
+        R = np.asarray(R, dtype=float).reshape(-1)
+        Ju = np.asarray(Ju, dtype=float)
+        Jlam = np.asarray(Jlam, dtype=float).reshape(-1)
+        m = self.m
+        if R.shape != (m,) or Ju.shape != (m, m) or Jlam.shape != (m,):
+            raise ValueError(
+                f"problem.linearize returned shapes R{R.shape}, Ju{Ju.shape}, Jlam{Jlam.shape}; "
+                f"expected ({m},), ({m}, {m}), ({m},)"
+            )
+        self.last = (u, lam, R, Ju, Jlam)
+        return R, Ju, Jlam
+
+    def scaled(self, x: np.ndarray):
+        """``R`` and the scaled Jacobian ``[Ju su, Jlam sl]`` (m, m+1) at ``x``."""
+        m = self.m
+        u = x[:m] * self.su
+        lam = float(x[m] * self.sl)
+        R, Ju, Jlam = self.evaluate(u, lam)
+        Jh = self._Jh
+        np.multiply(Ju, self.su, out=Jh[:, :m])
+        np.multiply(Jlam, self.sl, out=Jh[:, m])
+        return R, Jh
+
+
+@dataclasses.dataclass(eq=False)
+class _Candidate:
+    """A converged, checked new point (not yet stored)."""
+
+    x: np.ndarray  # scaled (m+1,)
+    u: np.ndarray
+    lam: float
+    tangent: np.ndarray
+    lu: LUFactor
+    R: np.ndarray
+    Ju: np.ndarray
+    Jlam: np.ndarray
+    iterations: int
+    h: float  # pseudo-arclength from the previous point
+    ds: float
+    landed: bool = False
+
+
+class _StepFailed(Exception):
+    def __init__(self, reason: str, rcond: float = math.nan):
+        super().__init__(reason)
+        self.reason = reason
+        self.rcond = rcond
+
+
+class _Engine:
+    def __init__(self, problem, u0, lam0, lam_range, options, parameter_name, events, monitors, tangent, callback, solve_start):
+        self.problem = problem
+        self.opt = options
+        self.name = parameter_name
+        self.u0 = u0
+        self.lam0 = lam0
+        self.lo, self.hi = lam_range
+        self.user_tangent = tangent
+        self.callback = callback
+        self.solve_start = solve_start
+        self.monitors = list(monitors)
+        evs = []
+        if options.detect_folds:
+            evs.append(FoldEvent())
+        if options.detect_branch_points:
+            evs.append(BranchPointEvent())
+        evs.extend(events)
+        self.events = evs
+        self.m = u0.size
+        self.builder = BranchBuilder(parameter_name, self.m)
+        self.branch = self.builder.branch
+        self.n_rejected = 0
+        self.n_newton = 0
+        self.min_rcond = math.inf
+        self.min_rcond_index = -1
+        self.last_failure = ""
+        self._options_dict = options.to_dict()
+        self._e_last = np.zeros(self.m + 1)
+        self._e_last[-1] = 1.0
+
+    # -- helpers ---------------------------------------------------------
+    def fmt(self, lam: float) -> str:
+        return f"{self.name}={lam:.10g}"
+
+    def _scales(self, u: np.ndarray) -> tuple[np.ndarray, float]:
+        opt, m = self.opt, self.m
+        auto = opt.scaling is Scaling.AUTO
+        if opt.parameter_scale is not None:
+            sl = opt.parameter_scale
+        elif auto and math.isfinite(self.hi - self.lo) and self.hi > self.lo:
+            sl = self.hi - self.lo
+        elif auto:
+            sl = max(abs(self.lam0), 1.0)
+        else:
+            sl = 1.0
+        su = None
+        if opt.unknown_scale is not None:
+            su = np.broadcast_to(np.asarray(opt.unknown_scale, dtype=float), (m,)).copy()
+            if np.asarray(opt.unknown_scale).ndim == 1 and len(opt.unknown_scale) != m:
+                raise ValueError(f"ContinuationOptions.unknown_scale has {len(opt.unknown_scale)} values for {m} unknowns")
+        elif auto:
+            getter = getattr(self.problem, "unknown_scale", None)
+            given = getter() if callable(getter) else None
+            if given is not None:
+                arr = np.asarray(given, dtype=float)
+                if arr.ndim == 0:
+                    arr = np.full(m, float(arr))
+                if arr.shape != (m,) or not np.all(np.isfinite(arr)):
+                    raise ValueError(f"problem.unknown_scale() must return {m} finite values or None")
+                if np.any(arr > 0):
+                    su = np.where(arr > 0, arr, arr.max())
+            if su is None:
+                norm = float(np.max(np.abs(u))) if m else 0.0
+                su = np.full(m, max(norm, 1e-12) if norm > 0 else 1.0)
+        else:
+            su = np.ones(m)
+        return su, float(sl)
+
+    def _monitor(self, u, lam, Ju, Jlam) -> dict:
+        data: dict[str, Any] = {}
+        for mon in self.monitors:
+            values = mon(u, lam, Ju, Jlam)
+            for key, value in dict(values).items():
+                if key in data:
+                    raise ValueError(f"two monitors return the same name {key!r}")
+                data[key] = value
+        return data
+
+    def _tests(self, info: PointInfo) -> list[np.ndarray]:
+        """Test values of all events; a numerical failure gives NaN (ignored)."""
+        out = []
+        for ev in self.events:
+            try:
+                out.append(evaluate_test(ev, info))
+            except NUMERICAL_ERRORS:
+                out.append(np.full(1, np.nan))
+        return out
+
+    def _tangent_from(self, lu: LUFactor) -> np.ndarray:
+        z = lu.solve(self._e_last)
+        nz = float(np.linalg.norm(z))
+        if not (math.isfinite(nz) and nz > 0):
+            raise _StepFailed("non-finite tangent", lu.rcond)
+        return z / nz
+
+    def _bordered_solve(self, guess, x_ref, normal, offset):
+        """Newton on ``[R = 0; normal . (x - x_ref) = offset]`` from ``guess``."""
+        sp, m = self.sp, self.m
+        F = np.empty(m + 1)
+        A = np.empty((m + 1, m + 1))
+        A[m] = normal
+
+        def fun_and_jac(x):
+            R, Jh = sp.scaled(x)
+            F[:m] = R
+            F[m] = normal @ (x - x_ref) - offset
+            A[:m] = Jh
+            return F, A
+
+        res = newton(fun_and_jac, guess, self.opt.newton_tol, self.opt.newton_max_iter, factor_final=True)
+        self.n_newton += res.iterations
+        return res
+
+    def _fixed_solve(self, lam: float, u_guess: np.ndarray):
+        sp = self.sp
+
+        def fun_and_jac(u):
+            R, Ju, _ = sp.evaluate(u, lam)
+            return R, Ju
+
+        res = newton(fun_and_jac, u_guess, self.opt.newton_tol, self.opt.newton_max_iter)
+        self.n_newton += res.iterations
+        return res
+
+    def _point_info(self, cand_u, lam, tangent, lu, Ju, Jlam, s, data) -> PointInfo:
+        return PointInfo(
+            u=np.array(cand_u, dtype=float),
+            lam=float(lam),
+            tangent=tangent,
+            Ju=np.array(Ju, dtype=float),
+            Jlam=np.array(Jlam, dtype=float),
+            det_sign=lu.det_sign,
+            data=data,
+            s=float(s),
+            lu=lu,
+            rcond=lu.rcond,
+        )
+
+    # -- start -------------------------------------------------------------
+    def start(self) -> bool:
+        opt, m, lam0 = self.opt, self.m, self.lam0
+        if self.solve_start:
+            self.sp = _ScaledProblem(self.problem, m, np.ones(m), 1.0)  # shape checks only
+            res = self._fixed_solve(lam0, self.u0)
+            if not res.converged:
+                self.builder.finish(
+                    BranchStatus.START_FAILED,
+                    f"Newton did not converge at the start parameter {self.fmt(lam0)}: {res.message}",
+                )
+                return False
+            u = res.x
+            iterations = res.iterations
+        else:
+            u = self.u0.copy()
+            iterations = 0
+        calls = self.sp.calls if hasattr(self, "sp") else 0
+        su, sl = self._scales(u)
+        self.sp = sp = _ScaledProblem(self.problem, m, su, sl)
+        sp.calls = calls
+        x = np.empty(m + 1)
+        x[:m] = u / su
+        x[m] = lam0 / sl
+        try:
+            R, Ju, Jlam = sp.evaluate(u, lam0)  # exact lam0, not lam0 / sl * sl
+            Jh = np.empty((m, m + 1))
+            Jh[:, :m] = Ju * su
+            Jh[:, m] = Jlam * sl
+        except NUMERICAL_ERRORS as exc:
+            return self._start_failed(f"evaluation failed at the start point ({type(exc).__name__}: {exc})")
+        if not (np.all(np.isfinite(R)) and np.all(np.isfinite(Jh))):
+            return self._start_failed("non-finite residual or Jacobian at the start point")
+        t = self._initial_tangent(Jh)
+        if t is None:
+            return self._start_failed("could not compute the initial tangent (non-finite Jacobian)")
+        lam = lam0
+        if float(np.max(np.abs(R), initial=0.0)) > opt.newton_tol:
+            # solve_start=False with an inexact guess: correct on the hyperplane
+            # normal to the tangent (works at folds, where fixed-lam Newton fails)
+            cres = self._bordered_solve(x.copy(), x.copy(), t, 0.0)
+            if not cres.converged or cres.lu is None:
+                return self._start_failed(
+                    f"Newton did not converge near the start point {self.fmt(lam0)}: {cres.message}"
+                )
+            iterations = cres.iterations
+            x = cres.x.copy()
+            u, lam = sp.last[0].copy(), sp.last[1]
+        u_, lam_, R, Ju, Jlam = sp.last
+        A = np.empty((m + 1, m + 1))
+        A[:m, :m] = Ju * su
+        A[:m, m] = Jlam * sl
+        A[m] = t
+        try:
+            lu = factorize(A)
+        except SingularMatrixError as exc:
+            return self._start_failed(
+                f"the bordered Jacobian is singular at the start point {self.fmt(lam)} ({exc}); "
+                "the start is a singular point of the branch: start nearby"
+            )
+        try:
+            t = self._tangent_from(lu)
+        except _StepFailed as exc:
+            return self._start_failed(exc.reason)
+        self.x = x
+        self.u = np.array(u, dtype=float)
+        self.lam = float(lam)
+        self.t = t
+        self.s = 0.0
+        self.x_start = x.copy()
+        self.t_start = t.copy()
+        self.max_dist = 0.0
+        self.info = self._point_info(self.u, self.lam, t, lu, Ju, Jlam, 0.0, self._monitor(self.u, self.lam, Ju, Jlam))
+        res_norm = float(np.max(np.abs(R), initial=0.0))
+        self._store(self.info, iterations, 0.0, res_norm)
+        self.g = self._tests(self.info)
+        self.builder.add_special(
+            SpecialPoint(SpecialKind.START, self.lam, self.u.copy(), (self.lam, self.lam), 0, 0.0,
+                         located=True, message="start point", event="start", tangent=t.copy())
+        )
+        return self._after_store()
+
+    def _start_failed(self, message: str) -> bool:
+        self.builder.finish(BranchStatus.START_FAILED, message)
+        return False
+
+    def _initial_tangent(self, Jh: np.ndarray) -> np.ndarray | None:
+        m = self.m
+        try:
+            _, sv, vt = np.linalg.svd(Jh, full_matrices=True)
+        except np.linalg.LinAlgError:
+            return None
+        tol = max(Jh.shape) * np.finfo(float).eps * (sv[0] if sv.size else 1.0)
+        rank = int(np.count_nonzero(sv > tol))
+        null = vt[rank:]  # at least one row: Jh has m+1 columns
+        given = self.user_tangent
+        if given is not None:
+            if null.shape[0] > 1:
+                t = null.T @ (null @ given)
+                t = t if np.linalg.norm(t) > 0 else null[-1]
+            else:
+                t = null[-1]
+            t = t / np.linalg.norm(t)
+            if float(t @ given) < 0:
+                t = -t
+            return t
+        t = vt[-1].copy()
+        if abs(t[m]) > 1e-12 and np.sign(t[m]) != self.opt.direction:
+            t = -t
+        return t
+
+    # -- bookkeeping -----------------------------------------------------
+    def _store(self, info: PointInfo, iterations: int, step: float, res_norm: float) -> int:
+        try:
+            index = self.builder.append_point(
+                u=info.u, lam=info.lam, tangent=info.tangent, s=info.s,
+                newton_iterations=iterations, step_size=step, residual_norm=res_norm, data=info.data,
+            )
+        except PointRejected as exc:
+            raise _Failure(BranchStatus.NEWTON_FAILED, f"point at {self.fmt(info.lam)} not stored: {exc}")
+        if info.rcond < self.min_rcond:
+            self.min_rcond = info.rcond
+            self.min_rcond_index = index
+        return index
+
+    def _after_store(self) -> bool:
+        """Callback; False if it asks to stop."""
+        if self.callback is None:
+            return True
+        index = len(self.branch) - 1
+        self._update_info()
+        if self.callback(self.branch, index) is False:
+            self.builder.finish(BranchStatus.INTERRUPTED, f"stopped by the callback at {self.fmt(self.lam)}")
+            return False
+        return True
+
+    def _update_info(self):
+        b = self.branch
+        b.info.update(
+            unknown_scale=self.sp.su.copy(),
+            parameter_scale=self.sp.sl,
+            lam_range=(self.lo, self.hi),
+            min_rcond=self.min_rcond,
+            min_rcond_index=self.min_rcond_index,
+            n_rejected_steps=self.n_rejected,
+            n_newton_iterations=self.n_newton,
+            n_linearizations=self.sp.calls,
+            last_failure=self.last_failure,
+            options=self._options_dict,
+        )
+
+    # -- steps -----------------------------------------------------------
+    def _check_new(self, x_new, xp, ds, lu_or_none, rcond, iterations, landed=False) -> _Candidate:
+        """Tangent, angle and distance checks of a converged corrector."""
+        if lu_or_none is None:
+            raise _StepFailed("singular bordered Jacobian at the new point", 0.0)
+        lu = lu_or_none
+        dist = float(np.linalg.norm(x_new - xp))
+        if dist > max(ds, 10 * self.opt.ds_min):
+            raise _StepFailed(f"corrector moved {dist / ds:.2g} step lengths from the prediction", rcond)
+        t_new = self._tangent_from(lu)
+        cosang = float(np.clip(self.t @ t_new, -1.0, 1.0))
+        angle = math.degrees(math.acos(cosang))
+        if angle > self.opt.max_angle_deg:
+            raise _StepFailed(f"tangent turned by {angle:.1f} deg > {self.opt.max_angle_deg:g} deg", rcond)
+        u, lam, R, Ju, Jlam = self.sp.last
+        h = float(self.t @ (x_new - self.x))
+        if landed:
+            h = max(h, 0.0)  # the end may be within rounding of the current point
+        elif not h > 0:
+            raise _StepFailed("the new point is not ahead of the previous one", rcond)
+        return _Candidate(
+            x=x_new, u=np.array(u, dtype=float), lam=float(lam), tangent=t_new, lu=lu, R=R, Ju=Ju, Jlam=Jlam,
+            iterations=iterations, h=h, ds=ds, landed=landed,
+        )
+
+    def _step(self, ds: float) -> _Candidate:
+        xp = self.x + ds * self.t
+        res = self._bordered_solve(xp.copy(), xp, self.t, 0.0)
+        if not res.converged:
+            raise _StepFailed(f"Newton did not converge ({res.message})", res.rcond)
+        return self._check_new(res.x, xp, ds, res.lu, res.rcond, res.iterations)
+
+    def _land(self, end: float, ds: float, guess_x: np.ndarray) -> _Candidate:
+        """Newton at fixed ``lam = end`` from ``guess_x`` (scaled, lam = end)."""
+        sp, m = self.sp, self.m
+        res = self._fixed_solve(end, guess_x[:m] * sp.su)
+        if not res.converged:
+            raise _StepFailed(f"Newton did not converge at the range end {self.fmt(end)} ({res.message})", res.rcond)
+        u, _, R, Ju, Jlam = sp.last  # evaluated at the converged u
+        x_new = np.empty(m + 1)
+        x_new[:m] = u / sp.su
+        x_new[m] = end / sp.sl
+        A = np.empty((m + 1, m + 1))
+        A[:m, :m] = Ju * sp.su
+        A[:m, m] = Jlam * sp.sl
+        A[m] = self.t
+        try:
+            lu = factorize(A)
+        except SingularMatrixError:
+            lu = None
+        return self._check_new(x_new, guess_x, ds, lu, res.rcond, res.iterations, landed=True)
+
+    def _attempt(self, ds: float) -> _Candidate | None:
+        """One step from the current point; None if the current point is at
+        the range end and the branch leaves the range."""
+        lo, hi, sl = self.lo, self.hi, self.sp.sl
+        t_lam = self.t[-1]
+        lam_pred = (self.x[-1] + ds * t_lam) * sl
+        if lam_pred > hi or lam_pred < lo:
+            end = hi if lam_pred > hi else lo
+            if self.lam == end:
+                return None
+            # shorten the prediction to reach the end exactly, then land on it
+            ds_cut = (end / sl - self.x[-1]) / t_lam
+            guess = self.x + ds_cut * self.t
+            guess[-1] = end / sl
+            try:
+                return self._land(end, ds_cut, guess)
+            except _StepFailed as failed_landing:
+                # the branch may turn back before the end (a fold close to it)
+                try:
+                    cand = self._step(ds)
+                except _StepFailed:
+                    raise failed_landing from None
+                if lo <= cand.lam <= hi:
+                    return cand
+                raise
+        cand = self._step(ds)
+        if cand.lam > hi or cand.lam < lo:
+            end = hi if cand.lam > hi else lo
+            theta = (end - self.lam) / (cand.lam - self.lam)
+            guess = self.x + theta * (cand.x - self.x)
+            guess[-1] = end / sl
+            return self._land(end, ds, guess)
+        return cand
+
+    # -- main loop -------------------------------------------------------
+    def run(self) -> Branch:
+        opt = self.opt
+        ds = opt.ds
+        while True:
+            if len(self.branch) >= opt.max_points:
+                self.builder.finish(BranchStatus.MAX_POINTS, f"stored max_points={opt.max_points} points; last at {self.fmt(self.lam)}")
+                return self.branch
+            try:
+                cand = self._attempt(ds)
+            except _StepFailed as exc:
+                cand = exc
+            except NUMERICAL_ERRORS as exc:
+                cand = _StepFailed(f"evaluation failed ({type(exc).__name__}: {exc})")
+            if cand is None:
+                self._finish_range_end(len(self.branch) - 1)
+                return self.branch
+            if isinstance(cand, _StepFailed):
+                self.n_rejected += 1
+                self.last_failure = cand.reason
+                if self.info.rcond < _ILL_RCOND:
+                    raise _Failure(
+                        BranchStatus.ILL_CONDITIONED,
+                        f"the bordered Jacobian is ill-conditioned at {self.fmt(self.lam)} "
+                        f"(rcond={self.info.rcond:.1e}) and the step failed: {cand.reason}",
+                    )
+                if ds <= opt.ds_min:
+                    if cand.rcond < _ILL_RCOND:
+                        raise _Failure(
+                            BranchStatus.ILL_CONDITIONED,
+                            f"step size fell below ds_min={opt.ds_min:g} near {self.fmt(self.lam)} with an "
+                            f"ill-conditioned Jacobian (rcond={cand.rcond:.1e}): {cand.reason}",
+                        )
+                    raise _Failure(
+                        BranchStatus.STEP_TOO_SMALL,
+                        f"step size fell below ds_min={opt.ds_min:g} at {self.fmt(self.lam)}; "
+                        f"last failure: {cand.reason}",
+                    )
+                ds = max(ds * opt.shrink, opt.ds_min)
+                continue
+            if not self._accept(cand):
+                return self.branch
+            if cand.landed:
+                self._finish_range_end(len(self.branch) - 1)
+                return self.branch
+            if self._closed(cand):
+                self.builder.finish(BranchStatus.CLOSED_LOOP, f"the branch returned to its start point {self.fmt(self.branch.parameter[0])}")
+                return self.branch
+            if cand.iterations <= opt.newton_easy:
+                ds = min(ds * opt.grow, opt.ds_max)
+
+    def _finish_range_end(self, index: int):
+        lam = float(self.branch.parameter[index])
+        self.builder.add_special(
+            SpecialPoint(SpecialKind.END, lam, self.branch.unknowns[index].copy(), (lam, lam), index,
+                         float(self.branch.arclength[index]), located=True,
+                         message="end of the parameter range", event="end",
+                         tangent=self.branch.tangents[index].copy())
+        )
+        self.builder.finish(BranchStatus.RANGE_END, f"reached the end of the parameter range at {self.fmt(lam)}")
+
+    def _accept(self, cand: _Candidate) -> bool:
+        prev_x, prev_info, prev_g = self.x, self.info, self.g
+        self.prev_x = prev_x
+        s_new = self.s + cand.h
+        lam_new = cand.lam
+        try:
+            data = self._monitor(cand.u, lam_new, cand.Ju, cand.Jlam)
+        except NUMERICAL_ERRORS as exc:
+            raise _Failure(BranchStatus.NEWTON_FAILED, f"a monitor failed at {self.fmt(lam_new)} ({type(exc).__name__}: {exc})")
+        info = self._point_info(cand.u, lam_new, cand.tangent, cand.lu, cand.Ju, cand.Jlam, s_new, data)
+        res_norm = float(np.max(np.abs(cand.R), initial=0.0))
+        index = self._store(info, cand.iterations, cand.h, res_norm)
+        g_new = self._tests(info)
+        # events on the arc between the previous and the new point
+        t_prev = self.t
+        for ev, ga, gb in zip(self.events, prev_g, g_new):
+            for comp in changed_components(ev, ga, gb, prev_info, info):
+                self._locate(ev, comp, prev_x, t_prev, prev_info, cand, info, ga, gb, index - 1)
+        self.x, self.u, self.lam, self.t, self.s = cand.x, cand.u, lam_new, cand.tangent, s_new
+        self.info, self.g = info, g_new
+        return self._after_store()
+
+    def _locate(self, ev: Event, comp: int, xa, ta, info_a: PointInfo, cand: _Candidate, info_b: PointInfo, ga, gb, index: int):
+        sp = self.sp
+        h = cand.h
+        xb = cand.x
+
+        def point_at(sigma: float):
+            guess = xa + (sigma / h) * (xb - xa)
+            try:
+                res = self._bordered_solve(guess, xa, ta, sigma)
+            except NUMERICAL_ERRORS as exc:
+                return None, f"evaluation failed ({type(exc).__name__}: {exc})"
+            if not res.converged:
+                return None, f"Newton did not converge ({res.message})"
+            if res.lu is None:
+                return None, "singular bordered Jacobian"
+            z = res.lu.solve(self._e_last)
+            nz = float(np.linalg.norm(z))
+            if not (math.isfinite(nz) and nz > 0):
+                return None, "non-finite tangent"
+            u, lam, R, Ju, Jlam = sp.last
+            try:
+                data = self._monitor(u, lam, Ju, Jlam)
+            except NUMERICAL_ERRORS as exc:
+                return None, f"a monitor failed ({type(exc).__name__}: {exc})"
+            if not all(np.all(np.isfinite(np.asarray(v))) for v in data.values()):
+                return None, "non-finite monitored value"
+            return self._point_info(u, lam, z / nz, res.lu, Ju, Jlam, info_a.s + sigma, data), ""
+
+        locations = ev.locate(comp, point_at, h, info_a, info_b, float(ga[comp]), float(gb[comp]),
+                              tol=self.opt.locate_tol, max_iter=self.opt.locate_max_iter)
+        for loc in locations:
+            p = loc.point
+            try:
+                data = dict(ev.describe(p))
+            except NUMERICAL_ERRORS as exc:
+                data = {"describe_error": f"{type(exc).__name__}: {exc}"}
+            if ga.size > 1:
+                data.setdefault("component", comp)
+            msg = f"{ev.name}: {loc.message}"
+            self.builder.add_special(
+                SpecialPoint(
+                    kind=ev.kind, parameter=float(p.lam), unknowns=p.u.copy(), interval=(info_a.lam, info_b.lam),
+                    index=index, s=float(p.s), test_values=(float(ga[comp]), float(gb[comp])), located=loc.located,
+                    data=data, message=msg, event=ev.name, tangent=p.tangent.copy(),
+                    point_data={k: np.array(v) for k, v in p.data.items()},
+                )
+            )
+
+    def _closed(self, cand: _Candidate) -> bool:
+        """Did the last step pass the start point (after having gone away)?"""
+        x0, a = self.x_start, self.prev_x
+        seg = cand.x - a
+        L = float(np.linalg.norm(seg))
+        went_away = self.max_dist > 2.0 * L
+        self.max_dist = max(self.max_dist, float(np.linalg.norm(cand.x - x0)))
+        if len(self.branch) < 4 or not went_away or L == 0:
+            return False
+        p = float((x0 - a) @ seg) / (L * L)
+        if not (0.0 <= p <= 1.0):
+            return False
+        dist = float(np.linalg.norm(a + p * seg - x0))
+        # same direction as the start tangent (not a crossing of a figure eight)
+        cos_min = math.cos(math.radians(min(2 * self.opt.max_angle_deg, 89.0)))
+        return dist <= 0.25 * L and float(self.t_start @ seg) >= cos_min * L
+
+
+def continuation(
+    problem: Problem,
+    u0,
+    lam0: float,
+    lam_range: tuple[float, float] = (-math.inf, math.inf),
+    options: ContinuationOptions | Mapping[str, Any] | None = None,
+    *,
+    parameter_name: str = "lambda",
+    events: Iterable[Event] = (),
+    monitors: Iterable[Monitor] = (),
+    tangent=None,
+    callback: Callable[[Branch, int], Any] | None = None,
+    solve_start: bool = True,
+) -> Branch:
+    """Trace the solution branch of ``R(u, lam) = 0`` through ``(u0, lam0)``.
+
+    Parameters
+    ----------
+    problem : Problem
+        Object with ``linearize(u, lam) -> (R, Ju, Jlam)`` (and optionally
+        ``unknown_scale()``).
+    u0 : array_like, shape (m,)
+        Start guess (or exact start point).
+    lam0 : float
+        Start parameter, inside ``lam_range``.
+    lam_range : (float, float)
+        ``(lo, hi)``, ``lo < hi``; infinite bounds allowed. The branch stops
+        exactly on a bound (status ``RANGE_END``).
+    options : ContinuationOptions or mapping, optional
+    parameter_name : str
+        Used in messages and stored in the branch.
+    events : iterable of Event
+        Extra events (the fold and branch-point events are added according
+        to the options).
+    monitors : iterable of callables
+        ``monitor(u, lam, Ju, Jlam) -> {name: value}`` evaluated at every
+        stored and located point; stored in ``Branch.point_data`` and passed
+        to events in ``PointInfo.data``.
+    tangent : array_like, shape (m+1,), optional
+        Start orientation (e.g. ``Branch.tangents[i]`` when resuming; only its
+        orientation is used, it takes precedence over ``options.direction``).
+    callback : callable, optional
+        ``callback(branch, index)`` after each stored point; returning
+        ``False`` (or raising ``KeyboardInterrupt``) stops with
+        ``INTERRUPTED``.
+    solve_start : bool
+        If True, Newton at fixed ``lam0`` from ``u0`` first. If False,
+        ``(u0, lam0)`` is taken as the start when it meets ``newton_tol``,
+        otherwise it is corrected on the hyperplane through it normal to the
+        tangent (usable at a fold).
+
+    Returns
+    -------
+    Branch
+        Never raises for numerical reasons: failures end the branch with a
+        status and message (``START_FAILED`` gives an empty branch). Invalid
+        arguments raise ``ValueError``. Other exceptions from the problem,
+        monitors, events or callback propagate; the partial branch is then
+        attached to the exception as ``exc.partial_branch``.
+    """
+    if options is None:
+        options = ContinuationOptions()
+    elif isinstance(options, Mapping):
+        options = ContinuationOptions.from_dict(options)
+    elif not isinstance(options, ContinuationOptions):
+        raise TypeError(f"options must be ContinuationOptions or a mapping, got {type(options).__name__}")
+    u0 = np.array(u0, dtype=float, copy=True)
+    if u0.ndim != 1 or u0.size == 0:
+        raise ValueError(f"u0 must be a non-empty 1-D array, got shape {u0.shape}")
+    if not np.all(np.isfinite(u0)):
+        raise ValueError("u0 contains non-finite values")
+    lam0 = float(lam0)
+    if not math.isfinite(lam0):
+        raise ValueError(f"lam0 must be finite, got {lam0}")
+    try:
+        lo, hi = (float(v) for v in lam_range)
+    except (TypeError, ValueError):
+        raise ValueError(f"lam_range must be a pair (lo, hi), got {lam_range!r}") from None
+    if not lo < hi:
+        raise ValueError(f"lam_range must satisfy lo < hi, got ({lo}, {hi})")
+    if not lo <= lam0 <= hi:
+        raise ValueError(f"lam0={lam0} is outside lam_range ({lo}, {hi})")
+    if tangent is not None:
+        tangent = np.array(tangent, dtype=float).reshape(-1)
+        if tangent.shape != (u0.size + 1,) or not np.all(np.isfinite(tangent)) or not np.any(tangent):
+            raise ValueError(f"tangent must be a finite non-zero array of shape ({u0.size + 1},)")
+    events = list(events)
+    for ev in events:
+        if not isinstance(ev, Event):
+            raise TypeError(f"events must be Event instances, got {type(ev).__name__}")
+
+    eng = _Engine(problem, u0, lam0, (lo, hi), options, parameter_name, events, monitors, tangent, callback, solve_start)
+    branch = eng.branch
+    try:
+        try:
+            if eng.start():
+                eng.run()
+        except _Failure as exc:
+            eng.builder.finish(exc.status, exc.message)
+        except KeyboardInterrupt:
+            where = f" at {eng.fmt(eng.lam)}" if len(branch) else ""
+            eng.builder.finish(BranchStatus.INTERRUPTED, f"interrupted (KeyboardInterrupt){where}")
+    except BaseException as exc:
+        if branch.status is BranchStatus.RUNNING:
+            branch.message = f"aborted by {type(exc).__name__}: {exc}"
+        try:
+            exc.partial_branch = branch
+        except Exception:
+            pass
+        raise
+    finally:
+        if hasattr(eng, "sp"):
+            eng._update_info()
+    return branch

@@ -1,0 +1,199 @@
+"""Piecewise-linear contact forces: a gap on one dof and a radial clearance in a plane."""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from contin.model import ForceElement, Monomial, register_force
+
+__all__ = ["GapForce", "RadialGapForce"]
+
+
+@nb.njit(cache=True)
+def _gap_kernel(x, xd, d, g, k, c, side, clip, f, dfdx, dfdxd, dp):
+    # side: +1 contact when x > g, -1 when x < -g, 0 both sides.
+    # dp: 0 = forces/Jacobian; 1, 2, 3 = d/dg, d/dk, d/dc into f
+    N = x.shape[0]
+    for j in range(N):
+        xj = x[j, d]
+        vj = xd[j, d]
+        if (side >= 0) and xj > g:
+            pen = xj - g
+            s = 1.0
+        elif (side <= 0) and xj < -g:
+            pen = xj + g
+            s = -1.0
+        else:
+            continue
+        F = k * pen + c * vj
+        if clip and s * F < 0.0:
+            continue  # no adhesion: the contact only pushes
+        if dp == 0:
+            f[j, d] += F
+            dfdx[j, d, d] += k
+            dfdxd[j, d, d] += c
+        elif dp == 1:
+            f[j, d] += -k * s
+        elif dp == 2:
+            f[j, d] += pen
+        else:
+            f[j, d] += vj
+
+
+@register_force("gap")
+class GapForce(ForceElement):
+    """Contact spring (and dashpot) beyond a clearance on one dof.
+
+    ``f = k (x - g) + c x'`` while ``x > g`` (side ``+``), ``f = k (x + g) + c x'``
+    while ``x < -g`` (side ``-``), both for ``sides='both'``; zero inside the
+    clearance. With ``clip`` the force is set to zero when it would pull
+    (adhesion through the damping term during separation).
+
+    Parameters
+    ----------
+    dof : int
+    clearance, stiffness, damping : Monomial
+    sides : {'+', '-', 'both'}
+    clip : bool
+    """
+
+    degree = None
+
+    def __init__(self, dof: int, clearance: Monomial, stiffness: Monomial, damping: Monomial = Monomial(0.0),
+                 sides: str = "both", clip: bool = False, label: str = "gap"):
+        if sides not in ("+", "-", "both"):
+            raise ValueError(f"gap sides must be '+', '-' or 'both', got {sides!r}")
+        self.dof = dof
+        self.clearance, self.stiffness, self.damping = clearance, stiffness, damping
+        self.side = {"+": 1, "-": -1, "both": 0}[sides]
+        self.sides = sides
+        self.clip = bool(clip)
+        self.label = label
+        self._dummy = np.zeros((1, 1, 1))
+
+    def _values(self, p):
+        return self.clearance.value(p), self.stiffness.value(p), self.damping.value(p)
+
+    def evaluate(self, x, xd, tau, p, f, dfdx, dfdxd):
+        g, k, c = self._values(p)
+        _gap_kernel(x, xd, self.dof, g, k, c, self.side, self.clip, f, dfdx, dfdxd, 0)
+
+    def evaluate_dp(self, x, xd, tau, p, k, dfdp):
+        g, kk, c = self._values(p)
+        for which, mono in ((1, self.clearance), (2, self.stiffness), (3, self.damping)):
+            dm = mono.derivative(p, k)
+            if dm != 0.0:
+                tmp = np.zeros_like(dfdp)
+                _gap_kernel(x, xd, self.dof, g, kk, c, self.side, self.clip, tmp, self._dummy, self._dummy, which)
+                dfdp += dm * tmp
+
+    def depends_on(self, k):
+        return any(m.depends_on(k) for m in (self.clearance, self.stiffness, self.damping))
+
+    def describe(self, dof_names, param_names):
+        return (f"{self.label}: contact on {dof_names[self.dof]} beyond clearance (sides {self.sides}), "
+                f"k*(penetration) + c*velocity{', clipped at zero' if self.clip else ''}")
+
+
+@nb.njit(cache=True)
+def _radial_kernel(x, xd, ix, iy, delta, k, c, clip, f, dfdx, dfdxd, dp):
+    # dp: 0 = forces/Jacobian; 1, 2, 3 = d/ddelta, d/dk, d/dc into f
+    N = x.shape[0]
+    for j in range(N):
+        X = x[j, ix]
+        Y = x[j, iy]
+        r = np.sqrt(X * X + Y * Y)
+        if r < delta or r == 0.0:
+            continue
+        ex = X / r
+        ey = Y / r
+        vx = xd[j, ix]
+        vy = xd[j, iy]
+        vn = vx * ex + vy * ey
+        Fn = k * (r - delta) + c * vn
+        if clip and Fn < 0.0:
+            continue
+        if dp == 1:
+            f[j, ix] += -k * ex
+            f[j, iy] += -k * ey
+            continue
+        if dp == 2:
+            f[j, ix] += (r - delta) * ex
+            f[j, iy] += (r - delta) * ey
+            continue
+        if dp == 3:
+            f[j, ix] += vn * ex
+            f[j, iy] += vn * ey
+            continue
+        f[j, ix] += Fn * ex
+        f[j, iy] += Fn * ey
+        # d(e)/dx etc.: the radial direction turns with the position
+        dexdx = ey * ey / r
+        dexdy = -ex * ey / r
+        deydx = dexdy
+        deydy = ex * ex / r
+        dvndx = vx * dexdx + vy * deydx
+        dvndy = vx * dexdy + vy * deydy
+        dFndx = k * ex + c * dvndx
+        dFndy = k * ey + c * dvndy
+        dfdx[j, ix, ix] += dFndx * ex + Fn * dexdx
+        dfdx[j, ix, iy] += dFndy * ex + Fn * dexdy
+        dfdx[j, iy, ix] += dFndx * ey + Fn * deydx
+        dfdx[j, iy, iy] += dFndy * ey + Fn * deydy
+        dfdxd[j, ix, ix] += c * ex * ex
+        dfdxd[j, ix, iy] += c * ex * ey
+        dfdxd[j, iy, ix] += c * ey * ex
+        dfdxd[j, iy, iy] += c * ey * ey
+
+
+@register_force("radial_gap")
+class RadialGapForce(ForceElement):
+    """Radial contact in the plane of two dofs (a bearing in a clearance).
+
+    ``F = Fn (x/r, y/r)`` with ``r = sqrt(x^2 + y^2)`` and, for ``r >= delta``,
+    ``Fn = k (r - delta) + c (x' cos th + y' sin th)`` (Inagaki, Ishida &
+    Hayashi, Trans. JSME C 71 (2005), eq. 3); zero inside the clearance. With
+    ``clip``, ``Fn`` is set to zero when it would pull.
+
+    Parameters
+    ----------
+    dofs : (int, int)
+    clearance, stiffness, damping : Monomial
+    clip : bool
+    """
+
+    degree = None
+
+    def __init__(self, dofs, clearance: Monomial, stiffness: Monomial, damping: Monomial = Monomial(0.0),
+                 clip: bool = False, label: str = "radial_gap"):
+        self.ix, self.iy = int(dofs[0]), int(dofs[1])
+        if self.ix == self.iy:
+            raise ValueError("radial_gap needs two different dofs")
+        self.clearance, self.stiffness, self.damping = clearance, stiffness, damping
+        self.clip = bool(clip)
+        self.label = label
+        self._dummy = np.zeros((1, 1, 1))
+
+    def _values(self, p):
+        return self.clearance.value(p), self.stiffness.value(p), self.damping.value(p)
+
+    def evaluate(self, x, xd, tau, p, f, dfdx, dfdxd):
+        d, k, c = self._values(p)
+        _radial_kernel(x, xd, self.ix, self.iy, d, k, c, self.clip, f, dfdx, dfdxd, 0)
+
+    def evaluate_dp(self, x, xd, tau, p, k, dfdp):
+        d, kk, c = self._values(p)
+        for which, mono in ((1, self.clearance), (2, self.stiffness), (3, self.damping)):
+            dm = mono.derivative(p, k)
+            if dm != 0.0:
+                tmp = np.zeros_like(dfdp)
+                _radial_kernel(x, xd, self.ix, self.iy, d, kk, c, self.clip, tmp, self._dummy, self._dummy, which)
+                dfdp += dm * tmp
+
+    def depends_on(self, k):
+        return any(m.depends_on(k) for m in (self.clearance, self.stiffness, self.damping))
+
+    def describe(self, dof_names, param_names):
+        return (f"{self.label}: radial contact of ({dof_names[self.ix]}, {dof_names[self.iy]}) beyond a clearance, "
+                f"Fn = k*(r - delta) + c*radial velocity{', clipped at zero' if self.clip else ''}")

@@ -1,0 +1,139 @@
+"""Benchmark: contin's compiled AFT harmonic balance against a plain numpy/scipy one.
+
+Both problems are traced by the same continuation engine over the forced
+Duffing oscillator x'' + 0.1 x' + x + x^3 = F cos(w t), w in [0.5, 3]. The
+baseline builds the AFT with dense trigonometric matrices (x = E U,
+R = W E^T f / N, J = W E^T diag(df/dx) E / N + ...), the textbook numpy
+implementation. The script prints time per continuation point, per Newton
+iteration (one residual-and-Jacobian evaluation plus one linear solve), and
+the ratio, all measured in this run.
+
+    python scripts/bench_duffing.py [--harmonics 9] [--repeat 3] [--quick]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from contin.catalog import build_model
+from contin.continuation import ContinuationOptions, continuation
+from contin.harmonic_balance import HarmonicBalance, HBOptions
+
+
+class NumpyDuffingHB:
+    """Plain numpy AFT harmonic balance of the Duffing oscillator (baseline)."""
+
+    def __init__(self, H, N, c=0.1, k=1.0, g=1.0, F=0.5):
+        self.H, self.N = H, N
+        self.c, self.k, self.g, self.F = c, k, g, F
+        th = 2 * np.pi * np.arange(N) / N
+        cols, dcols = [np.ones(N)], [np.zeros(N)]
+        for h in range(1, H + 1):
+            cols += [np.cos(h * th), np.sin(h * th)]
+            dcols += [-h * np.sin(h * th), h * np.cos(h * th)]
+        self.E = np.column_stack(cols)
+        self.Ed = np.column_stack(dcols)
+        self.P = np.diag([1.0] + [2.0] * (2 * H)) @ self.E.T / N
+        self.size = 2 * H + 1
+        self.fext = np.zeros(self.size)
+        self.fext[1] = F
+
+    def _lin(self, w):
+        A = np.zeros((self.size, self.size))
+        dA = np.zeros_like(A)
+        A[0, 0] = self.k
+        for h in range(1, self.H + 1):
+            i, j = 2 * h - 1, 2 * h
+            A[i, i] = A[j, j] = self.k - (h * w) ** 2
+            A[i, j] = h * w * self.c
+            A[j, i] = -h * w * self.c
+            dA[i, i] = dA[j, j] = -2 * h * h * w
+            dA[i, j] = h * self.c
+            dA[j, i] = -h * self.c
+        return A, dA
+
+    def residual(self, u, w):
+        A, _ = self._lin(w)
+        x = self.E @ u
+        return A @ u + self.P @ (self.g * x**3) - self.fext
+
+    def linearize(self, u, w):
+        A, dA = self._lin(w)
+        x = self.E @ u
+        R = A @ u + self.P @ (self.g * x**3) - self.fext
+        J = A + self.P @ ((3 * self.g * x**2)[:, None] * self.E)
+        return R, J, dA @ u
+
+    def unknown_scale(self):
+        return None
+
+
+class Counting:
+    """Counts residual-and-Jacobian evaluations of a problem."""
+
+    def __init__(self, problem):
+        self.problem = problem
+        self.calls = 0
+
+    def residual(self, u, lam):
+        return self.problem.residual(u, lam)
+
+    def linearize(self, u, lam):
+        self.calls += 1
+        return self.problem.linearize(u, lam)
+
+    def unknown_scale(self):
+        return None
+
+
+def trace(problem, u0, opts):
+    cp = Counting(problem)
+    t = time.perf_counter()
+    br = continuation(cp, u0, 0.5, (0.5, 3.0), opts, parameter_name="w")
+    return time.perf_counter() - t, br, cp.calls
+
+
+def per_call(problem, u, lam, repeat):
+    t = time.perf_counter()
+    for _ in range(repeat):
+        R, J, Jl = problem.linearize(u, lam)
+        np.linalg.solve(J, R)
+    return (time.perf_counter() - t) / repeat
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--harmonics", type=int, default=9)
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--quick", action="store_true", help="small settings for CI")
+    a = ap.parse_args(argv)
+    H = a.harmonics
+    repeat = 1 if a.quick else a.repeat
+    hb = HarmonicBalance(build_model("duffing", {"F": 0.5}), "w", HBOptions(harmonics=H))
+    base = NumpyDuffingHB(H, hb.N)
+    u0 = hb.linear_solution(0.5)
+    opts = ContinuationOptions(ds=0.02, ds_max=0.1)
+    trace(hb, u0, opts)  # warm-up: numba compilation or cache load
+    rows = []
+    for name, prob in (("contin (numba AFT)", hb), ("plain numpy AFT", base)):
+        best = None
+        for _ in range(repeat):
+            t, br, calls = trace(prob, u0, opts)
+            best = t if best is None else min(best, t)
+        it = per_call(prob, br.unknowns[len(br) // 2], br.parameter[len(br) // 2], 200 if a.quick else 2000)
+        rows.append((name, len(br), calls, best, best / len(br), best / calls, it))
+    print(f"Duffing frequency response, H = {H}, N = {hb.N}, unknowns = {hb.size}, w in [0.5, 3]")
+    print(f"{'implementation':22s} {'points':>7s} {'evals':>6s} {'branch [s]':>11s} {'per point [us]':>15s} "
+          f"{'per eval [us]':>14s} {'eval+solve [us]':>16s}")
+    for name, pts, calls, t, tp, te, it in rows:
+        print(f"{name:22s} {pts:7d} {calls:6d} {t:11.4f} {tp * 1e6:15.1f} {te * 1e6:14.1f} {it * 1e6:16.1f}")
+    c, b = rows
+    print(f"ratio numpy/contin: per point {b[4] / c[4]:.2f}x, per Newton iteration (eval+solve) {b[6] / c[6]:.2f}x")
+    assert len(rows[0]) and c[1] == b[1], "both implementations must trace the same branch"
+
+
+if __name__ == "__main__":
+    main()
