@@ -201,3 +201,36 @@ def matvec_samples(G, v):
                 s += G[j, a, b] * v[j, b]
             out[j, a] = s
     return out
+
+
+@nb.njit(cache=True)
+def nonlinear_terms(f, dfdx, dfdxd, dfdp, xp, Omega, nu, H, with_w, J):
+    """Project the force and assemble its Jacobians in one call (the Newton hot path).
+
+    Parameters
+    ----------
+    f : ndarray, shape (N, n)
+        Sampled nonlinear force.
+    dfdx, dfdxd : ndarray, shape (N, n, n)
+    dfdp : ndarray, shape (N, n)
+        Explicit derivative of the force with respect to lambda.
+    xp : ndarray, shape (N, n)
+        ``dx/dtheta`` at the samples.
+    Omega : float
+        Base frequency ``w/nu``.
+    nu : int
+    H : int
+    with_w : bool
+        Lambda is the frequency: add ``df/dx' * x'(theta)/nu`` to ``dfdp``.
+    J : ndarray, shape (n(2H+1), n(2H+1))
+        Accumulated in place with ``dR/du``.
+
+    Returns
+    -------
+    R, Jlam : ndarray, shape (n(2H+1),)
+        Projected force and its ``lambda`` derivative.
+    """
+    assemble_jacobian(dfdx, dfdxd, Omega, H, J)
+    if with_w:
+        dfdp = dfdp + matvec_samples(dfdxd, xp) / nu
+    return project(f, H).ravel(), project(dfdp, H).ravel()

@@ -983,6 +983,8 @@ def continuation(
             pass
         raise
     finally:
-        if hasattr(eng, "sp"):
+        if len(branch):
             eng._update_info()
+        elif hasattr(eng, "sp"):
+            branch.info.update(lam_range=(lo, hi), n_linearizations=eng.sp.calls, n_newton_iterations=eng.n_newton)
     return branch

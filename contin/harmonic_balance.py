@@ -161,6 +161,8 @@ class HarmonicBalance:
                         f"period 2*pi*nu/w for nu={self.nu}"
                     )
         self._fext_key = None
+        # M, C, K are fixed during a run unless they depend on lambda: split once
+        self._lin_parts = None if self._linear_depends_on_lambda() else self._split_linear(self.p0)
         self._work = (
             np.zeros((self.N, self.n)),
             np.zeros((self.N, self.n, self.n)),
@@ -184,24 +186,46 @@ class HarmonicBalance:
         return HarmonicBalance(self.model, self.parameter, opts, params)
 
     # -- linear part ------------------------------------------------------
+    def _linear_depends_on_lambda(self) -> bool:
+        m = self.model
+        return any(t[0].depends_on(self.k) for mat in (m.mass, m.damping, m.stiffness) for t in mat.terms)
+
+    def _split_linear(self, p: np.ndarray):
+        """``A = A0 + Omega A1 + Omega^2 A2`` from K, C and M (the operator is quadratic in Omega)."""
+        M, C, K = self.model.linear(p)
+        Z = np.zeros_like(M)
+        parts = []
+        for Mi, Ci, Ki in ((Z, Z, K), (Z, C, Z), (M, Z, Z)):
+            A = np.zeros((self.size, self.size))
+            linear_operator(Mi, Ci, Ki, 1.0, self.H, A, False)
+            parts.append(A)
+        return parts
+
     def linear_matrix(self, p: np.ndarray) -> np.ndarray:
         """The linear operator ``A(Omega, p)``, shape (size, size)."""
-        M, C, K = self.model.linear(p)
-        A = np.zeros((self.size, self.size))
-        linear_operator(M, C, K, p[self.kw] / self.nu, self.H, A, False)
-        return A
+        Omega = p[self.kw] / self.nu
+        if self._lin_parts is None:
+            A0, A1, A2 = self._split_linear(p)
+        else:
+            A0, A1, A2 = self._lin_parts
+        return A0 + Omega * A1 + Omega * Omega * A2
 
     def _linear_matrix_dp(self, p: np.ndarray) -> np.ndarray:
-        M, C, K = self.model.linear(p)
-        dM, dC, dK = self.model.linear_dp(p, self.k)
         Omega = p[self.kw] / self.nu
-        dA = np.zeros((self.size, self.size))
-        linear_operator(dM, dC, dK, Omega, self.H, dA, False)
-        if self.k == self.kw:
-            dOm = np.zeros((self.size, self.size))
-            linear_operator(M, C, K, Omega, self.H, dOm, True)
-            dA += dOm / self.nu
-        return dA
+        if self._lin_parts is None:
+            M, C, K = self.model.linear(p)
+            dM, dC, dK = self.model.linear_dp(p, self.k)
+            dA = np.zeros((self.size, self.size))
+            linear_operator(dM, dC, dK, Omega, self.H, dA, False)
+            if self.k == self.kw:
+                dOm = np.zeros((self.size, self.size))
+                linear_operator(M, C, K, Omega, self.H, dOm, True)
+                dA += dOm / self.nu
+            return dA
+        if self.k != self.kw:
+            return None  # the linear part does not depend on lambda
+        _, A1, A2 = self._lin_parts
+        return (A1 + 2.0 * Omega * A2) / self.nu
 
     # -- excitation -------------------------------------------------------
     def excitation(self, p: np.ndarray):
@@ -282,25 +306,24 @@ class HarmonicBalance:
         fext, dfext = self.excitation(p)
         J = self.linear_matrix(p)
         R = J @ u - fext
-        Jlam = self._linear_matrix_dp(p) @ u - dfext
+        dA = self._linear_matrix_dp(p)
+        Jlam = -dfext if dA is None else dA @ u - dfext
         if self.model.forces:
             x, xd, xp = self.samples_of(u, lam)
             f, dfdx, dfdxd = self._work
             f[:] = 0.0
             dfdx[:] = 0.0
             dfdxd[:] = 0.0
-            for el in self.model.forces:
-                el.evaluate(x, xd, self.tau, p, f, dfdx, dfdxd)
-            R += aft.project(f, self.H).reshape(-1)
-            aft.assemble_jacobian(dfdx, dfdxd, p[self.kw] / self.nu, self.H, J)
             dfdp = np.zeros((self.N, self.n))
             for el in self.model.forces:
+                el.evaluate(x, xd, self.tau, p, f, dfdx, dfdxd)
                 if el.depends_on(self.k):
                     el.evaluate_dp(x, xd, self.tau, p, self.k, dfdp)
-            if self.k == self.kw:
-                # xdot = (w/nu) x'(theta): the velocity depends on w
-                dfdp += aft.matvec_samples(dfdxd, xp) / self.nu
-            Jlam += aft.project(dfdp, self.H).reshape(-1)
+            # when lambda is w, the velocity xdot = (w/nu) x'(theta) depends on it too
+            Rn, Jn = aft.nonlinear_terms(f, dfdx, dfdxd, dfdp, xp, p[self.kw] / self.nu, self.nu, self.H,
+                                         self.k == self.kw, J)
+            R += Rn
+            Jlam += Jn
         self.evaluations += 1
         return R, J, Jlam
 

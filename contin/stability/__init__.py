@@ -1,1 +1,50 @@
-"""Stability of periodic solutions."""
+"""Stability of periodic solutions: Floquet multipliers and bifurcation events.
+
+- :mod:`contin.stability.hill`: Hill's method on the harmonic-balance matrices;
+- :mod:`contin.stability.monodromy`: monodromy matrix by time integration;
+- :mod:`contin.stability.floquet`: options, results, the verdict, and the
+  monitor and events used by the continuation engine.
+"""
+
+from contin.stability.floquet import (
+    FloquetResult,
+    MultiplierCrossingEvent,
+    StabilityChangeEvent,
+    StabilityMethod,
+    StabilityMonitor,
+    StabilityOptions,
+    classify_multipliers,
+    describe_crossing,
+    floquet,
+    multiplier_distance,
+    stability_events,
+)
+from contin.stability.hill import HillSpectrum, hill_spectrum
+from contin.stability.monodromy import (
+    Monodromy,
+    monodromy_orbit_ivp,
+    monodromy_reference,
+    monodromy_rk4,
+    orbit_state,
+)
+
+__all__ = [
+    "FloquetResult",
+    "HillSpectrum",
+    "Monodromy",
+    "MultiplierCrossingEvent",
+    "StabilityChangeEvent",
+    "StabilityMethod",
+    "StabilityMonitor",
+    "StabilityOptions",
+    "classify_multipliers",
+    "describe_crossing",
+    "floquet",
+    "hill_spectrum",
+    "monodromy_orbit_ivp",
+    "monodromy_reference",
+    "monodromy_rk4",
+    "multiplier_distance",
+    "orbit_state",
+    "stability_events",
+]

@@ -99,7 +99,7 @@ class HillSpectrum:
     Omega: float
 
 
-def companion_eigen(D0: np.ndarray, D1: np.ndarray, D2: np.ndarray, vectors: bool = True):
+def companion_eigen(D0: np.ndarray, D1: np.ndarray, D2: np.ndarray, vectors: bool = True, mass: np.ndarray | None = None):
     """Eigenpairs of ``(D0 + s D1 + s^2 D2) q = 0`` by linearisation.
 
     Parameters
@@ -107,6 +107,9 @@ def companion_eigen(D0: np.ndarray, D1: np.ndarray, D2: np.ndarray, vectors: boo
     D0, D1, D2 : ndarray, shape (m, m)
     vectors : bool
         Also return the ``q`` parts of the eigenvectors.
+    mass : ndarray, shape (n, n), optional
+        If given, ``D2 = I (x) mass`` is assumed, and ``D2^-1`` is applied
+        block by block.
 
     Returns
     -------
@@ -119,16 +122,26 @@ def companion_eigen(D0: np.ndarray, D1: np.ndarray, D2: np.ndarray, vectors: boo
     m = D0.shape[0]
     I = np.eye(m)
     Z = np.zeros((m, m))
-    lu = scipy.linalg.lu_factor(D2, check_finite=True)
-    piv = np.abs(np.diagonal(lu[0]))
-    # a pivot ratio this small means a massless dof: keep the generalized form
-    invertible = piv.size > 0 and piv.min() > 1e-12 * piv.max()
-    if invertible:
-        A = np.block([[Z, I], [-scipy.linalg.lu_solve(lu, D0), -scipy.linalg.lu_solve(lu, D1)]])
+    G0 = G1 = None
+    if mass is not None:
+        sv = np.linalg.svd(mass, compute_uv=False)
+        # a tiny singular value means a massless dof: keep the generalized form
+        if sv.size and sv[-1] > 1e-12 * sv[0]:
+            Minv = np.linalg.inv(mass)
+            n = mass.shape[0]
+            G0 = np.einsum("ab,kbj->kaj", Minv, D0.reshape(-1, n, m)).reshape(m, m)
+            G1 = np.einsum("ab,kbj->kaj", Minv, D1.reshape(-1, n, m)).reshape(m, m)
+    else:
+        sv = np.linalg.svd(D2, compute_uv=False)
+        if sv.size and sv[-1] > 1e-12 * sv[0]:
+            G = np.linalg.solve(D2, np.hstack([D0, D1]))
+            G0, G1 = G[:, :m], G[:, m:]
+    if G0 is not None:
+        A = np.block([[Z, I], [-G0, -G1]])
         if vectors:
-            s, V = scipy.linalg.eig(A, check_finite=False)
+            s, V = np.linalg.eig(A)
         else:
-            s, V = scipy.linalg.eig(A, right=False, check_finite=False), None
+            s, V = np.linalg.eigvals(A), None
     else:
         A = np.block([[Z, I], [-D0, -D1]])
         B = np.block([[I, Z], [Z, D2]])
@@ -266,7 +279,8 @@ def hill_spectrum(
     if not Omega > 0:
         raise ValueError(f"Hill's method needs a positive excitation frequency, got w/nu = {Omega}")
     period = 2.0 * np.pi / Omega
-    s, Q = companion_eigen(D0, D1, D2, vectors=True)
+    mass = hb.model.linear(hb.params_at(lam))[0]
+    s, Q = companion_eigen(D0, D1, D2, vectors=True, mass=mass)
     c = harmonic_centroids(Q, hb.n)
     sel, quality = select_exponents(s, c, Omega, 2 * hb.n, shift_tol, centroid_tol)
     ex = s[sel]

@@ -1,0 +1,207 @@
+"""``frequency_response``: periodic solutions of a forced model versus a parameter.
+
+Traces the branch of order ``nu`` from the start of ``range`` with
+pseudo-arclength continuation, with stability where requested, switches at
+the requested bifurcations, and streams ``branches.csv`` and
+``special_points.csv`` as points are found.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from contin.analyses import register_analysis
+from contin.branch import BranchStatus
+from contin.continuation import ContinuationOptions, continuation
+from contin.harmonic_balance import HarmonicBalance, HBOptions
+from contin.measures import measure_names, point_measures
+from contin.results import CsvStream
+from contin.scene import SceneError
+
+__all__ = ["run", "BranchRecorder", "build_problem"]
+
+SPECIAL_EXTRA = ["interval_lo", "interval_hi", "located", "detail"]
+
+
+def build_problem(scene, model) -> HarmonicBalance:
+    """The harmonic-balance problem of a ``frequency_response`` scene."""
+    a = scene.analysis
+    param = a["parameter"] or a["frequency"] or model.frequency
+    if a["frequency"] and a["frequency"] != model.frequency:
+        if a["frequency"] not in model.parameters:
+            raise scene.error("analysis.frequency", f"a parameter of the model {list(model.parameters)}", a["frequency"])
+        model.frequency = a["frequency"]
+    if param not in model.parameters:
+        raise scene.error("analysis.parameter", f"a parameter of the model {list(model.parameters)}", param)
+    try:
+        opts = HBOptions(harmonics=a["harmonics"], subharmonic=a["subharmonic"], samples=a["samples"])
+        return HarmonicBalance(model, param, opts)
+    except ValueError as exc:
+        raise SceneError("analysis", "a discretisation the model can use", None, hint=f": {exc}") from None
+
+
+def continuation_options(scene, lam_start: float, lam_end: float) -> ContinuationOptions:
+    d = dict(scene.analysis["continuation"])
+    d.setdefault("direction", 1 if lam_end > lam_start else -1)
+    try:
+        return ContinuationOptions.from_dict(d)
+    except ValueError as exc:
+        raise SceneError("analysis.continuation", "valid continuation options", None, hint=f": {exc}") from None
+
+
+class BranchRecorder:
+    """Streams the rows of ``branches.csv`` and ``special_points.csv``.
+
+    Parameters
+    ----------
+    outdir : Path
+    dof_names : sequence of str
+    parameter : str
+    harmonic_columns, H : int
+        Number of ``hK`` columns is ``min(H, harmonic_columns) + 1``.
+    """
+
+    def __init__(self, outdir, dof_names, parameter, harmonic_columns, H, append=False):
+        self.dof_names = list(dof_names)
+        self.parameter = parameter
+        self.harmonic_columns = harmonic_columns
+        self.measures = measure_names(self.dof_names, harmonic_columns, H)
+        head = ["branch", "nu", parameter, "stable", "n_unstable", "max_multiplier"]
+        self.branch_columns = head + self.measures + ["newton_iterations", "residual_norm"]
+        self.special_columns = ["branch", "kind", parameter, "index"] + self.measures + SPECIAL_EXTRA
+        self.rows = CsvStream(outdir / "branches.csv", self.branch_columns, append)
+        self.special = CsvStream(outdir / "special_points.csv", self.special_columns, append)
+        self.n_rows = self.rows.rows
+        self.offsets: dict[int, int] = {}
+        self.curves: dict[int, dict] = {}
+        self.special_list: list[dict] = []
+
+    def _measures(self, u, n):
+        return point_measures(u, n, self.dof_names, self.harmonic_columns)
+
+    def point(self, branch_id: int, nu: int, branch, i: int) -> None:
+        self.offsets.setdefault(branch_id, self.n_rows - i)
+        u = branch.unknowns[i]
+        lam = float(branch.parameter[i])
+        row = {"branch": branch_id, "nu": nu, self.parameter: lam}
+        pd = branch.point_data
+        if "stable" in pd:
+            row["stable"] = bool(pd["stable"][i])
+            row["n_unstable"] = int(pd["n_unstable"][i])
+            row["max_multiplier"] = float(pd["max_multiplier"][i])
+        row.update(self._measures(u, len(self.dof_names)))
+        row["newton_iterations"] = int(branch.newton_iterations[i])
+        row["residual_norm"] = float(branch.residual_norms[i])
+        self.rows.write(row)
+        self.n_rows += 1
+        c = self.curves.setdefault(branch_id, {"x": [], "rows": [], "stable": [], "nu": nu})
+        c["x"].append(lam)
+        c["rows"].append(row)
+        c["stable"].append(row.get("stable"))
+
+    def special_points(self, branch_id: int, branch) -> None:
+        off = self.offsets.get(branch_id, self.n_rows - len(branch))
+        for sp in branch.special_points:
+            if sp.kind.value == "start":
+                continue
+            i = min(max(sp.index, 0), len(branch) - 1)
+            if i + 1 < len(branch) and abs(branch.parameter[i + 1] - sp.parameter) < abs(branch.parameter[i] - sp.parameter):
+                i += 1
+            row = {"branch": branch_id, "kind": sp.kind.value, self.parameter: float(sp.parameter), "index": off + i}
+            row.update(self._measures(sp.unknowns, len(self.dof_names)))
+            lo, hi = sp.interval
+            row.update({"interval_lo": float(lo), "interval_hi": float(hi), "located": bool(sp.located),
+                        "detail": _detail(sp)})
+            self.special.write(row)
+            self.special_list.append(row)
+
+    def close(self) -> None:
+        self.rows.close()
+        self.special.close()
+
+
+def _detail(sp) -> str:
+    d = sp.data or {}
+    parts = []
+    if "multiplier" in d:
+        z = complex(d["multiplier"])
+        parts.append(f"multiplier {z.real:.6g}{z.imag:+.6g}j")
+    if sp.message:
+        parts.append(sp.message)
+    return "; ".join(parts)
+
+
+@register_analysis("frequency_response")
+def run(ctx) -> dict:
+    """Run a ``frequency_response`` scene; returns its part of ``summary.json``."""
+    scene, model = ctx.scene, ctx.model
+    a = scene.analysis
+    hb = build_problem(scene, model)
+    lam_a, lam_b = float(a["range"][0]), float(a["range"][1])
+    lam0 = float(a["start"]) if a["start"] is not None else lam_a
+    lo, hi = min(lam_a, lam_b), max(lam_a, lam_b)
+    if not lo <= lam0 <= hi:
+        raise scene.error("analysis.start", f"a value inside range [{lo:g}, {hi:g}]", lam0)
+    opts = continuation_options(scene, lam0, lam_b if lam0 != lam_b else lam_a)
+    if a["guess"] is not None:
+        if len(a["guess"]) != hb.size:
+            raise scene.error("analysis.guess", f"{hb.size} numbers (n*(2H+1) coefficients)", f"{len(a['guess'])} numbers")
+        u0 = np.array(a["guess"], dtype=float)
+    else:
+        u0 = hb.linear_solution(lam0)
+    rec = BranchRecorder(ctx.outdir, model.dof_names, hb.parameter, scene.output["harmonic_columns"], hb.H)
+    ctx.recorder = rec
+    from contin.analyses.stability_hooks import stability_setup
+
+    monitors, events, follow = stability_setup(a, hb)
+    branches_info = []
+    t0 = time.perf_counter()
+    try:
+        results = follow(hb, u0, lam0, (lo, hi), opts, rec, ctx)
+    finally:
+        rec.close()
+    for bid, (branch, meta) in enumerate(results):
+        branches_info.append({
+            "branch": bid, "nu": meta.get("nu", hb.nu), "points": len(branch), "status": branch.status.value,
+            "message": branch.message, "parent": meta.get("parent"), "origin": meta.get("origin"),
+            "special_points": {k: sum(1 for s in branch.special_points if s.kind.value == k)
+                               for k in ("fold", "bp", "pd", "ns", "stability")},
+            "min_rcond": branch.info.get("min_rcond"),
+            "rejected_steps": branch.info.get("n_rejected_steps"),
+        })
+    ctx.timings["continuation"] = time.perf_counter() - t0
+    interrupted = any(b.status == BranchStatus.INTERRUPTED for b, _ in results)
+    ctx.interrupted = ctx.interrupted or interrupted
+    ctx.plot = lambda: _plot(ctx, rec, hb)
+    return {
+        "parameter": hb.parameter,
+        "unknowns": hb.size,
+        "harmonics": hb.H,
+        "subharmonic": hb.nu,
+        "samples": hb.N,
+        "branches": branches_info,
+        "rows": rec.n_rows,
+        "special_points": len(rec.special_list),
+    }
+
+
+def _plot(ctx, rec, hb):
+    from contin.plotting import bifurcation_diagram
+
+    out = ctx.scene.output
+    measure = out["measure"] or f"amp_{hb.model.dof_names[0]}"
+    if measure not in rec.measures:
+        raise ctx.scene.error("output.measure", "one of the measures " + ", ".join(rec.measures), measure)
+    curves = []
+    for bid, c in rec.curves.items():
+        st = c["stable"]
+        curves.append({"x": c["x"], "y": [r[measure] for r in c["rows"]],
+                       "stable": None if any(s is None for s in st) else np.array(st, bool),
+                       "label": f"branch {bid} (nu={c['nu']})"})
+    special = [{"x": s[hb.parameter], "y": s[measure], "kind": s["kind"]} for s in rec.special_list]
+    path = ctx.outdir / "bifurcation_diagram.png"
+    bifurcation_diagram(curves, special, hb.parameter, measure, path, units=out["units"], labels=out["labels"],
+                        title=out["title"] or f"{hb.model.name}: {measure} vs {hb.parameter}")
+    return [path.name]

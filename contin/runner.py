@@ -1,0 +1,116 @@
+"""Run a scene: build its model, run its analysis, write the result files and plots."""
+
+from __future__ import annotations
+
+import platform
+import signal
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+import contin
+from contin.catalog import get_spec
+from contin.model import Model
+from contin.progress import Progress
+from contin.results import write_json_atomic
+from contin.scene import Scene, SceneError
+
+__all__ = ["RunContext", "build_model", "run_scene", "versions"]
+
+
+@dataclass
+class RunContext:
+    """What an analysis needs while it runs."""
+
+    scene: Scene
+    model: Model
+    outdir: Path
+    progress: Progress
+    timings: dict = field(default_factory=dict)
+    stop_requested: bool = False
+    interrupted: bool = False
+    plot: object = None
+    recorder: object = None
+
+
+def build_model(scene: Scene) -> Model:
+    """The model a scene describes, with exactly the effects it enables."""
+    m = scene.model
+    if "builtin" in m:
+        try:
+            spec = get_spec(m["builtin"])
+        except ValueError as exc:
+            raise SceneError("model.builtin", "the name of a built-in model (see `contin models`)", m["builtin"],
+                             scene.lines.get("model.builtin"), hint=str(exc).split(m["builtin"] + "'", 1)[-1]) from None
+        params = {}
+        for k, v in m["parameters"].items():
+            if isinstance(v, bool) or not isinstance(v, (int, float)):
+                raise scene.error(f"model.parameters.{k}", "a number", v)
+            params[k] = v
+        try:
+            return spec.build(params, m["effects"], **m["options"])
+        except ValueError as exc:
+            raise SceneError("model", "a valid built-in model setup", None, hint=f": {exc}") from None
+    from contin.custom import build_custom_model
+
+    return build_custom_model(scene)
+
+
+def versions() -> dict:
+    import numba
+    import scipy
+
+    return {"contin": contin.__version__, "python": platform.python_version(), "numpy": np.__version__,
+            "scipy": scipy.__version__, "numba": numba.__version__}
+
+
+def run_scene(scene: Scene, outdir: str | Path, progress: bool = True) -> dict:
+    """Run a validated scene and write its results into ``outdir``.
+
+    Returns
+    -------
+    dict
+        The content of ``summary.json``.
+    """
+    from contin.analyses import get_runner
+
+    t0 = time.perf_counter()
+    outdir = Path(outdir)
+    outdir.mkdir(parents=True, exist_ok=True)
+    model = build_model(scene)
+    ctx = RunContext(scene, model, outdir, Progress(progress))
+    ctx.timings["model"] = time.perf_counter() - t0
+    summary = {"status": "running", "scene": scene.data, "source": scene.source, "versions": versions(),
+               "model": {"name": model.name, "dofs": list(model.dof_names), "effects": list(model.effects),
+                         "terms": model.describe().splitlines()[1:]},
+               "timings": ctx.timings}
+    write_json_atomic(outdir / "summary.json", summary)
+
+    def on_sigint(signum, frame):
+        ctx.stop_requested = True
+
+    previous = signal.signal(signal.SIGINT, on_sigint) if _main_thread() else None
+    try:
+        result = get_runner(scene.analysis["type"])(ctx)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
+        ctx.progress.close()
+    files = []
+    if scene.output["plots"] and ctx.plot is not None:
+        tp = time.perf_counter()
+        files += ctx.plot()
+        ctx.timings["plots"] = time.perf_counter() - tp
+    ctx.timings["total"] = time.perf_counter() - t0
+    summary.update({"status": "interrupted" if (ctx.interrupted or ctx.stop_requested) else "complete",
+                    "analysis": result, "plots": files, "timings": ctx.timings})
+    write_json_atomic(outdir / "summary.json", summary)
+    return summary
+
+
+def _main_thread() -> bool:
+    import threading
+
+    return threading.current_thread() is threading.main_thread()

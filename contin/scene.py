@@ -1,0 +1,309 @@
+"""Scene files: YAML loading, ``--set`` overrides, schema check and defaults.
+
+A scene has three sections, ``model``, ``analysis`` and ``output`` (SPEC 4.2).
+Loading uses ``yaml.safe_load``; the schema check then reports every problem
+as a :class:`SceneError` naming the dotted key, the expected form, what was
+found and, where the YAML parser knows it, the line.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+import yaml
+
+from contin.model import suggest
+
+__all__ = ["SceneError", "Scene", "load_scene", "parse_scene", "apply_override", "ANALYSES"]
+
+
+class SceneError(ValueError):
+    """Bad input in a scene, with the key path, expectation and finding."""
+
+    def __init__(self, key: str, expected: str, found: Any = None, line: int | None = None, hint: str = ""):
+        self.key, self.expected, self.found, self.line = key, expected, found, line
+        where = f" (line {line})" if line else ""
+        found_txt = "" if found is None else f", found {found!r}"
+        super().__init__(f"{key}{where}: expected {expected}{found_txt}{hint}")
+
+
+# ---------------------------------------------------------------- checkers
+def _number(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _int(v) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
+@dataclass(frozen=True)
+class Key:
+    """Schema of one key: a check, a description of the expected form, a default."""
+
+    expected: str
+    check: Callable[[Any], bool] = lambda v: True
+    default: Any = None
+    required: bool = False
+
+
+NUMBER = "a finite number"
+STR = "a string"
+
+
+def number(default=None, required=False, positive=False, min_value=None):
+    def check(v):
+        if not _number(v):
+            return False
+        if positive and v <= 0:
+            return False
+        return min_value is None or v >= min_value
+
+    exp = "a positive number" if positive else NUMBER if min_value is None else f"a number >= {min_value}"
+    return Key(exp, check, default, required)
+
+
+def integer(default=None, minimum=None, required=False):
+    exp = "an integer" if minimum is None else f"an integer >= {minimum}"
+    return Key(exp, lambda v: _int(v) and (minimum is None or v >= minimum), default, required)
+
+
+def string(default=None, choices=None, required=False):
+    if choices:
+        return Key("one of " + ", ".join(repr(c) for c in choices), lambda v: v in choices, default, required)
+    return Key(STR, lambda v: isinstance(v, str) and v != "", default, required)
+
+
+def mapping(default=None):
+    return Key("a mapping (key: value)", lambda v: isinstance(v, dict), {} if default is None else default)
+
+
+def listing(default=None, item=None, expected="a list"):
+    return Key(expected, lambda v: isinstance(v, list) and (item is None or all(item(x) for x in v)),
+               [] if default is None else default)
+
+
+def anything(default=None):
+    return Key("any value", lambda v: True, default)
+
+
+def number_or_expr(v) -> bool:
+    return _number(v) or (isinstance(v, str) and v.strip() != "")
+
+
+# ---------------------------------------------------------------- schema
+CONTINUATION_KEYS = mapping()  # validated by ContinuationOptions.from_dict
+
+FREQUENCY_RESPONSE = {
+    "type": string(required=True),
+    "parameter": string(),
+    "range": Key("a list of two different numbers [start, end]",
+                 lambda v: isinstance(v, list) and len(v) == 2 and all(_number(x) for x in v) and v[0] != v[1],
+                 required=True),
+    "start": number(),
+    "frequency": string(),
+    "harmonics": integer(5, 1),
+    "subharmonic": integer(1, 1),
+    "samples": Key("an integer >= 2*harmonics+1, or null", lambda v: v is None or (_int(v) and v >= 3), None),
+    "stability": string("hill", ("hill", "floquet", "both", "none")),
+    "stability_options": mapping(),
+    "switch": listing([], lambda x: x in ("pd", "bp"), "a list of bifurcation kinds among 'pd', 'bp'"),
+    "max_branches": integer(8, 1),
+    "continuation": CONTINUATION_KEYS,
+    "guess": Key("a list of numbers (the harmonic coefficients) or null",
+                 lambda v: v is None or (isinstance(v, list) and all(_number(x) for x in v)), None),
+}
+
+ANALYSES: dict[str, dict] = {"frequency_response": FREQUENCY_RESPONSE}
+
+OUTPUT = {
+    "measure": string(),
+    "plots": Key("true or false", lambda v: isinstance(v, bool), True),
+    "harmonic_columns": integer(5, 0),
+    "units": mapping(),
+    "labels": mapping(),
+    "title": string(),
+}
+
+BUILTIN_MODEL = {
+    "builtin": string(required=True),
+    "parameters": mapping(),
+    "effects": Key("a list of effect names", lambda v: v is None or (isinstance(v, list) and all(isinstance(x, str) for x in v)), None),
+    "options": mapping(),
+}
+
+CUSTOM_MODEL = {
+    "name": string("custom"),
+    "dofs": Key("a non-empty list of distinct names", lambda v: isinstance(v, list) and len(v) > 0
+                and all(isinstance(x, str) and x.isidentifier() for x in v) and len(set(v)) == len(v), required=True),
+    "parameters": mapping(),
+    "mass": anything(),
+    "damping": anything(),
+    "stiffness": anything(),
+    "gyroscopic": mapping(None),
+    "forces": listing([]),
+    "excitation": listing([]),
+    "frequency": string("w"),
+}
+
+
+@dataclass
+class Scene:
+    """A validated scene with defaults filled in.
+
+    Attributes
+    ----------
+    data : dict
+        The scene (``model``, ``analysis``, ``output``), defaults included.
+    source : str
+        File name or ``"<string>"``.
+    lines : dict
+        Dotted key to YAML line number (1-based), where known.
+    """
+
+    data: dict
+    source: str = "<string>"
+    lines: dict = field(default_factory=dict)
+
+    @property
+    def model(self) -> dict:
+        return self.data["model"]
+
+    @property
+    def analysis(self) -> dict:
+        return self.data["analysis"]
+
+    @property
+    def output(self) -> dict:
+        return self.data["output"]
+
+    def error(self, key: str, expected: str, found: Any = None, hint: str = "") -> SceneError:
+        return SceneError(key, expected, found, self.lines.get(key), hint)
+
+
+def _line_map(text: str) -> dict:
+    """Dotted key -> line number, from the YAML node tree."""
+    lines: dict = {}
+    try:
+        root = yaml.compose(text, Loader=yaml.SafeLoader)
+    except yaml.YAMLError:
+        return lines
+
+    def walk(node, prefix):
+        if isinstance(node, yaml.MappingNode):
+            for k, v in node.value:
+                key = f"{prefix}.{k.value}" if prefix else str(k.value)
+                lines[key] = k.start_mark.line + 1
+                walk(v, key)
+        elif isinstance(node, yaml.SequenceNode):
+            for i, v in enumerate(node.value):
+                key = f"{prefix}[{i}]"
+                lines[key] = v.start_mark.line + 1
+                walk(v, key)
+
+    if root is not None:
+        walk(root, "")
+    return lines
+
+
+def apply_override(data: dict, assignment: str) -> None:
+    """Apply ``dotted.key=value`` (value parsed as YAML) to ``data`` in place."""
+    if "=" not in assignment:
+        raise SceneError("--set", "dotted.key=value", assignment)
+    key, _, text = assignment.partition("=")
+    key = key.strip()
+    if not key or any(not part for part in key.split(".")):
+        raise SceneError("--set", "a dotted key such as model.parameters.f0", key)
+    try:
+        value = yaml.safe_load(text) if text.strip() else None
+    except yaml.YAMLError as exc:
+        raise SceneError(f"--set {key}", "a YAML value", text, hint=f" ({str(exc).splitlines()[0]})") from None
+    node = data
+    parts = key.split(".")
+    for i, part in enumerate(parts[:-1]):
+        nxt = node.get(part)
+        if nxt is None:
+            nxt = node[part] = {}
+        if not isinstance(nxt, dict):
+            raise SceneError(f"--set {key}", f"'{'.'.join(parts[: i + 1])}' to be a mapping", nxt)
+        node = nxt
+    node[parts[-1]] = value
+
+
+def _check_section(section: dict, schema: dict, prefix: str, lines: dict) -> dict:
+    out = {}
+    for k in section:
+        if k not in schema:
+            path = f"{prefix}.{k}"
+            raise SceneError(path, "one of the keys " + ", ".join(schema), None, lines.get(path),
+                             hint=f"; unknown key '{k}'{suggest(k, schema)}")
+    for k, spec in schema.items():
+        path = f"{prefix}.{k}"
+        if k not in section or section[k] is None and spec.default is not None:
+            if spec.required:
+                raise SceneError(path, spec.expected + " (required)", None, lines.get(prefix))
+            out[k] = copy.deepcopy(spec.default)
+            continue
+        v = section[k]
+        if not spec.check(v):
+            raise SceneError(path, spec.expected, v, lines.get(path))
+        out[k] = v
+    return out
+
+
+def parse_scene(text: str, source: str = "<string>", overrides=()) -> Scene:
+    """Parse, override and validate a scene given as YAML text.
+
+    Raises
+    ------
+    SceneError
+        On malformed YAML or any schema violation.
+    """
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        line = mark.line + 1 if mark is not None else None
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise SceneError(source, "valid YAML", None, line, hint=f"; the YAML parser says: {problem}") from None
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise SceneError("(top level)", "a mapping with the sections model, analysis, output", type(data).__name__)
+    for ov in overrides:
+        apply_override(data, ov)
+    lines = _line_map(text)
+    for k in data:
+        if k not in ("model", "analysis", "output"):
+            raise SceneError(k, "one of the sections model, analysis, output", None, lines.get(k),
+                             hint=f"; unknown key '{k}'{suggest(k, ('model', 'analysis', 'output'))}")
+    for sec in ("model", "analysis"):
+        if not isinstance(data.get(sec), dict):
+            raise SceneError(sec, "a mapping (required section)", data.get(sec), lines.get(sec))
+    model = data["model"]
+    schema = BUILTIN_MODEL if "builtin" in model else CUSTOM_MODEL
+    model = _check_section(model, schema, "model", lines)
+    analysis = data["analysis"]
+    atype = analysis.get("type")
+    if atype not in ANALYSES:
+        raise SceneError("analysis.type", "one of " + ", ".join(repr(a) for a in ANALYSES), atype,
+                         lines.get("analysis.type"), hint=suggest(atype, ANALYSES) if isinstance(atype, str) else "")
+    analysis = _check_section(analysis, ANALYSES[atype], "analysis", lines)
+    output = data.get("output") or {}
+    if not isinstance(output, dict):
+        raise SceneError("output", "a mapping", output, lines.get("output"))
+    output = _check_section(output, OUTPUT, "output", lines)
+    return Scene({"model": model, "analysis": analysis, "output": output}, source, lines)
+
+
+def load_scene(path: str | Path, overrides=()) -> Scene:
+    """Read and validate a scene file; see :func:`parse_scene`."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise SceneError(str(path), "a readable scene file", None, hint=f" ({exc.strerror})") from None
+    return parse_scene(text, str(path), overrides)

@@ -1,0 +1,735 @@
+"""Floquet multipliers, stability verdicts, and the stability monitor and events.
+
+A periodic solution of period ``T = 2 pi nu / w`` is asymptotically stable
+when every Floquet multiplier lies inside the unit circle. Numerically, a
+multiplier counts as *unstable* when ``|mu| > 1 + tolerance``. The margin is
+needed because multipliers of conservative or lightly damped systems sit on
+the unit circle: for the undamped Mathieu equation ``mu1 mu2 = det Phi = 1``
+(Liouville), so in the stable regions both multipliers have ``|mu| = 1`` up to
+rounding (and up to the ``O(h^4)`` drift of the non-symplectic RK4). Near a
+tongue boundary ``|mu| - 1`` grows like ``sqrt(distance)``, so a margin
+``tol`` shifts the detected boundary by only ``O(tol^2)`` in the parameter.
+
+Unstable multipliers are counted by where they leave the circle:
+``n_plus`` (real positive, within ``real_angle_tol`` of the positive real axis),
+``n_minus`` (real negative) and ``n_complex`` (the rest, in conjugate pairs).
+Their sum is ``n_unstable``. A change of one count between two points of a
+branch is a bifurcation of the corresponding type:
+
+======================  =========================  ===========================
+count that changes      multiplier crosses at      special point
+======================  =========================  ===========================
+``n_plus``              +1                         ``fold`` if the parameter
+                                                   component of the tangent
+                                                   changes sign, else ``bp``
+``n_minus``             -1                         ``pd`` (period doubling)
+``n_complex``           a complex pair             ``ns`` (Neimark-Sacker)
+======================  =========================  ===========================
+
+(Kuznetsov, *Elements of Applied Bifurcation Theory*, 3rd ed., Springer 2004,
+ch. 9; Seydel, *Practical Bifurcation and Stability Analysis*, 3rd ed.,
+Springer 2010, sec. 7.4.)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import math
+from typing import Any, Mapping
+
+import numpy as np
+
+from contin.branch import SpecialKind
+from contin.events import Event, PointInfo
+from contin.model import suggest
+from contin.stability.hill import hill_spectrum
+from contin.stability.monodromy import monodromy_reference, monodromy_rk4
+
+__all__ = [
+    "StabilityMethod",
+    "StabilityOptions",
+    "FloquetResult",
+    "classify_multipliers",
+    "floquet",
+    "StabilityMonitor",
+    "MultiplierCrossingEvent",
+    "StabilityChangeEvent",
+    "stability_events",
+    "describe_crossing",
+    "multiplier_distance",
+]
+
+
+class StabilityMethod(str, enum.Enum):
+    """How Floquet multipliers are computed.
+
+    HILL
+        Hill's method in coefficient space (:mod:`contin.stability.hill`).
+    FLOQUET
+        Monodromy matrix by time integration (:mod:`contin.stability.monodromy`).
+    BOTH
+        Hill everywhere; the monodromy confirms every point where Hill's
+        verdict changes from the previous point, the first point, and every
+        point where Hill's selection is ambiguous. On disagreement the
+        monodromy verdict is used and the result is flagged.
+    NONE
+        No stability computation.
+    """
+
+    HILL = "hill"
+    FLOQUET = "floquet"
+    BOTH = "both"
+    NONE = "none"
+
+    def __str__(self) -> str:
+        return self.value
+
+
+_METHOD_ALIASES = {"monodromy": "floquet", "shooting": "floquet", "off": "none"}
+_INTEGRATORS = ("rk4", "dop853")
+
+
+def _is_real(v) -> bool:
+    return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
+
+
+@dataclasses.dataclass(frozen=True)
+class StabilityOptions:
+    """Options of the stability analysis (validated on construction).
+
+    Attributes
+    ----------
+    method : StabilityMethod or str
+        ``"hill"``, ``"floquet"`` (alias ``"monodromy"``), ``"both"`` or ``"none"``.
+    steps_per_period : int
+        RK4 steps per period for the monodromy (``>= 8``; at least ``H+1``
+        is enforced when used). Smooth forces: error ``O((w_max T/S)^4)``;
+        piecewise-linear forces: ``O(1/S)``.
+    tolerance : float
+        Relative unit-circle margin: ``|mu| > 1 + tolerance`` is unstable.
+        In ``(0, 0.1]``.
+    real_angle_tol : float
+        A multiplier within this angle (radians) of the real axis counts as
+        real (for the ``+1`` / ``-1`` classification). In ``(0, 0.1]``.
+    ambiguity_threshold : float
+        Hill selections with a quality below this are ``ambiguous``. In ``[0, 1]``.
+    shift_tol : float
+        Relative tolerance (units of ``Omega``) for recognising two Hill
+        eigenvalues as shifts ``s + i k Omega`` of each other. In ``(0, 0.1]``.
+    integrator : str
+        Monodromy integrator: ``"rk4"`` (compiled, fixed step) or ``"dop853"``
+        (scipy reference, slow).
+    rtol : float
+        Relative tolerance of the ``"dop853"`` integrator.
+    eigenvectors : bool
+        Keep Hill's coefficient-space eigenvectors in the results.
+    """
+
+    method: StabilityMethod = StabilityMethod.BOTH
+    steps_per_period: int = 512
+    tolerance: float = 1e-6
+    real_angle_tol: float = 1e-4
+    ambiguity_threshold: float = 0.25
+    shift_tol: float = 1e-4
+    integrator: str = "rk4"
+    rtol: float = 1e-11
+    eigenvectors: bool = False
+
+    def __post_init__(self):
+        def bad(name, requirement, value):
+            raise ValueError(f"StabilityOptions.{name} must be {requirement}, got {value!r}")
+
+        m = self.method
+        if isinstance(m, str) and not isinstance(m, StabilityMethod):
+            key = _METHOD_ALIASES.get(m.lower(), m.lower())
+            valid = [e.value for e in StabilityMethod]
+            if key not in valid:
+                raise ValueError(
+                    f"StabilityOptions.method: unknown method {m!r}{suggest(m.lower(), valid + list(_METHOD_ALIASES))}; "
+                    f"expected one of {valid}"
+                )
+            m = StabilityMethod(key)
+        if not isinstance(m, StabilityMethod):
+            bad("method", "a StabilityMethod or one of 'hill', 'floquet', 'both', 'none'", m)
+        object.__setattr__(self, "method", m)
+        s = self.steps_per_period
+        if isinstance(s, (bool, np.bool_)) or not isinstance(s, (int, np.integer)) or s < 8:
+            bad("steps_per_period", "an integer >= 8", s)
+        object.__setattr__(self, "steps_per_period", int(s))
+        for name, lo, hi, lo_open in (
+            ("tolerance", 0.0, 0.1, True),
+            ("real_angle_tol", 0.0, 0.1, True),
+            ("ambiguity_threshold", 0.0, 1.0, False),
+            ("shift_tol", 0.0, 0.1, True),
+            ("rtol", 0.0, 1e-3, True),
+        ):
+            v = getattr(self, name)
+            ok = _is_real(v) and math.isfinite(v) and (v > lo if lo_open else v >= lo) and v <= hi
+            if not ok:
+                bad(name, f"a number in {'(' if lo_open else '['}{lo:g}, {hi:g}]", v)
+            object.__setattr__(self, name, float(v))
+        if self.integrator not in _INTEGRATORS:
+            raise ValueError(
+                f"StabilityOptions.integrator: unknown integrator {self.integrator!r}"
+                f"{suggest(str(self.integrator), _INTEGRATORS)}; expected one of {list(_INTEGRATORS)}"
+            )
+        if not isinstance(self.eigenvectors, (bool, np.bool_)):
+            bad("eigenvectors", "a bool", self.eigenvectors)
+        object.__setattr__(self, "eigenvectors", bool(self.eigenvectors))
+
+    @classmethod
+    def field_names(cls) -> list[str]:
+        return [f.name for f in dataclasses.fields(cls)]
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> "StabilityOptions":
+        """Build from a mapping; unknown keys raise ``ValueError`` with a suggestion."""
+        names = cls.field_names()
+        for key in d:
+            if key not in names:
+                raise ValueError(f"StabilityOptions: unknown option {key!r}{suggest(str(key), names)}; expected one of {names}")
+        return cls(**dict(d))
+
+    def replace(self, **changes) -> "StabilityOptions":
+        """Copy with changed fields (validated; unknown names rejected)."""
+        names = self.field_names()
+        for key in changes:
+            if key not in names:
+                raise ValueError(f"StabilityOptions: unknown option {key!r}{suggest(str(key), names)}; expected one of {names}")
+        return dataclasses.replace(self, **changes)
+
+    def to_dict(self) -> dict:
+        d = dataclasses.asdict(self)
+        d["method"] = self.method.value
+        return d
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class FloquetResult:
+    """Floquet multipliers of one periodic solution and the stability verdict.
+
+    Attributes
+    ----------
+    multipliers : ndarray, shape (2n,) complex
+        Sorted by decreasing modulus (then by argument).
+    exponents : ndarray, shape (2n,) complex
+        Floquet exponents ``s`` with ``multipliers = exp(s T)`` (Hill: the
+        selected eigenvalues; monodromy: ``log(mu) / T``, principal branch).
+    stable : bool
+    n_unstable : int
+        Multipliers with ``|mu| > 1 + tolerance``.
+    n_plus, n_minus, n_complex : int
+        Unstable ones that are real positive, real negative, complex.
+    max_multiplier : float
+        ``max |mu|``.
+    method : StabilityMethod
+        Method whose multipliers are reported (HILL or FLOQUET).
+    period : float
+    ambiguous : bool
+        Hill's selection was unclear (quality below the threshold).
+    quality : float
+        Hill's selection quality in ``[0, 1]`` (NaN without Hill).
+    confirmed : bool
+        The monodromy was computed to check Hill (method BOTH).
+    disagreement : bool
+        Hill and the monodromy gave different counts; the monodromy's are
+        reported.
+    marginal : bool
+        The disagreement is explained by a multiplier lying on the stability
+        threshold within the two methods' discrepancy (expected right at a
+        bifurcation); False for a disagreement that is not.
+    hill_multipliers, monodromy_multipliers : ndarray (2n,) complex or None
+        Each method's multipliers when computed.
+    eigenvectors : ndarray, shape (m, 2n) complex, or None
+        Hill's coefficient-space eigenvectors, ordered like ``multipliers``
+        (only when Hill's multipliers are reported).
+    tolerance, real_angle_tol : float
+        The margins used for the verdict and the classification.
+    """
+
+    multipliers: np.ndarray
+    exponents: np.ndarray
+    stable: bool
+    n_unstable: int
+    n_plus: int
+    n_minus: int
+    n_complex: int
+    max_multiplier: float
+    method: StabilityMethod
+    period: float
+    ambiguous: bool = False
+    quality: float = float("nan")
+    confirmed: bool = False
+    disagreement: bool = False
+    marginal: bool = False
+    hill_multipliers: np.ndarray | None = None
+    monodromy_multipliers: np.ndarray | None = None
+    eigenvectors: np.ndarray | None = None
+    tolerance: float = 1e-6
+    real_angle_tol: float = 1e-4
+
+    @property
+    def counts(self) -> tuple[int, int, int]:
+        """``(n_plus, n_minus, n_complex)``."""
+        return (self.n_plus, self.n_minus, self.n_complex)
+
+    def critical(self, crossing: str | None = None) -> int:
+        """Index of the multiplier closest to the unit circle (``|log|mu||``).
+
+        Parameters
+        ----------
+        crossing : {'+1', '-1', 'complex'}, optional
+            Restrict to real positive, real negative, or complex multipliers
+            (with ``Im mu >= 0``); falls back to all if none qualifies.
+        """
+        mu = self.multipliers
+        ang = np.abs(np.angle(mu))
+        tol = self.real_angle_tol
+        if crossing == "+1":
+            mask = ang <= tol
+        elif crossing == "-1":
+            mask = ang >= np.pi - tol
+        elif crossing == "complex":
+            mask = (ang > tol) & (ang < np.pi - tol) & (mu.imag >= 0)
+        else:
+            mask = np.ones(mu.shape, dtype=bool)
+        if not mask.any():
+            mask = np.ones(mu.shape, dtype=bool)
+        dist = np.abs(np.log(np.maximum(np.abs(mu), 1e-300)))
+        dist = np.where(mask, dist, np.inf)
+        return int(np.argmin(dist))
+
+    def monitor_data(self) -> dict:
+        """Values stored per branch point by :class:`StabilityMonitor`."""
+        return {
+            "stable": bool(self.stable),
+            "n_unstable": int(self.n_unstable),
+            "n_plus": int(self.n_plus),
+            "n_minus": int(self.n_minus),
+            "n_complex": int(self.n_complex),
+            "max_multiplier": float(self.max_multiplier),
+            "multipliers": np.asarray(self.multipliers, dtype=complex),
+            "ambiguous": bool(self.ambiguous),
+            "hill_quality": float(self.quality) if np.isfinite(self.quality) else -1.0,
+            "confirmed": bool(self.confirmed),
+            "disagreement": bool(self.disagreement and not self.marginal),
+            "marginal_disagreement": bool(self.disagreement and self.marginal),
+        }
+
+
+def classify_multipliers(multipliers: np.ndarray, tolerance: float = 1e-6, real_angle_tol: float = 1e-4):
+    """Count the unstable multipliers by type.
+
+    Parameters
+    ----------
+    multipliers : ndarray, shape (2n,) complex
+    tolerance : float
+        ``|mu| > 1 + tolerance`` is unstable.
+    real_angle_tol : float
+        Angle (radians) from the real axis within which ``mu`` counts as real.
+
+    Returns
+    -------
+    n_plus, n_minus, n_complex : int
+    """
+    mu = np.asarray(multipliers, dtype=complex)
+    out = np.abs(mu) > 1.0 + tolerance
+    ang = np.abs(np.angle(mu))
+    plus = out & (ang <= real_angle_tol)
+    minus = out & (ang >= np.pi - real_angle_tol)
+    cplx = out & ~plus & ~minus
+    return int(plus.sum()), int(minus.sum()), int(cplx.sum())
+
+
+def _sort_order(mu: np.ndarray) -> np.ndarray:
+    # decreasing modulus; ties by argument, so that conjugates are adjacent
+    return np.lexsort((np.angle(mu), -np.round(np.abs(mu), 12)))
+
+
+def _result(mu, ex, method, period, options, **extra) -> FloquetResult:
+    order = _sort_order(mu)
+    mu = mu[order]
+    ex = ex[order]
+    vecs = extra.pop("eigenvectors", None)
+    if vecs is not None:
+        vecs = vecs[:, order]
+    counts = classify_multipliers(mu, options.tolerance, options.real_angle_tol)
+    n_unstable = sum(counts)
+    res = FloquetResult(
+        multipliers=mu,
+        exponents=ex,
+        stable=n_unstable == 0,
+        n_unstable=n_unstable,
+        n_plus=counts[0],
+        n_minus=counts[1],
+        n_complex=counts[2],
+        max_multiplier=float(np.abs(mu).max()) if mu.size else 0.0,
+        method=method,
+        period=period,
+        eigenvectors=vecs,
+        tolerance=options.tolerance,
+        real_angle_tol=options.real_angle_tol,
+        **extra,
+    )
+    return res
+
+
+def _monodromy(hb, u, lam, options):
+    if options.integrator == "dop853":
+        return monodromy_reference(hb, u, lam, rtol=options.rtol, atol=options.rtol * 0.1)
+    return monodromy_rk4(hb, u, lam, max(options.steps_per_period, hb.H + 1))
+
+
+def floquet(hb, u: np.ndarray, lam: float, options: StabilityOptions | None = None, *, previous=None) -> FloquetResult:
+    """Floquet multipliers and stability of an HB solution.
+
+    Parameters
+    ----------
+    hb : HarmonicBalance
+    u : ndarray, shape (hb.size,)
+        A converged solution.
+    lam : float
+    options : StabilityOptions, optional
+    previous : tuple of int or FloquetResult, optional
+        Counts ``(n_plus, n_minus, n_complex)`` of the previous point of a
+        branch (method BOTH: a change triggers the monodromy check; ``None``
+        also triggers it).
+
+    Returns
+    -------
+    FloquetResult
+    """
+    options = StabilityOptions() if options is None else options
+    method = options.method
+    if method is StabilityMethod.NONE:
+        raise ValueError("StabilityOptions.method is 'none': no stability computation requested")
+    u = np.asarray(u, dtype=float)
+    if method is StabilityMethod.FLOQUET:
+        mono = _monodromy(hb, u, lam, options)
+        mu = np.linalg.eigvals(mono.matrix)
+        ex = np.log(mu.astype(complex)) / mono.period
+        return _result(mu, ex, StabilityMethod.FLOQUET, mono.period, options, monodromy_multipliers=mu.copy())
+    spec = hill_spectrum(hb, u, lam, vectors=options.eigenvectors, shift_tol=options.shift_tol)
+    ambiguous = spec.quality < options.ambiguity_threshold or spec.selected.size < 2 * hb.n
+    hill = _result(
+        spec.multipliers.copy(), spec.exponents.copy(), StabilityMethod.HILL, spec.period, options,
+        ambiguous=ambiguous, quality=spec.quality, hill_multipliers=spec.multipliers.copy(),
+        eigenvectors=spec.vectors,
+    )
+    if method is StabilityMethod.HILL:
+        return hill
+    prev = previous.counts if isinstance(previous, FloquetResult) else previous
+    if not (ambiguous or prev is None or tuple(prev) != hill.counts):
+        return hill
+    mono = _monodromy(hb, u, lam, options)
+    mu = np.linalg.eigvals(mono.matrix)
+    counts = classify_multipliers(mu, options.tolerance, options.real_angle_tol)
+    if counts == hill.counts:
+        return dataclasses.replace(hill, confirmed=True, monodromy_multipliers=mu.copy())
+    # Hill and the monodromy disagree: the time integration is trusted
+    gap = multiplier_distance(spec.multipliers, mu)
+    near = np.abs(np.abs(np.concatenate([spec.multipliers, mu])) - 1.0 - options.tolerance)
+    ex = np.log(mu.astype(complex)) / mono.period
+    return _result(
+        mu, ex, StabilityMethod.FLOQUET, mono.period, options, ambiguous=ambiguous, quality=spec.quality,
+        confirmed=True, disagreement=True, marginal=bool(near.min() <= 2.0 * gap + options.tolerance),
+        hill_multipliers=spec.multipliers.copy(), monodromy_multipliers=mu.copy(),
+    )
+
+
+def multiplier_distance(a: np.ndarray, b: np.ndarray) -> float:
+    """Largest distance between two multiplier sets after optimal pairing.
+
+    Parameters
+    ----------
+    a, b : ndarray, shape (k,) complex
+
+    Returns
+    -------
+    float
+        ``max_i |a_i - b_pi(i)|`` for the pairing ``pi`` minimising the sum
+        of distances (``inf`` if the sizes differ).
+    """
+    from scipy.optimize import linear_sum_assignment
+
+    a = np.asarray(a, dtype=complex)
+    b = np.asarray(b, dtype=complex)
+    if a.shape != b.shape:
+        return float("inf")
+    if a.size == 0:
+        return 0.0
+    D = np.abs(a[:, None] - b[None, :])
+    r, c = linear_sum_assignment(D)
+    return float(D[r, c].max())
+
+
+class StabilityMonitor:
+    """Monitor for :func:`contin.continuation.continuation`: stability at each point.
+
+    Called as ``monitor(u, lam, Ju, Jlam)``, it returns (see
+    :meth:`FloquetResult.monitor_data`) ``stable``, ``n_unstable``,
+    ``n_plus``, ``n_minus``, ``n_complex``, ``max_multiplier``,
+    ``multipliers`` (2n complex), ``ambiguous``, ``hill_quality`` (-1 when
+    Hill was not used), ``confirmed``, ``disagreement`` (Hill and monodromy
+    verdicts differ, not explained by a multiplier on the threshold) and
+    ``marginal_disagreement``. With method BOTH it remembers the
+    verdict of the previously evaluated point, so that each change of
+    Hill's verdict is checked by the monodromy.
+
+    Parameters
+    ----------
+    hb : HarmonicBalance
+    options : StabilityOptions, optional
+
+    Attributes
+    ----------
+    evaluations, confirmations : int
+    disagreements : list of float
+        Parameter values where Hill and the monodromy disagreed beyond the
+        threshold margin (the monodromy's verdict was used).
+    marginal_disagreements : list of float
+        Parameter values where they disagreed with a multiplier on the
+        threshold (at a bifurcation, within the methods' accuracy).
+    ambiguous_points : list of float
+        Parameter values where Hill's selection was ambiguous.
+    last : FloquetResult or None
+    """
+
+    def __init__(self, hb, options: StabilityOptions | None = None):
+        self.hb = hb
+        self.options = StabilityOptions() if options is None else options
+        if self.options.method is StabilityMethod.NONE:
+            raise ValueError("StabilityMonitor needs a stability method other than 'none'")
+        self.evaluations = 0
+        self.confirmations = 0
+        self.disagreements: list[float] = []
+        self.marginal_disagreements: list[float] = []
+        self.ambiguous_points: list[float] = []
+        self.last: FloquetResult | None = None
+        self._last_key = None
+
+    def analyze(self, u: np.ndarray, lam: float) -> FloquetResult:
+        """:func:`floquet` at ``(u, lam)``, updating the remembered verdict."""
+        key = (np.asarray(u, dtype=float).tobytes(), float(lam))
+        if key == self._last_key and self.last is not None:
+            return self.last
+        res = floquet(self.hb, u, lam, self.options, previous=None if self.last is None else self.last.counts)
+        self.evaluations += 1
+        self.confirmations += int(res.confirmed)
+        if res.disagreement:
+            (self.marginal_disagreements if res.marginal else self.disagreements).append(float(lam))
+        if res.ambiguous:
+            self.ambiguous_points.append(float(lam))
+        self.last = res
+        self._last_key = key
+        return res
+
+    def __call__(self, u, lam, Ju=None, Jlam=None) -> dict:
+        return self.analyze(u, lam).monitor_data()
+
+    def reset(self) -> None:
+        """Forget the remembered verdict (before tracing a new branch)."""
+        self.last = None
+        self._last_key = None
+
+    def statistics(self) -> dict:
+        return {
+            "evaluations": self.evaluations,
+            "confirmations": self.confirmations,
+            "disagreements": list(self.disagreements),
+            "marginal_disagreements": list(self.marginal_disagreements),
+            "ambiguous_points": list(self.ambiguous_points),
+            "method": self.options.method.value,
+        }
+
+
+_CROSSING_COUNT = {"+1": "n_plus", "-1": "n_minus", "complex": "n_complex"}
+
+
+def _counts_of(point: PointInfo, monitor: StabilityMonitor) -> dict:
+    d = point.data
+    if all(k in d for k in ("n_plus", "n_minus", "n_complex", "n_unstable")):
+        return d
+    return monitor.analyze(point.u, point.lam).monitor_data()
+
+
+def _turns(a: PointInfo, b: PointInfo) -> bool:
+    fa, fb = a.tangent[-1], b.tangent[-1]
+    return bool((fa < 0 <= fb) or (fa > 0 >= fb))
+
+
+class MultiplierCrossingEvent(Event):
+    """Integer-valued event: the number of unstable multipliers of one type.
+
+    Parameters
+    ----------
+    monitor : StabilityMonitor
+        Supplies the counts when they are not in the point data, and Hill's
+        eigenvectors for :meth:`describe`.
+    crossing : {'+1', '-1', 'complex'}
+    kind : SpecialKind or str, optional
+        Default ``bp`` for ``+1``, ``pd`` for ``-1``, ``ns`` for ``complex``.
+        For ``+1`` with kind ``fold`` the event fires only where the
+        parameter component of the tangent changes sign; with kind ``bp``
+        only where it does not (the engine's own fold event covers folds).
+
+    Notes
+    -----
+    A change of the count also requires a change of ``n_unstable``: an
+    unstable real pair merging into an unstable complex pair is not a
+    stability change.
+    """
+
+    integer_valued = True
+
+    def __init__(self, monitor: StabilityMonitor, crossing: str, kind: SpecialKind | str | None = None):
+        if crossing not in _CROSSING_COUNT:
+            raise ValueError(f"crossing must be one of {list(_CROSSING_COUNT)}, got {crossing!r}")
+        default = {"+1": SpecialKind.BP, "-1": SpecialKind.PD, "complex": SpecialKind.NS}[crossing]
+        self.kind = SpecialKind(kind) if kind is not None else default
+        if crossing != "+1" and self.kind in (SpecialKind.FOLD, SpecialKind.BP):
+            raise ValueError(f"kind {self.kind.value!r} needs crossing '+1'")
+        self.monitor = monitor
+        self.crossing = crossing
+        self.key = _CROSSING_COUNT[crossing]
+        self.name = f"stability {crossing} ({self.kind.value})"
+
+    def test(self, point: PointInfo) -> float:
+        return float(_counts_of(point, self.monitor)[self.key])
+
+    def triggered(self, ga, gb, a, b):
+        da, db = _counts_of(a, self.monitor), _counts_of(b, self.monitor)
+        changed = (ga != gb) & (int(da["n_unstable"]) != int(db["n_unstable"]))
+        if self.crossing == "+1" and self.kind is SpecialKind.FOLD:
+            return changed & _turns(a, b)
+        if self.crossing == "+1" and self.kind is SpecialKind.BP:
+            return changed & (not _turns(a, b))
+        return changed
+
+    def describe(self, point: PointInfo) -> dict:
+        return describe_crossing(self.monitor, point, self.crossing, self.kind)
+
+
+class StabilityChangeEvent(Event):
+    """Integer-valued event on ``n_unstable`` (kind ``stability``), unclassified.
+
+    The located point's data holds the classification (``"classification"``:
+    ``fold``/``bp``/``pd``/``ns``) made from the multiplier closest to the
+    unit circle; ``fold`` versus ``bp`` is decided by whether the parameter
+    component of the tangent changed sign between the two stored points that
+    bracket the change (recorded by :meth:`triggered`, which the engine calls
+    just before locating).
+    """
+
+    integer_valued = True
+    kind = SpecialKind.STABILITY
+    name = "stability change"
+
+    def __init__(self, monitor: StabilityMonitor):
+        self.monitor = monitor
+        self._turned = False
+
+    def test(self, point: PointInfo) -> float:
+        return float(_counts_of(point, self.monitor)["n_unstable"])
+
+    def triggered(self, ga, gb, a, b):
+        self._turned = _turns(a, b)
+        return ga != gb
+
+    def describe(self, point: PointInfo) -> dict:
+        mu = _multipliers_of(point, self.monitor)
+        i = int(np.argmin(np.abs(np.log(np.maximum(np.abs(mu), 1e-300)))))
+        ang = abs(np.angle(mu[i]))
+        tol = self.monitor.options.real_angle_tol
+        crossing = "+1" if ang <= tol else "-1" if ang >= np.pi - tol else "complex"
+        kind = {"-1": SpecialKind.PD, "complex": SpecialKind.NS}.get(
+            crossing, SpecialKind.FOLD if self._turned else SpecialKind.BP
+        )
+        return describe_crossing(self.monitor, point, crossing, kind)
+
+
+def _multipliers_of(point: PointInfo, monitor: StabilityMonitor) -> np.ndarray:
+    d = point.data
+    if "multipliers" in d:
+        return np.asarray(d["multipliers"], dtype=complex)
+    return monitor.analyze(point.u, point.lam).multipliers
+
+
+def describe_crossing(monitor: StabilityMonitor, point: PointInfo, crossing: str, kind: SpecialKind) -> dict:
+    """Data of a located stability change: the critical multiplier and Hill eigenvector.
+
+    The multipliers are those of the point's monitored data (the verdict the
+    engine used) when present.
+
+    Returns
+    -------
+    dict
+        ``classification`` (str), ``crossing`` (str), ``multiplier``
+        (complex), ``multiplier_abs``, ``multiplier_arg`` (float),
+        ``exponent`` (complex), ``eigenvector`` (ndarray (m,) complex,
+        coefficient space, unit 2-norm; Hill's, even when the monodromy's
+        multipliers are reported), ``n_unstable``, ``disagreement``.
+    """
+    opts = monitor.options
+    d = point.data
+    if not ("multipliers" in d and "n_unstable" in d):
+        d = monitor.analyze(point.u, point.lam).monitor_data()
+    mu_all = np.asarray(d["multipliers"], dtype=complex)
+    n_unstable = int(d["n_unstable"])
+    disagreement = bool(d.get("disagreement", False))
+    probe = FloquetResult(
+        multipliers=mu_all, exponents=mu_all, stable=True, n_unstable=0, n_plus=0, n_minus=0, n_complex=0,
+        max_multiplier=0.0, method=StabilityMethod.HILL, period=0.0, real_angle_tol=opts.real_angle_tol,
+    )
+    mu = complex(mu_all[probe.critical(crossing)])
+    data: dict[str, Any] = {
+        "classification": kind.value,
+        "crossing": crossing,
+        "multiplier": mu,
+        "multiplier_abs": abs(mu),
+        "multiplier_arg": float(np.angle(mu)),
+        "n_unstable": n_unstable,
+        "disagreement": disagreement,
+    }
+    if kind is SpecialKind.BP or kind is SpecialKind.FOLD:
+        data["turns"] = kind is SpecialKind.FOLD
+    try:
+        spec = hill_spectrum(monitor.hb, point.u, point.lam, vectors=True, shift_tol=opts.shift_tol)
+        j = int(np.argmin(np.abs(spec.multipliers - mu)))
+        data["exponent"] = complex(spec.exponents[j])
+        data["eigenvector"] = spec.vectors[:, j].copy()
+        data["hill_multiplier"] = complex(spec.multipliers[j])
+    except (np.linalg.LinAlgError, ValueError) as exc:
+        data["eigenvector_error"] = f"{type(exc).__name__}: {exc}"
+    return data
+
+
+def stability_events(monitor: StabilityMonitor, *, folds: bool = False, branch_points: bool = True,
+                     period_doubling: bool = True, neimark_sacker: bool = True) -> list[Event]:
+    """The classified stability events for the engine.
+
+    Parameters
+    ----------
+    monitor : StabilityMonitor
+        Must also be passed to the engine in ``monitors`` (the events read
+        its values from the point data).
+    folds : bool
+        Add a ``+1`` event of kind ``fold`` (only useful when the engine's
+        own fold detection is off).
+    branch_points, period_doubling, neimark_sacker : bool
+
+    Returns
+    -------
+    list of MultiplierCrossingEvent
+    """
+    evs: list[Event] = []
+    if folds:
+        evs.append(MultiplierCrossingEvent(monitor, "+1", SpecialKind.FOLD))
+    if branch_points:
+        evs.append(MultiplierCrossingEvent(monitor, "+1", SpecialKind.BP))
+    if period_doubling:
+        evs.append(MultiplierCrossingEvent(monitor, "-1", SpecialKind.PD))
+    if neimark_sacker:
+        evs.append(MultiplierCrossingEvent(monitor, "complex", SpecialKind.NS))
+    return evs
