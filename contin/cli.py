@@ -1,4 +1,4 @@
-"""The ``contin`` command: ``run``, ``check`` and ``models``."""
+"""The ``contin`` command: ``run``, ``check``, ``models`` and ``plot``."""
 
 from __future__ import annotations
 
@@ -28,6 +28,9 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("scene")
     c.add_argument("--set", dest="overrides", action="append", default=[], metavar="dotted.key=value")
     sub.add_parser("models", help="list the built-in models with their parameters, defaults and effects")
+    pl = sub.add_parser("plot", help="time history, orbit and spectrum of a stored point")
+    pl.add_argument("outdir", help="a result directory of `contin run`")
+    pl.add_argument("--point", type=int, required=True, metavar="ROW", help="row of branches.csv (0-based)")
     return p
 
 
@@ -99,6 +102,11 @@ def main(argv=None) -> int:
             return cmd_models()
         if args.command == "check":
             return cmd_check(args)
+        if args.command == "plot":
+            from contin.pointplot import plot_point
+
+            print(plot_point(args.outdir, args.point))
+            return EXIT_OK
         return cmd_run(args)
     except SceneError as exc:
         return _fail(str(exc))

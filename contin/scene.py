@@ -242,7 +242,7 @@ def _check_section(section: dict, schema: dict, prefix: str, lines: dict) -> dic
                              hint=f"; unknown key '{k}'{suggest(k, schema)}")
     for k, spec in schema.items():
         path = f"{prefix}.{k}"
-        if k not in section or section[k] is None and spec.default is not None:
+        if k not in section or (section[k] is None and not spec.required):
             if spec.required:
                 raise SceneError(path, spec.expected + " (required)", None, lines.get(prefix))
             out[k] = copy.deepcopy(spec.default)

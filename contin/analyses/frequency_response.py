@@ -8,6 +8,7 @@ the requested bifurcations, and streams ``branches.csv`` and
 
 from __future__ import annotations
 
+import json
 import time
 
 import numpy as np
@@ -73,7 +74,10 @@ class BranchRecorder:
         self.special_columns = ["branch", "kind", parameter, "index"] + self.measures + SPECIAL_EXTRA
         self.rows = CsvStream(outdir / "branches.csv", self.branch_columns, append)
         self.special = CsvStream(outdir / "special_points.csv", self.special_columns, append)
+        # full solutions (coefficients and tangent) for plots of any row and for --resume
+        self.state = open(outdir / "state.jsonl", "a" if append else "w")
         self.n_rows = self.rows.rows
+        self._written_special: dict[int, int] = {}
         self.offsets: dict[int, int] = {}
         self.curves: dict[int, dict] = {}
         self.special_list: list[dict] = []
@@ -81,7 +85,7 @@ class BranchRecorder:
     def _measures(self, u, n):
         return point_measures(u, n, self.dof_names, self.harmonic_columns)
 
-    def point(self, branch_id: int, nu: int, branch, i: int) -> None:
+    def point(self, branch_id: int, nu: int, branch, i: int, H: int | None = None) -> None:
         self.offsets.setdefault(branch_id, self.n_rows - i)
         u = branch.unknowns[i]
         lam = float(branch.parameter[i])
@@ -95,7 +99,11 @@ class BranchRecorder:
         row["newton_iterations"] = int(branch.newton_iterations[i])
         row["residual_norm"] = float(branch.residual_norms[i])
         self.rows.write(row)
+        self.state.write(json.dumps({"row": self.n_rows, "branch": branch_id, "nu": nu, "H": H, "lam": lam,
+                                     "u": u.tolist(), "tangent": branch.tangents[i].tolist()}) + "\n")
+        self.state.flush()
         self.n_rows += 1
+        self.special_points(branch_id, branch)
         c = self.curves.setdefault(branch_id, {"x": [], "rows": [], "stable": [], "nu": nu})
         c["x"].append(lam)
         c["rows"].append(row)
@@ -103,7 +111,9 @@ class BranchRecorder:
 
     def special_points(self, branch_id: int, branch) -> None:
         off = self.offsets.get(branch_id, self.n_rows - len(branch))
-        for sp in branch.special_points:
+        done = self._written_special.get(branch_id, 0)
+        self._written_special[branch_id] = len(branch.special_points)
+        for sp in branch.special_points[done:]:
             if sp.kind.value == "start":
                 continue
             i = min(max(sp.index, 0), len(branch) - 1)
@@ -120,6 +130,7 @@ class BranchRecorder:
     def close(self) -> None:
         self.rows.close()
         self.special.close()
+        self.state.close()
 
 
 def _detail(sp) -> str:

@@ -22,7 +22,7 @@ def stability_setup(analysis: dict, hb):
 
     def follow(hb, u0, lam0, lam_range, options, rec, ctx):
         def callback(branch, i):
-            rec.point(0, hb.nu, branch, i)
+            rec.point(0, hb.nu, branch, i, hb.H)
             ctx.progress.update(f"branch 0  {hb.parameter}={branch.parameter[i]:.6g}  point {i}  ds={branch.step_sizes[i]:.3g}")
             return not ctx.stop_requested
 

@@ -15,7 +15,7 @@ from contin.stability.floquet import (
     StabilityOptions,
     classify_multipliers,
     describe_crossing,
-    floquet,
+    floquet_multipliers,
     multiplier_distance,
     stability_events,
 )
@@ -39,7 +39,7 @@ __all__ = [
     "StabilityOptions",
     "classify_multipliers",
     "describe_crossing",
-    "floquet",
+    "floquet_multipliers",
     "hill_spectrum",
     "monodromy_orbit_ivp",
     "monodromy_reference",

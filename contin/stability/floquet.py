@@ -51,7 +51,7 @@ __all__ = [
     "StabilityOptions",
     "FloquetResult",
     "classify_multipliers",
-    "floquet",
+    "floquet_multipliers",
     "StabilityMonitor",
     "MultiplierCrossingEvent",
     "StabilityChangeEvent",
@@ -237,8 +237,9 @@ class FloquetResult:
         reported.
     marginal : bool
         The disagreement is explained by a multiplier lying on the stability
-        threshold within the two methods' discrepancy (expected right at a
-        bifurcation); False for a disagreement that is not.
+        threshold within the two methods' discrepancy, itself small
+        (``<= 1e-3``): expected right at a bifurcation. False for a
+        disagreement that is not.
     hill_multipliers, monodromy_multipliers : ndarray (2n,) complex or None
         Each method's multipliers when computed.
     eigenvectors : ndarray, shape (m, 2n) complex, or None
@@ -381,7 +382,7 @@ def _monodromy(hb, u, lam, options):
     return monodromy_rk4(hb, u, lam, max(options.steps_per_period, hb.H + 1))
 
 
-def floquet(hb, u: np.ndarray, lam: float, options: StabilityOptions | None = None, *, previous=None) -> FloquetResult:
+def floquet_multipliers(hb, u: np.ndarray, lam: float, options: StabilityOptions | None = None, *, previous=None) -> FloquetResult:
     """Floquet multipliers and stability of an HB solution.
 
     Parameters
@@ -433,9 +434,16 @@ def floquet(hb, u: np.ndarray, lam: float, options: StabilityOptions | None = No
     ex = np.log(mu.astype(complex)) / mono.period
     return _result(
         mu, ex, StabilityMethod.FLOQUET, mono.period, options, ambiguous=ambiguous, quality=spec.quality,
-        confirmed=True, disagreement=True, marginal=bool(near.min() <= 2.0 * gap + options.tolerance),
+        confirmed=True, disagreement=True,
+        marginal=bool(gap <= _MARGINAL_GAP and near.min() <= 2.0 * gap + options.tolerance),
         hill_multipliers=spec.multipliers.copy(), monodromy_multipliers=mu.copy(),
     )
+
+
+#: Largest multiplier discrepancy between Hill and the monodromy that still
+#: counts as agreement in accuracy: at a boundary where multipliers are double
+#: (undamped Mathieu), an error e of either method moves them by ~sqrt(e).
+_MARGINAL_GAP = 1e-3
 
 
 def multiplier_distance(a: np.ndarray, b: np.ndarray) -> float:
@@ -510,11 +518,11 @@ class StabilityMonitor:
         self._last_key = None
 
     def analyze(self, u: np.ndarray, lam: float) -> FloquetResult:
-        """:func:`floquet` at ``(u, lam)``, updating the remembered verdict."""
+        """:func:`floquet_multipliers` at ``(u, lam)``, updating the remembered verdict."""
         key = (np.asarray(u, dtype=float).tobytes(), float(lam))
         if key == self._last_key and self.last is not None:
             return self.last
-        res = floquet(self.hb, u, lam, self.options, previous=None if self.last is None else self.last.counts)
+        res = floquet_multipliers(self.hb, u, lam, self.options, previous=None if self.last is None else self.last.counts)
         self.evaluations += 1
         self.confirmations += int(res.confirmed)
         if res.disagreement:

@@ -1,0 +1,296 @@
+"""Stability verdicts along branches: options, Duffing against time integration, damped Mathieu."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+from scipy.optimize import brentq
+
+import contin.stability.floquet as floquet_module
+from contin.catalog import build_model
+from contin.continuation import ContinuationOptions, continuation
+from contin.elements import GapForce
+from contin.harmonic_balance import HarmonicBalance, HBOptions
+from contin.model import Monomial
+from contin.models.polynomial import polynomial_model
+from contin.stability import (
+    StabilityChangeEvent,
+    StabilityMethod,
+    StabilityMonitor,
+    StabilityOptions,
+    classify_multipliers,
+    floquet_multipliers,
+    hill_spectrum,
+    monodromy_rk4,
+    multiplier_distance,
+    orbit_state,
+    stability_events,
+)
+
+# ---------------------------------------------------------------------------
+# options
+# ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "kwargs, field",
+    [
+        ({"tolerance": -1e-6}, "StabilityOptions.tolerance"),
+        ({"tolerance": float("nan")}, "StabilityOptions.tolerance"),
+        ({"steps_per_period": 4}, "StabilityOptions.steps_per_period"),
+        ({"steps_per_period": 100.0}, "StabilityOptions.steps_per_period"),
+        ({"real_angle_tol": 0.0}, "StabilityOptions.real_angle_tol"),
+        ({"ambiguity_threshold": 1.5}, "StabilityOptions.ambiguity_threshold"),
+        ({"shift_tol": 1.0}, "StabilityOptions.shift_tol"),
+        ({"rtol": 0}, "StabilityOptions.rtol"),
+        ({"eigenvectors": "yes"}, "StabilityOptions.eigenvectors"),
+        ({"method": 3}, "StabilityOptions.method"),
+    ],
+)
+def test_options_validation_names_the_field(kwargs, field):
+    with pytest.raises(ValueError, match=field.replace(".", r"\.")):
+        StabilityOptions(**kwargs)
+
+
+def test_options_suggestions_and_aliases():
+    with pytest.raises(ValueError, match=r"StabilityOptions\.method.*did you mean 'hill'"):
+        StabilityOptions(method="hil")
+    with pytest.raises(ValueError, match=r"StabilityOptions\.integrator.*did you mean 'rk4'"):
+        StabilityOptions(integrator="rk5")
+    with pytest.raises(ValueError, match="unknown option 'tolerence'.*did you mean 'tolerance'"):
+        StabilityOptions.from_dict({"tolerence": 1e-6})
+    with pytest.raises(ValueError, match="did you mean 'steps_per_period'"):
+        StabilityOptions.from_dict({"step_per_period": 100})
+    with pytest.raises(ValueError, match="did you mean 'method'"):
+        StabilityOptions().replace(methods="hill")
+    assert StabilityOptions(method="monodromy").method is StabilityMethod.FLOQUET
+    assert StabilityOptions.from_dict({"method": "BOTH", "tolerance": 1e-8}).tolerance == 1e-8
+    opts = StabilityOptions()
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        opts.tolerance = 1.0
+    assert StabilityOptions.from_dict(opts.to_dict()) == opts
+
+
+def test_classify_multipliers():
+    mu = np.array([1.5, 0.5, -1.2, -0.3, 1.1 * np.exp(2j), 1.1 * np.exp(-2j), 1 + 1e-8, np.exp(1j)])
+    assert classify_multipliers(mu, 1e-6) == (1, 1, 2)
+    assert classify_multipliers(mu, 1e-9) == (2, 1, 2)
+
+
+# ---------------------------------------------------------------------------
+# forced Duffing: folds, the unstable middle branch, time integration
+# ---------------------------------------------------------------------------
+
+C, F = 0.1, 0.5
+
+
+def duffing_rhs(w):
+    def rhs(t, y):
+        return [y[1], F * np.cos(w * t) - C * y[1] - y[0] - y[0] ** 3]
+
+    return rhs
+
+
+@pytest.fixture(scope="module")
+def duffing_branch():
+    hb = HarmonicBalance(build_model("duffing", {"F": F}), "w", HBOptions(harmonics=9))
+    mon = StabilityMonitor(hb, StabilityOptions(method="both"))
+    br = continuation(hb, hb.linear_solution(0.5), 0.5, (0.5, 3.0), ContinuationOptions(), parameter_name="w",
+                      events=stability_events(mon), monitors=[mon])
+    return hb, br, mon
+
+
+def test_duffing_unstable_between_the_folds(duffing_branch):
+    hb, br, mon = duffing_branch
+    folds = br.points_of_kind("fold")
+    assert len(folds) == 2
+    s_lo, s_hi = sorted(p.s for p in folds)
+    d = br.point_data
+    inside = (br.arclength > s_lo) & (br.arclength < s_hi)
+    assert inside.sum() >= 3
+    # exactly one real multiplier > 1 between the folds, none elsewhere
+    assert np.all(d["n_unstable"][inside] == 1) and np.all(d["n_plus"][inside] == 1)
+    assert np.all(d["stable"][~inside]) and np.all(d["n_unstable"][~inside] == 0)
+    for mu in d["multipliers"][inside]:
+        big = mu[np.abs(mu) > 1]
+        assert big.size == 1 and abs(big[0].imag) == 0.0 and big[0].real > 1
+    # the stability change is the fold itself: +1 crossing there, no extra bp reported
+    assert not br.points_of_kind("bp")
+    for p in folds:
+        mu = p.point_data["multipliers"]
+        assert np.min(np.abs(mu - 1)) < 1e-3
+    assert mon.disagreements == []
+
+
+@pytest.mark.parametrize("target, expect_stable", [(1.2, True), (1.9, True), (1.9, False), (2.8, True)])
+def test_duffing_stability_agrees_with_time_integration(duffing_branch, target, expect_stable):
+    """From the HB state plus a 1e-4 perturbation: stable orbits pull it back, the middle one ejects it."""
+    hb, br, _ = duffing_branch
+    d = br.point_data
+    cand = [i for i in range(len(br)) if bool(d["stable"][i]) == expect_stable]
+    i = min(cand, key=lambda j: abs(br.parameter[j] - target))
+    assert abs(br.parameter[i] - target) < 0.15
+    u, w = br.point(i)
+    T = 2 * np.pi / w
+    z0 = orbit_state(hb, u, w, 0.0)
+    periods = 40
+    sol = solve_ivp(duffing_rhs(w), (0, periods * T), z0 + np.array([1e-4, -1e-4]), method="DOP853",
+                    rtol=1e-10, atol=1e-12, t_eval=T * np.arange(periods + 1))
+    dev = np.abs(sol.y.T - z0).max(axis=1)  # stroboscopic distance from the periodic orbit
+    if expect_stable:
+        assert dev[-1] < 1e-5
+    else:
+        assert dev[-1] > 0.1
+        # growth rate in the first periods matches the unstable multiplier
+        mu = np.abs(d["multipliers"][i]).max()
+        rate = (dev[8] / dev[2]) ** (1 / 6)
+        assert abs(rate - mu) < 0.1 * mu
+
+
+# ---------------------------------------------------------------------------
+# damped Mathieu: period doubling boundary
+# ---------------------------------------------------------------------------
+
+
+def mathieu_monodromy(delta, eps, c):
+    """Phi(2 pi) of x'' + c x' + (delta + eps cos t) x = 0 (two fundamental solutions, DOP853)."""
+
+    def rhs(t, y):
+        x, v = y[:2], y[2:]
+        return np.concatenate([v, -(delta + eps * np.cos(t)) * x - c * v])
+
+    y = solve_ivp(rhs, (0, 2 * np.pi), [1.0, 0.0, 0.0, 1.0], method="DOP853", rtol=1e-13, atol=1e-14).y[:, -1]
+    return np.array([[y[0], y[1]], [y[2], y[3]]])
+
+
+def pd_boundary(eps, c, lo, hi):
+    """delta where -1 is a multiplier: det(Phi + I) = 1 + tr Phi + det Phi = 0, det Phi = exp(-2 pi c)."""
+    return brentq(lambda d: 1 + np.trace(mathieu_monodromy(d, eps, c)) + np.exp(-2 * np.pi * c), lo, hi, xtol=1e-13)
+
+
+@pytest.mark.parametrize("method", ["both", "floquet"])
+def test_damped_mathieu_first_tongue(method):
+    """Period-doubling boundaries of x'' + c x' + (delta + eps cos t) x = 0.
+
+    First-order harmonic balance with x = a cos(t/2) + b sin(t/2) gives
+    (delta - 1/4 + eps/2) a + (c/2) b = 0 and -(c/2) a + (delta - 1/4 - eps/2) b = 0,
+    hence (delta - 1/4)^2 + c^2/4 = eps^2/4 (Nayfeh & Mook, Nonlinear Oscillations,
+    1979, sec. 5.2.3): damping narrows the tongue, which only exists for eps > c. The
+    exact boundary (reference) solves det(Phi + I) = 0 for the monodromy computed
+    independently by scipy; the first-order formula is checked to O(eps^2).
+    """
+    eps, c = 0.4, 0.1
+    model = build_model("mathieu", {"c": c, "g": 0.0, "eps": eps}, effects=["parametric", "damping"])
+    hb = HarmonicBalance(model, "delta", HBOptions(harmonics=8))
+    mon = StabilityMonitor(hb, StabilityOptions(method=method))
+    br = continuation(hb, np.zeros(hb.size), -0.15, (-0.15, 0.6), ContinuationOptions(ds=0.01, ds_max=0.02),
+                      parameter_name="delta", events=stability_events(mon), monitors=[mon])
+    pds = br.points_of_kind("pd")
+    assert len(pds) == 2
+    half = 0.5 * np.sqrt(eps**2 - c**2)
+    first_order = [0.25 - half, 0.25 + half]
+    exact = [pd_boundary(eps, c, 0.0, 0.2), pd_boundary(eps, c, 0.3, 0.6)]
+    for p, ref, approx in zip(pds, exact, first_order):
+        assert abs(p.parameter - ref) < 1e-6
+        assert abs(p.parameter - approx) < eps**2 / 4
+        assert abs(p.data["multiplier"] + 1) < 1e-4
+    # the r = 0 boundary (multiplier +1, det(Phi - I) = 0) is a branch point of the trivial branch;
+    # the margin |mu| > 1 + tol biases a transversal crossing by tol / |d mu / d delta| (~1e-8)
+    bp_ref = brentq(lambda d: 1 - np.trace(mathieu_monodromy(d, eps, c)) + np.exp(-2 * np.pi * c), -0.15, 0.0,
+                    xtol=1e-13)
+    bps = [p for p in br.points_of_kind("bp") if p.event.startswith("stability")]
+    assert len(bps) == 1 and abs(bps[0].parameter - bp_ref) < 1e-6
+    inside = (br.parameter > exact[0] + 1e-6) & (br.parameter < exact[1] - 1e-6)
+    assert np.all(br.point_data["n_minus"][inside] == 1)
+
+
+def test_unclassified_stability_event_classifies_in_its_data():
+    model = build_model("mathieu", {"c": 0.1, "g": 0.0, "eps": 0.4}, effects=["parametric", "damping"])
+    hb = HarmonicBalance(model, "delta", HBOptions(harmonics=6))
+    mon = StabilityMonitor(hb, StabilityOptions(method="hill"))
+    br = continuation(hb, np.zeros(hb.size), -0.15, (-0.15, 0.6), ContinuationOptions(ds=0.01, ds_max=0.02),
+                      parameter_name="delta", events=[StabilityChangeEvent(mon)], monitors=[mon])
+    kinds = [p.data["classification"] for p in br.points_of_kind("stability")]
+    assert kinds == ["bp", "pd", "pd"]
+
+
+# ---------------------------------------------------------------------------
+# method 'both': disagreements are flagged and the monodromy wins
+# ---------------------------------------------------------------------------
+
+
+def test_both_trusts_the_monodromy_on_disagreement(monkeypatch):
+    hb = HarmonicBalance(build_model("duffing", {"F": F}), "w", HBOptions(harmonics=5))
+    w = 0.8
+    from contin.newton import solve_at_parameter
+
+    u = solve_at_parameter(hb, hb.linear_solution(w), w).x
+    true = floquet_multipliers(hb, u, w, StabilityOptions(method="floquet"))
+    assert true.stable
+    real_spectrum = floquet_module.hill_spectrum
+
+    def wrong_spectrum(*args, **kwargs):
+        spec = real_spectrum(*args, **kwargs)
+        return dataclasses.replace(spec, multipliers=spec.multipliers * 3.0)
+
+    monkeypatch.setattr(floquet_module, "hill_spectrum", wrong_spectrum)
+    res = floquet_multipliers(hb, u, w, StabilityOptions(method="both"), previous=(0, 0, 0))
+    assert res.disagreement and not res.marginal and res.confirmed
+    assert res.method is StabilityMethod.FLOQUET and res.stable
+    assert multiplier_distance(res.multipliers, true.multipliers) < 1e-12
+    mon = StabilityMonitor(hb, StabilityOptions(method="both"))
+    data = mon(u, w)
+    assert data["disagreement"] and data["stable"] and mon.disagreements == [w]
+    # Hill alone would have reported the wrong verdict
+    assert not floquet_multipliers(hb, u, w, StabilityOptions(method="hill")).stable
+
+
+def test_both_confirms_only_where_needed(duffing_branch):
+    hb, br, mon = duffing_branch
+    stats = mon.statistics()
+    # the first point, the verdict changes near the two folds (and their location steps)
+    assert 3 <= stats["confirmations"] < stats["evaluations"] / 2
+    assert br.point_data["confirmed"][0]
+
+
+def test_method_none_is_rejected():
+    hb = HarmonicBalance(build_model("duffing"), "w", HBOptions(harmonics=3))
+    with pytest.raises(ValueError, match="none"):
+        floquet_multipliers(hb, np.zeros(hb.size), 1.0, StabilityOptions(method="none"))
+    with pytest.raises(ValueError, match="none"):
+        StabilityMonitor(hb, StabilityOptions(method="none"))
+
+
+# ---------------------------------------------------------------------------
+# Hill against monodromy on every test system
+# ---------------------------------------------------------------------------
+
+
+def test_hill_against_monodromy_on_all_systems(duffing_branch):
+    """|mu_Hill - mu_RK4| after optimal pairing, smooth systems: <= 1e-6.
+
+    Both use the same HB orbit, so the difference is Hill's truncation of the
+    perturbation (exponentially small in H for smooth forces; H = 9 here) plus
+    the RK4 error ~ (w_eff h)^4 T/120 (~1e-8 at S = 1024). For the piecewise-linear
+    clearance oscillator Hill converges only algebraically in H (the sampled
+    Jacobian is a step function; measured at w = 0.9: 0.042, 0.048, 0.020, 0.006
+    for H = 10, 20, 40, 80) and RK4 is first order (~2 h): the stated tolerance
+    there is 0.1 for H = 20, S = 2048.
+    """
+    hb, br, _ = duffing_branch
+    for i in range(0, len(br), 6):
+        u, w = br.point(i)
+        h = hill_spectrum(hb, u, w).multipliers
+        m = monodromy_rk4(hb, u, w, 1024).multipliers
+        assert multiplier_distance(h, m) < 1e-6, w
+    # Mathieu-Duffing on a non-trivial 2T-periodic orbit is checked in test_switching.py
+    model = polynomial_model(["x"], {"c": 0.05, "F": 0.3, "w": 1.0}, mass=[[1.0]], damping=[["c"]],
+                             stiffness=[[1.0]], forcing=[{"dof": "x", "amplitude": "F"}])
+    model.forces.append(GapForce(0, Monomial(0.5), Monomial(4.0)))
+    hbg = HarmonicBalance(model, "w", HBOptions(harmonics=20))
+    gb = continuation(hbg, hbg.linear_solution(0.9), 0.9, (0.9, 1.5), ContinuationOptions(max_points=200))
+    for i in range(0, len(gb), 4):
+        u, w = gb.point(i)
+        d = multiplier_distance(hill_spectrum(hbg, u, w).multipliers, monodromy_rk4(hbg, u, w, 2048).multipliers)
+        assert d < 0.1, (w, d)
