@@ -48,7 +48,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from contin import aft
-from contin.branch import Branch, SpecialKind, SpecialPoint
+from contin.branch import Branch, BranchStatus, SpecialKind, SpecialPoint
 from contin.continuation import ContinuationOptions, continuation
 from contin.harmonics import coefficient_blocks, embed
 from contin.newton import newton
@@ -420,10 +420,8 @@ def _run(start: BranchStart, lam_range, options: ContinuationOptions, stability:
         monitor = StabilityMonitor(start.problem, stability)
         events = stability_events(monitor, folds=not opts.detect_folds)
         monitors = [monitor]
-    lo, hi = lam_range
-    lam0 = min(max(start.lam, lo), hi)
     tangent = np.concatenate([start.tangent[:-1] / su, [start.tangent[-1] / sl]])
-    br = continuation(start.problem, start.u, lam0, lam_range, opts, parameter_name=parameter_name,
+    br = continuation(start.problem, start.u, start.lam, lam_range, opts, parameter_name=parameter_name,
                       events=events, monitors=monitors, tangent=tangent, solve_start=False, callback=callback)
     return br, monitor
 
@@ -437,7 +435,8 @@ def switch_branch(problem, branch: Branch, point: SpecialPoint, lam_range=None, 
     Returns
     -------
     list of (Branch, problem)
-        ``branch.info["origin"]`` describes the special point.
+        ``branch.info["origin"]`` describes the special point. Sides whose
+        first point falls outside ``lam_range`` are left out.
     """
     options = ContinuationOptions() if options is None else options
     stability = StabilityOptions() if stability is None else stability
@@ -446,6 +445,8 @@ def switch_branch(problem, branch: Branch, point: SpecialPoint, lam_range=None, 
     su, sl = _scales(branch, options, np.asarray(point.unknowns))
     for st in switch_at(problem, branch, point, options=options, eps=eps, sides=sides,
                         problem_factory=problem_factory, pd_direction=pd_direction):
+        if not lam_range[0] <= st.lam <= lam_range[1]:
+            continue  # the new branch leaves the range at once
         br, mon = _run(st, lam_range, options, stability, branch.parameter_name, su, sl)
         br.info["origin"] = _origin(point, None, st)
         if mon is not None:
@@ -524,7 +525,14 @@ class BifurcationDiagram:
 
 
 def _switch_candidates(br: Branch, kinds: set, origin_lam: float | None, tol: float) -> list[SpecialPoint]:
-    out: list[SpecialPoint] = []
+    """Special points to switch at, one per bifurcation.
+
+    The engine's determinant test and the ``+1`` multiplier event report the
+    same branch point; they are merged by kind and bracketing interval,
+    keeping the determinant one: it is located exactly, whereas the
+    multiplier count is biased by ``tolerance / |d|mu|/dlam|``.
+    """
+    chosen: dict[tuple, SpecialPoint] = {}
     for sp in br.special_points:
         kind = sp.kind
         if kind is SpecialKind.STABILITY:
@@ -534,18 +542,17 @@ def _switch_candidates(br: Branch, kinds: set, origin_lam: float | None, tol: fl
         scale = tol * max(1.0, abs(sp.parameter))
         if origin_lam is not None and abs(sp.parameter - origin_lam) <= 1e3 * scale and sp.index <= 1:
             continue  # the bifurcation the branch starts from
-        # the engine's determinant test and the +1 multiplier event find the same BP
-        if any(o.kind is sp.kind and abs(o.parameter - sp.parameter) <= 1e3 * scale for o in out):
-            continue
-        out.append(sp)
-    return out
+        key = (kind, sp.index)
+        if key not in chosen or (kind is SpecialKind.BP and not sp.event.startswith("stability")):
+            chosen[key] = sp
+    return sorted(chosen.values(), key=lambda p: (p.s, p.index))
 
 
 def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | dict | None = None, *,
            stability: StabilityOptions | dict | None = None, switch: Sequence[str] = ("pd", "bp"),
            max_depth: int = 1, parameter_name: str | None = None, problem_factory: Callable | None = None,
            eps: float | None = None, max_branches: int = 16, pd_direction: str = "svd",
-           callback: Callable | None = None) -> BifurcationDiagram:
+           callback: Callable | None = None, callback_factory: Callable | None = None) -> BifurcationDiagram:
     """Trace a branch with stability, then switch automatically at its bifurcations.
 
     Parameters
@@ -577,6 +584,10 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
     pd_direction : {'svd', 'hill'}
     callback : callable, optional
         Passed to the engine for every branch.
+    callback_factory : callable, optional
+        ``callback_factory(index, problem) -> callback`` gives each branch its
+        own engine callback (for example to record rows with the branch id
+        and its order nu); it overrides ``callback``.
 
     Returns
     -------
@@ -614,8 +625,11 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
         monitor = StabilityMonitor(problem, stability)
         events = stability_events(monitor, folds=not options.detect_folds)
         monitors = [monitor]
+    def cb_for(index, prob):
+        return callback_factory(index, prob) if callback_factory is not None else callback
+
     root = continuation(problem, u0, lam0, lam_range, options, parameter_name=name, events=events,
-                        monitors=monitors, callback=callback)
+                        monitors=monitors, callback=cb_for(0, problem))
     root.info.update(parent=None, origin=None, depth=0)
     if monitor is not None:
         root.info["stability"] = monitor.statistics()
@@ -630,6 +644,8 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
     while queue:
         i = queue.pop(0)
         br, prob = diagram.branches[i], diagram.problems[i]
+        if br.status is BranchStatus.INTERRUPTED:
+            return diagram  # the user asked to stop: no new branches
         depth = br.info.get("depth", 0)
         if depth >= max_depth or not len(br):
             continue
@@ -643,8 +659,10 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
                                 pd_direction=pd_direction):
                 if len(diagram) >= max_branches:
                     return diagram
-                child, mon = _run(st, lam_range, options, stability, name, su, sl, callback)
+                if not lam_range[0] <= st.lam <= lam_range[1]:
+                    continue  # the new branch leaves the range at once
                 j = len(diagram)
+                child, mon = _run(st, lam_range, options, stability, name, su, sl, cb_for(j, st.problem))
                 child.info.update(parent=i, origin=_origin(sp, i, st), depth=depth + 1)
                 if mon is not None:
                     child.info["stability"] = mon.statistics()

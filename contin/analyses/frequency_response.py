@@ -114,7 +114,7 @@ class BranchRecorder:
         done = self._written_special.get(branch_id, 0)
         self._written_special[branch_id] = len(branch.special_points)
         for sp in branch.special_points[done:]:
-            if sp.kind.value == "start":
+            if sp.kind.value == "start" or self._duplicate(branch_id, sp):
                 continue
             i = min(max(sp.index, 0), len(branch) - 1)
             if i + 1 < len(branch) and abs(branch.parameter[i + 1] - sp.parameter) < abs(branch.parameter[i] - sp.parameter):
@@ -125,7 +125,13 @@ class BranchRecorder:
             row.update({"interval_lo": float(lo), "interval_hi": float(hi), "located": bool(sp.located),
                         "detail": _detail(sp)})
             self.special.write(row)
-            self.special_list.append(row)
+            self.special_list.append(dict(row, _before=off + min(max(sp.index, 0), len(branch) - 1)))
+
+    def _duplicate(self, branch_id, sp) -> bool:
+        """The same bifurcation found by two tests (the bordered determinant and a multiplier at +1)."""
+        tol = 1e-6 * max(1.0, abs(sp.parameter))
+        return any(r["branch"] == branch_id and r["kind"] == sp.kind.value
+                   and abs(r[self.parameter] - sp.parameter) <= tol for r in self.special_list)
 
     def close(self) -> None:
         self.rows.close()
@@ -166,7 +172,7 @@ def run(ctx) -> dict:
     ctx.recorder = rec
     from contin.analyses.stability_hooks import stability_setup
 
-    monitors, events, follow = stability_setup(a, hb)
+    _, _, follow = stability_setup(a, hb)
     branches_info = []
     t0 = time.perf_counter()
     try:
@@ -203,15 +209,28 @@ def _plot(ctx, rec, hb):
 
     out = ctx.scene.output
     measure = out["measure"] or f"amp_{hb.model.dof_names[0]}"
-    if measure not in rec.measures:
-        raise ctx.scene.error("output.measure", "one of the measures " + ", ".join(rec.measures), measure)
+    allowed = rec.measures + ["max_multiplier", "n_unstable"]
+    if measure not in allowed:
+        raise ctx.scene.error("output.measure", "one of the measures " + ", ".join(allowed), measure)
     curves = []
     for bid, c in rec.curves.items():
         st = c["stable"]
-        curves.append({"x": c["x"], "y": [r[measure] for r in c["rows"]],
-                       "stable": None if any(s is None for s in st) else np.array(st, bool),
+        x = list(c["x"])
+        y = [r[measure] for r in c["rows"]]
+        stable = None if any(v is None for v in st) else list(st)
+        if stable is not None:
+            # draw each stability change at its located parameter, not at the next stored point
+            off = rec.offsets.get(bid, 0)
+            changes = [s for s in rec.special_list if s["branch"] == bid and s["kind"] in ("fold", "pd", "ns", "bp", "stability")]
+            for sp in sorted(changes, key=lambda s: -s["_before"]):
+                j = sp["_before"] - off + 1
+                if 0 < j < len(x) and stable[j - 1] != stable[j]:
+                    x.insert(j, sp[hb.parameter])
+                    y.insert(j, sp.get(measure, y[j]))
+                    stable.insert(j, stable[j])
+        curves.append({"x": x, "y": y, "stable": None if stable is None else np.array(stable, bool),
                        "label": f"branch {bid} (nu={c['nu']})"})
-    special = [{"x": s[hb.parameter], "y": s[measure], "kind": s["kind"]} for s in rec.special_list]
+    special = [{"x": s[hb.parameter], "y": s.get(measure, 1.0), "kind": s["kind"]} for s in rec.special_list]
     path = ctx.outdir / "bifurcation_diagram.png"
     bifurcation_diagram(curves, special, hb.parameter, measure, path, units=out["units"], labels=out["labels"],
                         title=out["title"] or f"{hb.model.name}: {measure} vs {hb.parameter}")

@@ -1,33 +1,63 @@
-"""How a frequency response gets its stability monitor, events and branch switching."""
+"""How a frequency response gets its stability, its events and its branch switching."""
 
 from __future__ import annotations
 
-from contin.continuation import continuation
+from contin.scene import SceneError
+from contin.stability import StabilityOptions
+from contin.switching import follow as follow_diagram
 
 __all__ = ["stability_setup"]
 
 
+def stability_options(analysis: dict) -> StabilityOptions:
+    """``analysis.stability`` and ``analysis.stability_options`` as :class:`StabilityOptions`."""
+    d = dict(analysis.get("stability_options") or {})
+    if "method" in d:
+        raise SceneError("analysis.stability_options.method", "no method here (use analysis.stability)", d["method"])
+    d["method"] = analysis["stability"]
+    try:
+        return StabilityOptions.from_dict(d)
+    except ValueError as exc:
+        raise SceneError("analysis.stability_options", "valid stability options", None, hint=f": {exc}") from None
+
+
 def stability_setup(analysis: dict, hb):
-    """Monitors, events and the branch-following function for a scene's analysis.
+    """The branch-following function of a frequency-response analysis.
 
     Returns
     -------
-    monitors, events : tuple
     follow : callable
-        ``follow(hb, u0, lam0, lam_range, options, recorder, ctx) -> [(Branch, meta)]``.
+        ``follow(hb, u0, lam0, lam_range, options, recorder, ctx) -> [(Branch, meta)]``:
+        traces the first branch with stability (unless ``stability: none``),
+        switches at the kinds listed in ``analysis.switch`` (one generation,
+        at most ``analysis.max_branches`` branches), and records every point
+        as it is found.
     """
-    method = analysis["stability"]
-    if method != "none" or analysis["switch"]:
-        raise NotImplementedError("stability and switching are not available yet")
+    stab = stability_options(analysis)
+    switch = tuple(analysis["switch"])
+    if "pd" in switch and analysis["stability"] == "none":
+        raise SceneError("analysis.switch", "a stability method (analysis.stability) to detect period doubling",
+                         "stability: none")
 
     def follow(hb, u0, lam0, lam_range, options, rec, ctx):
-        def callback(branch, i):
-            rec.point(0, hb.nu, branch, i, hb.H)
-            ctx.progress.update(f"branch 0  {hb.parameter}={branch.parameter[i]:.6g}  point {i}  ds={branch.step_sizes[i]:.3g}")
-            return not ctx.stop_requested
+        def factory(index, problem):
+            def callback(branch, i):
+                rec.point(index, problem.nu, branch, i, problem.H)
+                ctx.progress.update(f"branch {index} (nu={problem.nu})  {problem.parameter}={branch.parameter[i]:.6g}"
+                                    f"  point {i}  ds={branch.step_sizes[i]:.3g}")
+                return not ctx.stop_requested
 
-        br = continuation(hb, u0, lam0, lam_range, options, parameter_name=hb.parameter, callback=callback)
-        rec.special_points(0, br)
-        return [(br, {"nu": hb.nu})]
+            return callback
+
+        diagram = follow_diagram(hb, u0, lam0, lam_range, options, stability=stab, switch=switch,
+                                 max_depth=1 if switch else 0, parameter_name=hb.parameter,
+                                 max_branches=analysis["max_branches"], callback_factory=factory)
+        out = []
+        for j, (br, prob) in enumerate(zip(diagram.branches, diagram.problems)):
+            rec.special_points(j, br)
+            org = br.info.get("origin")
+            out.append((br, {"nu": prob.nu, "harmonics": prob.H, "parent": br.info.get("parent"),
+                             "origin": None if org is None else {k: org[k] for k in ("kind", "parameter") if k in org}}))
+        return out
 
     return (), (), follow

@@ -72,7 +72,8 @@ class HillSpectrum:
     centroids : ndarray, shape (K,)
         Harmonic centroid of each eigenvector.
     selected : ndarray of int, shape (2n,)
-        Indices of the selected (physical) exponents.
+        Indices of the selected (physical) exponents (``2 rank(M)`` of them
+        when the mass matrix is singular).
     exponents : ndarray, shape (2n,) complex
         ``eigenvalues[selected]``.
     multipliers : ndarray, shape (2n,) complex
@@ -282,7 +283,9 @@ def hill_spectrum(
     mass = hb.model.linear(hb.params_at(lam))[0]
     s, Q = companion_eigen(D0, D1, D2, vectors=True, mass=mass)
     c = harmonic_centroids(Q, hb.n)
-    sel, quality = select_exponents(s, c, Omega, 2 * hb.n, shift_tol, centroid_tol)
+    # a massless dof has no dynamics of its own: 2 rank(M) exponents per class set
+    count = 2 * int(np.linalg.matrix_rank(mass))
+    sel, quality = select_exponents(s, c, Omega, count, shift_tol, centroid_tol)
     ex = s[sel]
     mult = np.exp(ex * period)
     return HillSpectrum(

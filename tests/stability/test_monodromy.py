@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from scipy.special import mathieu_a, mathieu_b
 
 from contin.catalog import build_model
 from contin.continuation import ContinuationOptions, continuation
@@ -10,12 +11,14 @@ from contin.harmonic_balance import HarmonicBalance, HBOptions
 from contin.model import Monomial
 from contin.models.polynomial import polynomial_model
 from contin.stability import (
-    hill_spectrum,
+    StabilityMonitor,
+    StabilityOptions,
     monodromy_orbit_ivp,
     monodromy_reference,
     monodromy_rk4,
     multiplier_distance,
     orbit_state,
+    stability_events,
 )
 from contin.stability.monodromy import state_matrices
 
@@ -103,3 +106,39 @@ def test_clearance_oscillator_rk4_is_first_order():
     assert errs[3200] < errs[200] / 8  # 16x smaller step: at least first order overall
     # a smooth problem at the same step count is far more accurate (fourth order)
     assert errs[3200] > 1e-5
+
+
+def mathieu_boundaries(eps, rmax):
+    """delta = a_r(q)/4, b_r(q)/4 with q = 2 eps (x'' + (delta + eps cos t) x = 0 with t = 2z
+    is Mathieu's y'' + (a - 2 Q cos 2z) y = 0 with a = 4 delta, Q = -2 eps; the set
+    {a_r, b_r} is even in Q). Odd r: multiplier -1; even r: +1."""
+    q = 2 * eps
+    out = [(mathieu_a(0, q) / 4, 0)]
+    for r in range(1, rmax + 1):
+        out += [(mathieu_b(r, q) / 4, r), (mathieu_a(r, q) / 4, r)]
+    return sorted(out)
+
+
+@pytest.mark.parametrize("eps, rmax, hi", [(0.2, 2, 1.3), (0.5, 3, 2.45)])
+def test_undamped_mathieu_tongues_with_monodromy(eps, rmax, hi):
+    """Same check as with Hill, with the RK4 monodromy (S = 512) deciding.
+
+    RK4 is not symplectic: in the stable regions it moves |mu| off the unit
+    circle by ~(w h)^4 T / 120 < 1e-8 here, far inside the 1e-6 margin.
+    """
+    model = build_model("mathieu", {"c": 0.0, "g": 0.0, "eps": eps}, effects=["parametric"])
+    hb = HarmonicBalance(model, "delta", HBOptions(harmonics=4))
+    mon = StabilityMonitor(hb, StabilityOptions(method="floquet", steps_per_period=512))
+    lo, step = -0.3, 0.003
+    opts = ContinuationOptions(ds=step / (hi - lo), ds_max=step / (hi - lo), detect_folds=False,
+                               detect_branch_points=False, max_points=5000)
+    br = continuation(hb, np.zeros(hb.size), lo, (lo, hi), opts, parameter_name="delta",
+                      events=stability_events(mon), monitors=[mon])
+    found = [p for p in br.special_points if p.kind.value in ("bp", "pd", "ns", "fold")]
+    ref = mathieu_boundaries(eps, rmax)
+    assert len(found) == len(ref)
+    for p, (d_ref, r) in zip(found, ref):
+        assert abs(p.parameter - d_ref) < 1e-6, (p.parameter, d_ref)
+        assert p.kind.value == ("pd" if r % 2 else "bp")
+        assert abs(p.data["multiplier"] - (-1 if r % 2 else 1)) < 1e-3
+    assert np.all(br.point_data["hill_quality"] == -1.0)  # Hill was not used

@@ -1,0 +1,131 @@
+"""Generated numba kernels: source text, an on-disk module cache, and loading.
+
+numba's ``cache=True`` needs a function defined in a real source file (its
+cache index is keyed by the file's path and time stamp), so generated code is
+written to a module file in a cache directory and imported from there:
+
+- the directory is ``$CONTIN_CACHE_DIR`` if set, else ``~/.cache/contin/kernels``
+  (falling back to a per-user directory under the system temporary directory
+  when that one cannot be written);
+- the file is named by a hash of its content, so the same model in another
+  process finds the same file, and numba finds its compiled code next to it
+  (in ``__pycache__``);
+- it is written atomically (temporary file, then a hard link or
+  ``os.replace``), so two processes racing to write it are safe, and an
+  existing file with the right content is never rewritten (a new time stamp
+  would invalidate numba's cache).
+
+Only source produced by :mod:`contin.expressions` from checked expressions is
+ever loaded; user text is never executed.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import os
+import sys
+import tempfile
+import types
+from pathlib import Path
+
+__all__ = ["CODEGEN_VERSION", "kernel_cache_dir", "load_module", "module_name"]
+
+#: bumped when the generated code changes meaning (part of the hashed text)
+CODEGEN_VERSION = "1"
+
+_LOADED: dict[str, types.ModuleType] = {}
+
+
+def kernel_cache_dir() -> Path:
+    """Directory of generated kernel modules (``$CONTIN_CACHE_DIR`` or ``~/.cache/contin/kernels``)."""
+    env = os.environ.get("CONTIN_CACHE_DIR")
+    if env:
+        return Path(env).expanduser()
+    return Path.home() / ".cache" / "contin" / "kernels"
+
+
+def module_name(source: str) -> str:
+    """Module name of a generated source: ``contin_kernel_<hash of the content>``."""
+    digest = hashlib.sha256(source.encode("utf-8")).hexdigest()[:24]
+    return f"contin_kernel_{digest}"
+
+
+def _write_atomic(path: Path, source: str) -> None:
+    data = source.encode("utf-8")
+    try:
+        if path.read_bytes() == data:
+            return  # same content: keep the file (and numba's cache) as it is
+    except OSError:
+        pass
+    fd, tmp = tempfile.mkstemp(prefix=path.stem + ".", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        try:
+            os.link(tmp, path)  # create only if absent: a racing writer's file is left untouched
+        except FileExistsError:
+            if path.read_bytes() != data:
+                os.replace(tmp, path)  # a damaged file: replace it
+        except OSError:
+            os.replace(tmp, path)  # no hard links on this file system
+    finally:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+
+
+def _candidate_dirs():
+    yield kernel_cache_dir()
+    uid = os.getuid() if hasattr(os, "getuid") else "user"
+    yield Path(tempfile.gettempdir()) / f"contin-kernels-{uid}"
+
+
+def load_module(source: str) -> types.ModuleType:
+    """Import a generated kernel module, writing it to the cache directory if needed.
+
+    Parameters
+    ----------
+    source : str
+        Complete module source (generated, never user text).
+
+    Returns
+    -------
+    module
+        Registered in ``sys.modules`` under :func:`module_name`, so numba can
+        rebuild cached functions.
+    """
+    name = module_name(source)
+    if name in _LOADED:
+        return _LOADED[name]
+    path = None
+    for d in _candidate_dirs():
+        try:
+            d.mkdir(parents=True, exist_ok=True)
+            p = d / f"{name}.py"
+            _write_atomic(p, source)
+            path = p
+            break
+        except OSError:
+            continue
+    if path is not None:
+        spec = importlib.util.spec_from_file_location(name, path)
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        try:
+            spec.loader.exec_module(module)
+        except BaseException:
+            sys.modules.pop(name, None)
+            raise
+    else:
+        # No writable directory: run without numba's on-disk cache (compiled once per process).
+        module = types.ModuleType(name)
+        module.__file__ = f"<{name}>"
+        sys.modules[name] = module
+        code = compile(source.replace("cache=True", "cache=False"), module.__file__, "exec")
+        exec(code, module.__dict__)  # noqa: S102  (generated source from checked expressions only)
+    _LOADED[name] = module
+    return module
