@@ -280,7 +280,7 @@ class _Builder:
                 if allow_tau:
                     return (f"the excitation cannot depend on {what} '{name}' "
                             f"(write state-dependent terms under model.forces)")
-                return f"'{name}' is {what} of a degree of freedom; this entry may only use parameters"
+                return f"this entry may only use parameters, and '{name}' is a {'dof' if is_dof else 'velocity'} of the model"
             if name == "tau" and not allow_tau:
                 return "'tau' (the excitation phase) is not allowed here; this entry may only use parameters"
             if name.endswith("_dot") and allow_state:
@@ -356,28 +356,26 @@ class _Builder:
                 used |= ex.free_names(node) & set(self.pnames)
                 mono = _monomial(node, self.pnames)
                 coef = mono if mono is not None else ExpressionCoefficient(node, self.pnames, ekey)
+                with np.errstate(all="ignore"):
+                    v = float(coef.value(self.p0))
+                if not math.isfinite(v):
+                    raise self.error(ekey, "an entry with a finite value at the default parameters", _short(e),
+                                     f"; it evaluates to {v}")
                 A = np.zeros((n, n))
                 A[i, j] = 1.0
                 terms.append((coef, A))
         return ParametricMatrix(n, tuple(terms)), used
-
-    def check_finite(self, key, mat):
-        with np.errstate(all="ignore"):
-            V = mat.value(self.p0)
-        if not np.all(np.isfinite(V)):
-            raise self.error(key, "finite entries at the default parameters", V.tolist())
-        return V
 
     # -- items ---------------------------------------------------------------
     def keys_of(self, item, key, allowed: dict, kind: str):
         for k in item:
             if k not in allowed:
                 raise self.error(f"{key}.{k}",
-                                 f"one of the keys {', '.join(allowed)} of a {kind} item", None,
+                                 f"one of the keys {', '.join(allowed)} (for a {kind})", None,
                                  f"; unknown key '{k}'{suggest(k, allowed)}")
         for k, required in allowed.items():
             if required and item.get(k) is None:
-                raise self.error(f"{key}.{k}", f"a value for '{k}' (required in a {kind} item)")
+                raise self.error(f"{key}.{k}", f"a value for '{k}' (required for a {kind})")
 
     def dof(self, value, key):
         if not isinstance(value, str) or value not in self.dofs:
@@ -530,11 +528,9 @@ class _Builder:
             C = C + G
             c_used |= g_used
             G_text = f"gyroscopic: ({ex.to_text(speed)})*G ({self.n}x{self.n}) added to the damping"
-        Mv = self.check_finite("model.mass", M)
+        Mv = M.value(self.p0)
         if np.linalg.matrix_rank(Mv) < self.n or np.linalg.cond(Mv) > 1e14:
             raise self.error("model.mass", "a nonsingular matrix at the default parameters", _short(Mv.tolist()))
-        self.check_finite("model.damping", C)
-        self.check_finite("model.stiffness", K)
         forces, force_kinds = self.forces()
         excitations = self.excitations()
 

@@ -108,7 +108,7 @@ FREQUENCY_RESPONSE = {
     "harmonics": integer(5, 1),
     "subharmonic": integer(1, 1),
     "samples": Key("an integer >= 2*harmonics+1, or null", lambda v: v is None or (_int(v) and v >= 3), None),
-    "stability": string("hill", ("hill", "floquet", "both", "none")),
+    "stability": string("both", ("hill", "floquet", "both", "none")),
     "stability_options": mapping(),
     "switch": listing([], lambda x: x in ("pd", "bp"), "a list of bifurcation kinds among 'pd', 'bp'"),
     "max_branches": integer(8, 1),

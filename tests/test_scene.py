@@ -17,7 +17,7 @@ analysis:
 def test_defaults_are_filled_in():
     s = parse_scene(GOOD)
     a = s.analysis
-    assert a["harmonics"] == 5 and a["subharmonic"] == 1 and a["stability"] == "hill" and a["switch"] == []
+    assert a["harmonics"] == 5 and a["subharmonic"] == 1 and a["stability"] == "both" and a["switch"] == []
     assert s.output["plots"] is True and s.output["harmonic_columns"] == 5
 
 

@@ -1,0 +1,72 @@
+"""Example scenes: check -> run -> files, compared with the closed form of each case."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+from scipy.optimize import brentq
+from scipy.special import mathieu_a, mathieu_b
+
+from contin.cli import main
+from contin.results import read_csv
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def run(scene, tmp_path, *sets):
+    out = tmp_path / Path(scene).stem
+    args = ["run", str(ROOT / "scenes" / scene), "-o", str(out), "-q"]
+    for s in sets:
+        args += ["--set", s]
+    assert main(["check", str(ROOT / "scenes" / scene)]) == 0
+    assert main(args) == 0
+    return read_csv(out / "branches.csv"), read_csv(out / "special_points.csv")
+
+
+def test_mathieu_scene_stability_changes_on_the_transition_curves(tmp_path):
+    rows, sp = run("mathieu.yaml", tmp_path)
+    q = 2 * 0.4
+    ref = {"bp": [mathieu_a(0, q) / 4, mathieu_b(2, q) / 4, mathieu_a(2, q) / 4],
+           "pd": [mathieu_b(1, q) / 4, mathieu_a(1, q) / 4]}
+    for kind, values in ref.items():
+        got = np.sort(sp["delta"][sp["kind"] == kind])
+        np.testing.assert_allclose(got, np.sort(values), atol=1e-6)
+    # stable between the tongues [a0/4, b1/4], [a1/4, b2/4] and beyond a2/4 (up to b3/4 = 2.2)
+    d, st = rows["delta"], rows["stable"]
+    inside = (((d > ref["bp"][0] + 1e-3) & (d < ref["pd"][0] - 1e-3))
+              | ((d > ref["pd"][1] + 1e-3) & (d < ref["bp"][1] - 1e-3)) | (d > ref["bp"][2] + 1e-3))
+    outside = ((d < ref["bp"][0] - 1e-3) | ((d > ref["pd"][0] + 1e-3) & (d < ref["pd"][1] - 1e-3))
+               | ((d > ref["bp"][1] + 1e-3) & (d < ref["bp"][2] - 1e-3)))
+    assert inside.sum() >= 5 and outside.sum() >= 3
+    assert np.all(st[inside]) and not np.any(st[outside])
+
+
+def damped_mathieu_pd(c, eps):
+    """delta where the linear damped Mathieu equation has a multiplier -1 (independent monodromy)."""
+
+    def trace_plus_det(delta):
+        def rhs(t, z):
+            x, v = z[:2], z[2:]
+            return np.concatenate([v, -c * v - (delta + eps * np.cos(t)) * x])
+
+        sol = solve_ivp(rhs, (0, 2 * np.pi), [1, 0, 0, 1], method="DOP853", rtol=1e-12, atol=1e-13)
+        Phi = np.array([[sol.y[0, -1], sol.y[1, -1]], [sol.y[2, -1], sol.y[3, -1]]])
+        return 1 + np.trace(Phi) + np.linalg.det(Phi)  # characteristic polynomial at -1
+
+    return brentq(trace_plus_det, 0.0, 0.25), brentq(trace_plus_det, 0.25, 0.6)
+
+
+def test_mathieu_duffing_scene_switches_at_period_doubling(tmp_path):
+    rows, sp = run("mathieu_duffing_pd.yaml", tmp_path)
+    pds = np.sort(sp["delta"][(sp["kind"] == "pd") & (sp["branch"] == 0)])
+    np.testing.assert_allclose(pds, damped_mathieu_pd(0.1, 0.4), atol=1e-6)
+    nu2 = rows["nu"] == 2
+    assert nu2.any()
+    # the subharmonic branches carry the odd harmonics of w/2 (h1 is the w/2 component)
+    assert np.all(rows["h1_x"][nu2 & (rows["amp_x"] > 1e-3)] > 1e-4)
+    # they are born at the pd points: their smallest amplitudes sit next to the pd parameters
+    for b in np.unique(rows["branch"][nu2]):
+        sel = rows["branch"] == b
+        start = rows["delta"][sel][np.argmin(rows["amp_x"][sel])]
+        assert np.min(np.abs(pds - start)) < 1e-2
