@@ -24,6 +24,8 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--set", dest="overrides", action="append", default=[], metavar="dotted.key=value",
                    help="override a scene value; the value is parsed as YAML (repeatable)")
     r.add_argument("-q", "--quiet", action="store_true", help="no progress display")
+    r.add_argument("--resume", action="store_true",
+                   help="continue an interrupted run in OUTDIR from its last stored point")
     c = sub.add_parser("check", help="validate a scene and print what would run")
     c.add_argument("scene")
     c.add_argument("--set", dest="overrides", action="append", default=[], metavar="dotted.key=value")
@@ -85,7 +87,7 @@ def cmd_run(args) -> int:
 
     scene = load_scene(args.scene, args.overrides)
     outdir = Path(args.outdir) if args.outdir else Path("results") / Path(args.scene).stem
-    summary = run_scene(scene, outdir, progress=not args.quiet)
+    summary = run_scene(scene, outdir, progress=not args.quiet, resume=args.resume)
     a = summary.get("analysis", {})
     for b in a.get("branches", []):
         print(f"branch {b['branch']} (nu={b['nu']}): {b['points']} points, {b['status']}: {b['message']}")
@@ -97,6 +99,9 @@ def main(argv=None) -> int:
     from contin.scene import SceneError
 
     args = _parser().parse_args(argv)
+    from contin.blas import limit_blas_threads
+
+    limit_blas_threads()
     try:
         if args.command == "models":
             return cmd_models()

@@ -96,6 +96,13 @@ def _is_number(v) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool)
 
 
+def _finite(v) -> bool:
+    try:
+        return math.isfinite(v)
+    except OverflowError:  # an integer beyond the float range
+        return False
+
+
 def check_continuation_parameter(model: Model, name: str, key: str = "analysis.parameter",
                                  lines: dict | None = None) -> None:
     """Refuse continuation in a dependent parameter of a custom model.
@@ -163,7 +170,7 @@ def resolve_parameters(params: dict, error: Callable[..., SceneError], reserved:
         key = f"model.parameters.{q}"
         v = params[q]
         if _is_number(v):
-            if not math.isfinite(v):
+            if not _finite(v):
                 raise error(key, "a finite number or an expression of other parameters", v)
             independent[q] = float(v)
             continue
@@ -314,7 +321,8 @@ class _Builder:
         node = self.expression(value, key, what=what)
         mono = _monomial(node, self.pnames)
         coef = mono if mono is not None else ExpressionCoefficient(node, self.pnames, key)
-        v = coef.value(self.p0)
+        with np.errstate(all="ignore"):
+            v = float(coef.value(self.p0))
         if not math.isfinite(v):
             raise self.error(key, what + " with a finite value at the default parameters", _short(value),
                              f"; it evaluates to {v}")
@@ -386,7 +394,7 @@ class _Builder:
     def number(self, value, key, default, minimum=None):
         if value is None:
             return default
-        if not _is_number(value) or not math.isfinite(value) or (minimum is not None and value < minimum):
+        if not _is_number(value) or not _finite(value) or (minimum is not None and value < minimum):
             exp = "a finite number" if minimum is None else f"a number >= {minimum}"
             raise self.error(key, exp, _short(value))
         return float(value)

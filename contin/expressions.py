@@ -527,7 +527,10 @@ def parse(text, where: str = "expression", names: Iterable[str] | None = None) -
     if isinstance(text, bool) or not isinstance(text, (str, int, float, np.integer, np.floating)):
         raise ExpressionError(where, f"expected an expression (text) or a number, found {type(text).__name__}")
     if not isinstance(text, str):
-        v = float(text)
+        try:
+            v = float(text)
+        except OverflowError:
+            v = math.inf
         if not math.isfinite(v):
             raise ExpressionError(where, f"number {v!r} is not finite")
         return Num(v)

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["CsvStream", "write_json_atomic", "read_csv", "format_value"]
+__all__ = ["CsvStream", "write_json_atomic", "read_csv", "format_value", "truncate_to_valid_rows"]
 
 
 def format_value(v) -> str:
@@ -112,3 +112,27 @@ def read_csv(path: Path) -> dict[str, np.ndarray]:
         except ValueError:
             out[name] = np.array(col, dtype=object)
     return out
+
+
+def truncate_to_valid_rows(path: Path) -> int:
+    """Drop a last row cut short by a killed run; returns the number of data rows kept."""
+    path = Path(path)
+    if not path.exists():
+        return 0
+    with open(path, newline="") as fh:
+        text = fh.read()
+    lines = text.splitlines(keepends=True)
+    if not lines:
+        return 0
+    width = len(next(csv.reader([lines[0]])))
+    keep = [lines[0]]
+    for line in lines[1:]:
+        if not line.endswith("\n") or len(next(csv.reader([line]))) != width:
+            break
+        keep.append(line)
+    if len(keep) != len(lines):
+        tmp = path.with_name(path.name + ".tmp")
+        with open(tmp, "w", newline="") as fh:
+            fh.writelines(keep)
+        os.replace(tmp, path)
+    return len(keep) - 1

@@ -33,6 +33,7 @@ class RunContext:
     interrupted: bool = False
     plot: object = None
     recorder: object = None
+    resume: bool = False
 
 
 def build_model(scene: Scene) -> Model:
@@ -66,8 +67,14 @@ def versions() -> dict:
             "scipy": scipy.__version__, "numba": numba.__version__}
 
 
-def run_scene(scene: Scene, outdir: str | Path, progress: bool = True) -> dict:
+def run_scene(scene: Scene, outdir: str | Path, progress: bool = True, resume: bool = False) -> dict:
     """Run a validated scene and write its results into ``outdir``.
+
+    Parameters
+    ----------
+    resume : bool
+        Continue an interrupted run in ``outdir`` (same scene) from its
+        checkpoint instead of starting anew.
 
     Returns
     -------
@@ -80,12 +87,15 @@ def run_scene(scene: Scene, outdir: str | Path, progress: bool = True) -> dict:
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     model = build_model(scene)
-    ctx = RunContext(scene, model, outdir, Progress(progress))
+    resumed_from = None
+    if resume:
+        resumed_from = _check_resumable(scene, outdir)
+    ctx = RunContext(scene, model, outdir, Progress(progress), resume=resumed_from is not None)
     ctx.timings["model"] = time.perf_counter() - t0
     summary = {"status": "running", "scene": scene.data, "source": scene.source, "versions": versions(),
                "model": {"name": model.name, "dofs": list(model.dof_names), "effects": list(model.effects),
                          "terms": model.describe().splitlines()[1:]},
-               "timings": ctx.timings}
+               "timings": ctx.timings, "resumed": resumed_from}
     write_json_atomic(outdir / "summary.json", summary)
 
     def on_sigint(signum, frame):
@@ -108,6 +118,22 @@ def run_scene(scene: Scene, outdir: str | Path, progress: bool = True) -> dict:
                     "analysis": result, "plots": files, "timings": ctx.timings})
     write_json_atomic(outdir / "summary.json", summary)
     return summary
+
+
+def _check_resumable(scene: Scene, outdir: Path):
+    """The earlier run's summary if ``outdir`` holds an unfinished run of the same scene, else None."""
+    import json
+
+    path = outdir / "summary.json"
+    if not path.exists() or not (outdir / "state.jsonl").exists():
+        return None  # nothing to resume: a fresh run
+    old = json.loads(path.read_text())
+    if old.get("scene") != json.loads(json.dumps(scene.data)):
+        raise SceneError("--resume", f"the same scene as the run in {outdir}", "a different scene",
+                         hint="; resume with the scene and --set options of that run, or use another -o")
+    if old.get("status") == "complete":
+        raise SceneError("--resume", f"an unfinished run in {outdir}", "a complete run")
+    return {"status": old.get("status"), "timings": old.get("timings")}
 
 
 def _main_thread() -> bool:

@@ -426,6 +426,32 @@ def _run(start: BranchStart, lam_range, options: ContinuationOptions, stability:
     return br, monitor
 
 
+def _resume(prev: Branch, problem, lam_range, options: ContinuationOptions, name: str, events, monitors, callback):
+    """Continue an interrupted branch from its last point (or return a finished one as it is).
+
+    The continued branch holds the new points only (its first point is the
+    old last one, corrected again); the old special points are appended with
+    arclengths before the new ones, so that switching sees them in order.
+    """
+    if prev.status is not BranchStatus.INTERRUPTED or not len(prev):
+        return prev
+    su, sl = prev.info.get("unknown_scale"), prev.info.get("parameter_scale")
+    opts = options
+    if su is not None and sl is not None:
+        opts = options.replace(unknown_scale=su, parameter_scale=sl)
+
+    def cb(branch, i):
+        return True if i == 0 or callback is None else callback(branch, i)
+
+    br = continuation(problem, prev.unknowns[-1], float(prev.parameter[-1]), lam_range, opts, parameter_name=name,
+                      events=events, monitors=monitors, tangent=prev.tangents[-1], solve_start=False, callback=cb)
+    offset = (prev.arclength[-1] if len(prev) else 0.0) + 1.0
+    for sp in prev.special_points:
+        br.special_points.append(dataclasses.replace(sp, s=sp.s - offset, index=sp.index - len(prev)))
+    br.info["resumed_from"] = {"points": len(prev), "parameter": float(prev.parameter[-1])}
+    return br
+
+
 def switch_branch(problem, branch: Branch, point: SpecialPoint, lam_range=None, options=None, *,
                   stability: StabilityOptions | None = None, eps: float | None = None,
                   sides: Sequence[int] | None = None, problem_factory: Callable | None = None,
@@ -552,7 +578,8 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
            stability: StabilityOptions | dict | None = None, switch: Sequence[str] = ("pd", "bp"),
            max_depth: int = 1, parameter_name: str | None = None, problem_factory: Callable | None = None,
            eps: float | None = None, max_branches: int = 16, pd_direction: str = "svd",
-           callback: Callable | None = None, callback_factory: Callable | None = None) -> BifurcationDiagram:
+           callback: Callable | None = None, callback_factory: Callable | None = None,
+           previous: dict | None = None) -> BifurcationDiagram:
     """Trace a branch with stability, then switch automatically at its bifurcations.
 
     Parameters
@@ -588,6 +615,11 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
         ``callback_factory(index, problem) -> callback`` gives each branch its
         own engine callback (for example to record rows with the branch id
         and its order nu); it overrides ``callback``.
+    previous : dict of int to Branch, optional
+        Branches of an earlier, interrupted run of the same diagram, by index
+        (see :mod:`contin.checkpoint`). A finished one is reused as it is; an
+        unfinished one is continued from its last point with its own scales,
+        and its callback is not called again for that point.
 
     Returns
     -------
@@ -628,8 +660,12 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
     def cb_for(index, prob):
         return callback_factory(index, prob) if callback_factory is not None else callback
 
-    root = continuation(problem, u0, lam0, lam_range, options, parameter_name=name, events=events,
-                        monitors=monitors, callback=cb_for(0, problem))
+    previous = previous or {}
+    if 0 in previous:
+        root = _resume(previous[0], problem, lam_range, options, name, events, monitors, cb_for(0, problem))
+    else:
+        root = continuation(problem, u0, lam0, lam_range, options, parameter_name=name, events=events,
+                            monitors=monitors, callback=cb_for(0, problem))
     root.info.update(parent=None, origin=None, depth=0)
     if monitor is not None:
         root.info["stability"] = monitor.statistics()
@@ -662,7 +698,13 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
                 if not lam_range[0] <= st.lam <= lam_range[1]:
                     continue  # the new branch leaves the range at once
                 j = len(diagram)
-                child, mon = _run(st, lam_range, options, stability, name, su, sl, cb_for(j, st.problem))
+                if j in previous:
+                    mon = StabilityMonitor(st.problem, stability) if stability.method is not StabilityMethod.NONE else None
+                    ev = stability_events(mon, folds=not options.detect_folds) if mon is not None else []
+                    child = _resume(previous[j], st.problem, lam_range, options, name, ev,
+                                    [mon] if mon is not None else [], cb_for(j, st.problem))
+                else:
+                    child, mon = _run(st, lam_range, options, stability, name, su, sl, cb_for(j, st.problem))
                 child.info.update(parent=i, origin=_origin(sp, i, st), depth=depth + 1)
                 if mon is not None:
                     child.info["stability"] = mon.statistics()

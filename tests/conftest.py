@@ -1,6 +1,10 @@
 import numpy as np
 import pytest
 
+from contin.blas import limit_blas_threads
+
+limit_blas_threads(1)
+
 
 @pytest.fixture
 def rng():

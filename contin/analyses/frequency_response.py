@@ -17,8 +17,10 @@ from contin.analyses import register_analysis
 from contin.branch import BranchStatus
 from contin.continuation import ContinuationOptions, continuation
 from contin.harmonic_balance import HarmonicBalance, HBOptions
+from contin.checkpoint import encode, special_record
 from contin.measures import measure_names, point_measures
-from contin.results import CsvStream
+from contin.checkpoint import read_records, rebuild_branches
+from contin.results import CsvStream, read_csv, truncate_to_valid_rows
 from contin.scene import SceneError
 
 __all__ = ["run", "BranchRecorder", "build_problem"]
@@ -78,6 +80,7 @@ class BranchRecorder:
         self.state = open(outdir / "state.jsonl", "a" if append else "w")
         self.n_rows = self.rows.rows
         self._written_special: dict[int, int] = {}
+        self._headers: set = set()
         self.offsets: dict[int, int] = {}
         self.curves: dict[int, dict] = {}
         self.special_list: list[dict] = []
@@ -99,8 +102,14 @@ class BranchRecorder:
         row["newton_iterations"] = int(branch.newton_iterations[i])
         row["residual_norm"] = float(branch.residual_norms[i])
         self.rows.write(row)
-        self.state.write(json.dumps({"row": self.n_rows, "branch": branch_id, "nu": nu, "H": H, "lam": lam,
-                                     "u": u.tolist(), "tangent": branch.tangents[i].tolist()}) + "\n")
+        if branch_id not in self._headers:
+            self._headers.add(branch_id)
+            su = branch.info.get("unknown_scale")
+            self.state.write(json.dumps(encode({"type": "branch", "branch": branch_id, "nu": nu, "H": H,
+                                                "unknown_scale": None if su is None else np.asarray(su),
+                                                "parameter_scale": branch.info.get("parameter_scale")})) + "\n")
+        self.state.write(json.dumps({"type": "point", "row": self.n_rows, "branch": branch_id, "nu": nu, "H": H,
+                                     "lam": lam, "u": u.tolist(), "tangent": branch.tangents[i].tolist()}) + "\n")
         self.state.flush()
         self.n_rows += 1
         self.special_points(branch_id, branch)
@@ -126,6 +135,27 @@ class BranchRecorder:
                         "detail": _detail(sp)})
             self.special.write(row)
             self.special_list.append(dict(row, _before=off + min(max(sp.index, 0), len(branch) - 1)))
+            self.state.write(json.dumps(special_record(branch_id, sp)) + "\n")
+            self.state.flush()
+
+    def restore(self, previous: dict) -> None:
+        """Take up the rows and special points of an interrupted run (``--resume``)."""
+        rows = read_csv(self.rows.path)
+        for r in range(len(rows.get("branch", []))):
+            bid = int(rows["branch"][r])
+            self.offsets.setdefault(bid, r)
+            row = {c: rows[c][r] for c in self.branch_columns if c in rows}
+            st = rows["stable"][r] if "stable" in rows and rows["stable"].dtype == bool else None
+            c = self.curves.setdefault(bid, {"x": [], "rows": [], "stable": [], "nu": int(rows["nu"][r])})
+            c["x"].append(float(rows[self.parameter][r]))
+            c["rows"].append(row)
+            c["stable"].append(None if st is None else bool(st))
+        sp = read_csv(self.special.path)
+        for r in range(len(sp.get("branch", []))):
+            row = {c: sp[c][r] for c in self.special_columns if c in sp}
+            row["branch"], row["index"] = int(row["branch"]), int(row["index"])
+            self.special_list.append(dict(row, _before=row["index"]))
+        self._headers = set(previous)
 
     def _duplicate(self, branch_id, sp) -> bool:
         """The same bifurcation found by two tests (the bordered determinant and a multiplier at +1)."""
@@ -137,6 +167,18 @@ class BranchRecorder:
         self.rows.close()
         self.special.close()
         self.state.close()
+
+
+def _restore(outdir, parameter: str) -> dict:
+    """Branches of an interrupted run in ``outdir``, with its files cut back to complete rows."""
+    n_rows = truncate_to_valid_rows(outdir / "branches.csv")
+    truncate_to_valid_rows(outdir / "special_points.csv")
+    records = read_records(outdir / "state.jsonl", max_row=n_rows)
+    # rewrite the checkpoint without what the cut dropped
+    with open(outdir / "state.jsonl", "w") as fh:
+        for r in records:
+            fh.write(json.dumps(r) + "\n")
+    return rebuild_branches(records, parameter)
 
 
 def _detail(sp) -> str:
@@ -168,7 +210,13 @@ def run(ctx) -> dict:
         u0 = np.array(a["guess"], dtype=float)
     else:
         u0 = hb.linear_solution(lam0)
-    rec = BranchRecorder(ctx.outdir, model.dof_names, hb.parameter, scene.output["harmonic_columns"], hb.H)
+    previous = {}
+    if ctx.resume:
+        previous = _restore(ctx.outdir, hb.parameter)
+    rec = BranchRecorder(ctx.outdir, model.dof_names, hb.parameter, scene.output["harmonic_columns"], hb.H,
+                         append=bool(previous))
+    if previous:
+        rec.restore(previous)
     ctx.recorder = rec
     from contin.analyses.stability_hooks import stability_setup
 
@@ -176,7 +224,7 @@ def run(ctx) -> dict:
     branches_info = []
     t0 = time.perf_counter()
     try:
-        results = follow(hb, u0, lam0, (lo, hi), opts, rec, ctx)
+        results = follow(hb, u0, lam0, (lo, hi), opts, rec, ctx, previous)
     finally:
         rec.close()
     for bid, (branch, meta) in enumerate(results):

@@ -27,7 +27,7 @@ def stability_setup(analysis: dict, hb):
     Returns
     -------
     follow : callable
-        ``follow(hb, u0, lam0, lam_range, options, recorder, ctx) -> [(Branch, meta)]``:
+        ``follow(hb, u0, lam0, lam_range, options, recorder, ctx, previous) -> [(Branch, meta)]``:
         traces the first branch with stability (unless ``stability: none``),
         switches at the kinds listed in ``analysis.switch`` (one generation,
         at most ``analysis.max_branches`` branches), and records every point
@@ -39,7 +39,7 @@ def stability_setup(analysis: dict, hb):
         raise SceneError("analysis.switch", "a stability method (analysis.stability) to detect period doubling",
                          "stability: none")
 
-    def follow(hb, u0, lam0, lam_range, options, rec, ctx):
+    def follow(hb, u0, lam0, lam_range, options, rec, ctx, previous=None):
         def factory(index, problem):
             def callback(branch, i):
                 rec.point(index, problem.nu, branch, i, problem.H)
@@ -51,7 +51,8 @@ def stability_setup(analysis: dict, hb):
 
         diagram = follow_diagram(hb, u0, lam0, lam_range, options, stability=stab, switch=switch,
                                  max_depth=1 if switch else 0, parameter_name=hb.parameter,
-                                 max_branches=analysis["max_branches"], callback_factory=factory)
+                                 max_branches=analysis["max_branches"], callback_factory=factory,
+                                 previous=previous)
         out = []
         for j, (br, prob) in enumerate(zip(diagram.branches, diagram.problems)):
             rec.special_points(j, br)

@@ -1,0 +1,76 @@
+"""A run killed in the middle leaves parseable files, and --resume completes it."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from contin.cli import main
+from contin.results import read_csv
+
+ROOT = Path(__file__).resolve().parents[2]
+SCENE = str(ROOT / "scenes/mathieu_duffing_pd.yaml")
+SETS = ["--set", "analysis.continuation={ds: 0.002, ds_max: 0.004}", "--set", "analysis.harmonics=8"]
+
+
+def rows_of(path):
+    try:
+        return max(0, sum(1 for _ in open(path)) - 1)
+    except FileNotFoundError:
+        return 0
+
+
+def special_summary(outdir):
+    sp = read_csv(outdir / "special_points.csv")
+    return sorted((int(b), k, round(float(v), 7)) for b, k, v in zip(sp["branch"], sp["kind"], sp["delta"]))
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    out = tmp_path_factory.mktemp("ref")
+    assert main(["run", SCENE, "-o", str(out), "-q", *SETS]) == 0
+    return out
+
+
+@pytest.mark.parametrize("kill_at", [60, 330])  # inside the first branch; inside a switched branch
+def test_killed_run_resumes_to_the_same_result(tmp_path, reference, kill_at):
+    out = tmp_path / "run"
+    proc = subprocess.Popen([sys.executable, "-m", "contin", "run", SCENE, "-o", str(out), "-q", *SETS],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    t0 = time.time()
+    while rows_of(out / "branches.csv") < kill_at and proc.poll() is None and time.time() - t0 < 120:
+        time.sleep(0.01)
+    assert proc.poll() is None, "the run finished before it could be killed"
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    # the files of the killed run parse, hold only finished points, and say the run did not complete
+    rows = read_csv(out / "branches.csv")
+    assert len(rows["delta"]) >= kill_at - 1 and np.all(np.isfinite(rows["delta"]))
+    assert json.loads((out / "summary.json").read_text())["status"] == "running"
+    assert main(["run", SCENE, "-o", str(out), "-q", "--resume", *SETS]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "complete" and summary["resumed"] is not None
+    assert special_summary(out) == special_summary(reference)
+    ref, got = read_csv(reference / "branches.csv"), read_csv(out / "branches.csv")
+    for b in np.unique(ref["branch"]):
+        r, g = ref["branch"] == b, got["branch"] == b
+        assert got["delta"][g][-1] == ref["delta"][r][-1]
+        np.testing.assert_allclose(got["amp_x"][g][-1], ref["amp_x"][r][-1], rtol=1e-7, atol=1e-9)
+        assert abs(g.sum() - r.sum()) <= 3  # the same branch, up to the steps around the restart
+
+
+def test_resume_refuses_a_different_scene(tmp_path, reference):
+    import shutil
+
+    out = tmp_path / "copy"
+    shutil.copytree(reference, out)
+    summary = json.loads((out / "summary.json").read_text())
+    summary["status"] = "running"
+    (out / "summary.json").write_text(json.dumps(summary))
+    assert main(["run", SCENE, "-o", str(out), "-q", "--resume", "--set", "analysis.harmonics=7"]) == 2
