@@ -266,9 +266,15 @@ class HarmonicBalance:
         f : ndarray, shape (N, n)
         dfdx, dfdxd : ndarray, shape (N, n, n)
         """
-        p = self.params_at(lam)
         x, xd, _ = self.samples_of(u, lam)
-        f, dfdx, dfdxd = (np.zeros_like(a) for a in self._work)
+        return tuple(a.copy() for a in self._forces_at(x, xd, self.params_at(lam)))
+
+    def _forces_at(self, x, xd, p):
+        """Nonlinear force and its derivatives at the samples, in the reused work arrays."""
+        f, dfdx, dfdxd = self._work
+        f[:] = 0.0
+        dfdx[:] = 0.0
+        dfdxd[:] = 0.0
         for el in self.model.forces:
             el.evaluate(x, xd, self.tau, p, f, dfdx, dfdxd)
         return f, dfdx, dfdxd
@@ -281,12 +287,7 @@ class HarmonicBalance:
         R = self.linear_matrix(p) @ u - fext
         if self.model.forces:
             x, xd, _ = self.samples_of(u, lam)
-            f, dfdx, dfdxd = self._work
-            f[:] = 0.0
-            dfdx[:] = 0.0
-            dfdxd[:] = 0.0
-            for el in self.model.forces:
-                el.evaluate(x, xd, self.tau, p, f, dfdx, dfdxd)
+            f, _, _ = self._forces_at(x, xd, p)
             R += aft.project(f, self.H).reshape(-1)
         self.evaluations += 1
         return R
@@ -310,13 +311,9 @@ class HarmonicBalance:
         Jlam = -dfext if dA is None else dA @ u - dfext
         if self.model.forces:
             x, xd, xp = self.samples_of(u, lam)
-            f, dfdx, dfdxd = self._work
-            f[:] = 0.0
-            dfdx[:] = 0.0
-            dfdxd[:] = 0.0
+            f, dfdx, dfdxd = self._forces_at(x, xd, p)
             dfdp = np.zeros((self.N, self.n))
             for el in self.model.forces:
-                el.evaluate(x, xd, self.tau, p, f, dfdx, dfdxd)
                 if el.depends_on(self.k):
                     el.evaluate_dp(x, xd, self.tau, p, self.k, dfdp)
             # when lambda is w, the velocity xdot = (w/nu) x'(theta) depends on it too

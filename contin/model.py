@@ -235,26 +235,25 @@ FORCE_ELEMENTS: dict[str, type] = {}
 EXCITATION_ELEMENTS: dict[str, type] = {}
 
 
-def register_force(kind: str):
-    """Class decorator: register a :class:`ForceElement` under ``kind``."""
-
+def _registrar(registry: dict, base: type, kind: str):
     def deco(cls):
+        if not issubclass(cls, base):
+            raise TypeError(f"{cls.__name__} must derive from {base.__name__} to be registered as '{kind}'")
         cls.kind = kind
-        FORCE_ELEMENTS[kind] = cls
+        registry[kind] = cls
         return cls
 
     return deco
+
+
+def register_force(kind: str):
+    """Class decorator: register a :class:`ForceElement` under ``kind``."""
+    return _registrar(FORCE_ELEMENTS, ForceElement, kind)
 
 
 def register_excitation(kind: str):
     """Class decorator: register an :class:`ExcitationElement` under ``kind``."""
-
-    def deco(cls):
-        cls.kind = kind
-        EXCITATION_ELEMENTS[kind] = cls
-        return cls
-
-    return deco
+    return _registrar(EXCITATION_ELEMENTS, ExcitationElement, kind)
 
 
 @dataclass

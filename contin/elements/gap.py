@@ -41,8 +41,35 @@ def _gap_kernel(x, xd, d, g, k, c, side, clip, f, dfdx, dfdxd, dp):
             f[j, d] += vj
 
 
+class _ContactForce(ForceElement):
+    """Shared parameter handling of the contact elements (clearance, stiffness, damping)."""
+
+    degree = None
+
+    def _values(self, p):
+        return self.clearance.value(p), self.stiffness.value(p), self.damping.value(p)
+
+    def _kernel(self, x, xd, values, f, dfdx, dfdxd, which):
+        raise NotImplementedError
+
+    def evaluate(self, x, xd, tau, p, f, dfdx, dfdxd):
+        self._kernel(x, xd, self._values(p), f, dfdx, dfdxd, 0)
+
+    def evaluate_dp(self, x, xd, tau, p, k, dfdp):
+        values = self._values(p)
+        for which, mono in ((1, self.clearance), (2, self.stiffness), (3, self.damping)):
+            dm = mono.derivative(p, k)
+            if dm != 0.0:
+                tmp = np.zeros_like(dfdp)
+                self._kernel(x, xd, values, tmp, self._dummy, self._dummy, which)
+                dfdp += dm * tmp
+
+    def depends_on(self, k):
+        return any(m.depends_on(k) for m in (self.clearance, self.stiffness, self.damping))
+
+
 @register_force("gap")
-class GapForce(ForceElement):
+class GapForce(_ContactForce):
     """Contact spring (and dashpot) beyond a clearance on one dof.
 
     ``f = k (x - g) + c x'`` while ``x > g`` (side ``+``), ``f = k (x + g) + c x'``
@@ -58,8 +85,6 @@ class GapForce(ForceElement):
     clip : bool
     """
 
-    degree = None
-
     def __init__(self, dof: int, clearance: Monomial, stiffness: Monomial, damping: Monomial = Monomial(0.0),
                  sides: str = "both", clip: bool = False, label: str = "gap"):
         if sides not in ("+", "-", "both"):
@@ -72,24 +97,9 @@ class GapForce(ForceElement):
         self.label = label
         self._dummy = np.zeros((1, 1, 1))
 
-    def _values(self, p):
-        return self.clearance.value(p), self.stiffness.value(p), self.damping.value(p)
-
-    def evaluate(self, x, xd, tau, p, f, dfdx, dfdxd):
-        g, k, c = self._values(p)
-        _gap_kernel(x, xd, self.dof, g, k, c, self.side, self.clip, f, dfdx, dfdxd, 0)
-
-    def evaluate_dp(self, x, xd, tau, p, k, dfdp):
-        g, kk, c = self._values(p)
-        for which, mono in ((1, self.clearance), (2, self.stiffness), (3, self.damping)):
-            dm = mono.derivative(p, k)
-            if dm != 0.0:
-                tmp = np.zeros_like(dfdp)
-                _gap_kernel(x, xd, self.dof, g, kk, c, self.side, self.clip, tmp, self._dummy, self._dummy, which)
-                dfdp += dm * tmp
-
-    def depends_on(self, k):
-        return any(m.depends_on(k) for m in (self.clearance, self.stiffness, self.damping))
+    def _kernel(self, x, xd, values, f, dfdx, dfdxd, which):
+        g, k, c = values
+        _gap_kernel(x, xd, self.dof, g, k, c, self.side, self.clip, f, dfdx, dfdxd, which)
 
     def describe(self, dof_names, param_names):
         return (f"{self.label}: contact on {dof_names[self.dof]} beyond clearance (sides {self.sides}), "
@@ -148,7 +158,7 @@ def _radial_kernel(x, xd, ix, iy, delta, k, c, clip, f, dfdx, dfdxd, dp):
 
 
 @register_force("radial_gap")
-class RadialGapForce(ForceElement):
+class RadialGapForce(_ContactForce):
     """Radial contact in the plane of two dofs (a bearing in a clearance).
 
     ``F = Fn (x/r, y/r)`` with ``r = sqrt(x^2 + y^2)`` and, for ``r >= delta``,
@@ -163,8 +173,6 @@ class RadialGapForce(ForceElement):
     clip : bool
     """
 
-    degree = None
-
     def __init__(self, dofs, clearance: Monomial, stiffness: Monomial, damping: Monomial = Monomial(0.0),
                  clip: bool = False, label: str = "radial_gap"):
         self.ix, self.iy = int(dofs[0]), int(dofs[1])
@@ -175,24 +183,9 @@ class RadialGapForce(ForceElement):
         self.label = label
         self._dummy = np.zeros((1, 1, 1))
 
-    def _values(self, p):
-        return self.clearance.value(p), self.stiffness.value(p), self.damping.value(p)
-
-    def evaluate(self, x, xd, tau, p, f, dfdx, dfdxd):
-        d, k, c = self._values(p)
-        _radial_kernel(x, xd, self.ix, self.iy, d, k, c, self.clip, f, dfdx, dfdxd, 0)
-
-    def evaluate_dp(self, x, xd, tau, p, k, dfdp):
-        d, kk, c = self._values(p)
-        for which, mono in ((1, self.clearance), (2, self.stiffness), (3, self.damping)):
-            dm = mono.derivative(p, k)
-            if dm != 0.0:
-                tmp = np.zeros_like(dfdp)
-                _radial_kernel(x, xd, self.ix, self.iy, d, kk, c, self.clip, tmp, self._dummy, self._dummy, which)
-                dfdp += dm * tmp
-
-    def depends_on(self, k):
-        return any(m.depends_on(k) for m in (self.clearance, self.stiffness, self.damping))
+    def _kernel(self, x, xd, values, f, dfdx, dfdxd, which):
+        d, k, c = values
+        _radial_kernel(x, xd, self.ix, self.iy, d, k, c, self.clip, f, dfdx, dfdxd, which)
 
     def describe(self, dof_names, param_names):
         return (f"{self.label}: radial contact of ({dof_names[self.ix]}, {dof_names[self.iy]}) beyond a clearance, "
