@@ -66,7 +66,7 @@ def cmd_check(args) -> int:
     a = scene.analysis
     print(f"scene: {scene.source}")
     print(model.describe())
-    print(f"parameters: " + ", ".join(f"{k}={v:g}" for k, v in model.parameters.items()))
+    print("parameters: " + ", ".join(f"{k}={v:g}" for k, v in model.parameters.items()))
     print(f"analysis: {a['type']}")
     if a["type"] == "frequency_response":
         from contin.analyses.frequency_response import build_problem

@@ -283,11 +283,11 @@ class _Builder:
             is_dof = name in dofs
             is_velocity = name.endswith("_dot") and name[:-4] in dofs
             if is_dof or is_velocity:
-                what = "the dof" if is_dof else "the velocity"
+                what = "dof" if is_dof else "velocity"
                 if allow_tau:
-                    return (f"the excitation cannot depend on {what} '{name}' "
+                    return (f"the excitation cannot depend on the {what} '{name}' "
                             f"(write state-dependent terms under model.forces)")
-                return f"this entry may only use parameters, and '{name}' is a {'dof' if is_dof else 'velocity'} of the model"
+                return f"this entry may only use parameters, and '{name}' is a {what} of the model"
             if name == "tau" and not allow_tau:
                 return "'tau' (the excitation phase) is not allowed here; this entry may only use parameters"
             if name.endswith("_dot") and allow_state:
@@ -318,13 +318,16 @@ class _Builder:
         """A Monomial when the expression is a product of parameter powers, else an ExpressionCoefficient."""
         if value is None or isinstance(value, bool) or not isinstance(value, (int, float, str)):
             raise self.error(key, what, _short(value))
-        node = self.expression(value, key, what=what)
+        return self.coefficient_of(self.expression(value, key, what=what), key, value)
+
+    def coefficient_of(self, node, key: str, original):
+        """Coefficient object of a parameter expression, checked finite at the default parameters."""
         mono = _monomial(node, self.pnames)
         coef = mono if mono is not None else ExpressionCoefficient(node, self.pnames, key)
         with np.errstate(all="ignore"):
             v = float(coef.value(self.p0))
         if not math.isfinite(v):
-            raise self.error(key, what + " with a finite value at the default parameters", _short(value),
+            raise self.error(key, "a finite value at the default parameters", _short(original),
                              f"; it evaluates to {v}")
         return coef
 
@@ -362,13 +365,7 @@ class _Builder:
                 if node == ex.ZERO:
                     continue
                 used |= ex.free_names(node) & set(self.pnames)
-                mono = _monomial(node, self.pnames)
-                coef = mono if mono is not None else ExpressionCoefficient(node, self.pnames, ekey)
-                with np.errstate(all="ignore"):
-                    v = float(coef.value(self.p0))
-                if not math.isfinite(v):
-                    raise self.error(ekey, "an entry with a finite value at the default parameters", _short(e),
-                                     f"; it evaluates to {v}")
+                coef = self.coefficient_of(node, ekey, e)
                 A = np.zeros((n, n))
                 A[i, j] = 1.0
                 terms.append((coef, A))
@@ -412,8 +409,8 @@ class _Builder:
             raise self.error(f"{key}.clearance", "a clearance >= 0 at the default parameters",
                              _short(item["clearance"]))
         stiffness = self.coefficient(item["stiffness"], f"{key}.stiffness")
-        damping = self.coefficient(item.get("damping", 0.0) if item.get("damping") is not None else 0.0,
-                                   f"{key}.damping")
+        damping = item.get("damping")
+        damping = self.coefficient(0.0 if damping is None else damping, f"{key}.damping")
         return clearance, stiffness, damping
 
     def forces(self):
@@ -537,7 +534,7 @@ class _Builder:
             c_used |= g_used
             G_text = f"gyroscopic: ({ex.to_text(speed)})*G ({self.n}x{self.n}) added to the damping"
         Mv = M.value(self.p0)
-        if np.linalg.matrix_rank(Mv) < self.n or np.linalg.cond(Mv) > 1e14:
+        if _singular(Mv):
             raise self.error("model.mass", "a nonsingular matrix at the default parameters", _short(Mv.tolist()))
         forces, force_kinds = self.forces()
         excitations = self.excitations()
@@ -578,6 +575,15 @@ class _Builder:
             if isinstance(name, str):
                 check_continuation_parameter(model, name, f"analysis.{k}", self.lines)
         return model
+
+
+def _singular(M: np.ndarray) -> bool:
+    """Rank test after scaling by the diagonal, so widely different masses (1e-6 and 1e6) are not singular."""
+    d = np.abs(np.diag(M))
+    if np.all(d > 0):
+        s = 1.0 / np.sqrt(d)
+        M = M * s[:, None] * s[None, :]
+    return bool(np.linalg.matrix_rank(M) < M.shape[0])
 
 
 def _monomial(node, pnames) -> Monomial | None:

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import ast
 import math
+import warnings
 from typing import Callable, Iterable, Mapping
 
 import numpy as np
@@ -64,6 +65,17 @@ __all__ = [
     "harmonic_bound",
     "depth",
     "measure",
+    "free_names_cached",
+    "add",
+    "sub",
+    "neg",
+    "mul",
+    "div",
+    "power",
+    "call",
+    "select",
+    "ZERO",
+    "ONE",
 ]
 
 #: longest accepted expression text (characters)
@@ -311,12 +323,13 @@ def sub(a: Node, b: Node) -> Node:
 
 def mul(*factors: Node, divisors: Iterable[Node] = ()) -> Node:
     """Product with nested products flattened, numbers folded, ``0*a -> 0`` and ``1*a -> a``."""
-    num, den, const = [], [], 1.0
+    num, den, knum, kden = [], [], [], []
+    sign = 1.0
 
     def take(node, into_num):
-        nonlocal const
+        nonlocal sign
         while isinstance(node, Neg):
-            const = -const
+            sign = -sign
             node = node.arg
         if isinstance(node, Mul):
             for f in node.factors:
@@ -324,36 +337,38 @@ def mul(*factors: Node, divisors: Iterable[Node] = ()) -> Node:
             for d in node.divisors:
                 take(d, not into_num)
             return
-        if isinstance(node, Num):
-            if into_num:
-                const *= node.value
-                return
-            if node.value != 0.0:
-                const /= node.value
-                return
-        (num if into_num else den).append(node)
+        if isinstance(node, Num) and (into_num or node.value != 0.0):
+            (knum if into_num else kden).append(node.value)
+            return
+        (num if into_num else den).append(node)  # includes division by a literal zero (inf at run time)
 
     for f in factors:
         take(f, True)
     for d in divisors:
         take(d, False)
+    const = sign
+    for v in knum:
+        const *= v
+    for v in kden:
+        const /= v
     if const == 0.0:
         return ZERO
-    sign = 1.0
     if not math.isfinite(const):
-        num.insert(0, Num(math.copysign(1.7976931348623157e308, const)))
-        num.insert(0, Num(2.0))  # overflow of folded constants: keep it as an overflowing product
+        # overflow of the folded numbers: keep them apart, as the arithmetic would
+        num = [Num(v) for v in knum] + ([Num(sign)] if sign < 0 else []) + num
+        den = [Num(v) for v in kden] + den
+        return Mul(num, den)
+    negative = const == -1.0
+    if negative:
         const = 1.0
-    if const == -1.0:
-        sign, const = -1.0, 1.0
     if const != 1.0:
         num.insert(0, Num(const))
     if not num and not den:
-        return Num(sign * const)
+        return Num(const)
     if not num:
         num = [ONE]
     node = num[0] if (len(num) == 1 and not den) else Mul(num, den)
-    return Neg(node) if sign < 0 else node
+    return Neg(node) if negative else node
 
 
 def div(a: Node, b: Node) -> Node:
@@ -538,7 +553,9 @@ def parse(text, where: str = "expression", names: Iterable[str] | None = None) -
     if not text.strip():
         raise ExpressionError(where, "empty expression")
     try:
-        tree = ast.parse(text.strip(), mode="eval")
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # e.g. "invalid decimal literal" for '1x': reported as an error below
+            tree = ast.parse(text.strip(), mode="eval")
     except SyntaxError as exc:
         msg = exc.msg or "invalid syntax"
         col = f" at column {exc.offset}" if exc.offset else ""
@@ -601,15 +618,8 @@ def _convert(node: ast.AST, where: str) -> Node:
 
 
 def free_names(node: Node) -> set:
-    """Names used in an expression (without the constant ``pi`` if it is not shadowed)."""
-    out, stack = set(), [node]
-    while stack:
-        n = stack.pop()
-        if isinstance(n, Var):
-            out.add(n.name)
-        else:
-            stack.extend(n.children())
-    return out
+    """Names used in an expression (including ``pi`` if it appears)."""
+    return set(free_names_cached(node))
 
 
 def check_names(node: Node, names: Iterable[str], where: str, explain: Callable[[str], str | None] | None = None):

@@ -45,11 +45,16 @@ def build_model(scene: Scene) -> Model:
         except ValueError as exc:
             raise SceneError("model.builtin", "the name of a built-in model (see `contin models`)", m["builtin"],
                              scene.lines.get("model.builtin"), hint=str(exc).split(m["builtin"] + "'", 1)[-1]) from None
+        from contin.scene import _number
+
         params = {}
         for k, v in m["parameters"].items():
-            if isinstance(v, bool) or not isinstance(v, (int, float)):
-                raise scene.error(f"model.parameters.{k}", "a number", v)
-            params[k] = v
+            if not _number(v):
+                raise scene.error(f"model.parameters.{k}", "a finite number", v if not isinstance(v, int) else str(v)[:40])
+            params[k] = float(v)
+        for k in m["options"]:
+            if not isinstance(k, str):
+                raise scene.error("model.options", "option names (strings)", k)
         try:
             return spec.build(params, m["effects"], **m["options"])
         except ValueError as exc:

@@ -33,7 +33,12 @@ class SceneError(ValueError):
 
 # ---------------------------------------------------------------- checkers
 def _number(v) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+    if not isinstance(v, (int, float)) or isinstance(v, bool):
+        return False
+    try:
+        return math.isfinite(v)
+    except OverflowError:  # a YAML integer beyond the float range
+        return False
 
 
 def _int(v) -> bool:
@@ -105,9 +110,10 @@ FREQUENCY_RESPONSE = {
                  required=True),
     "start": number(),
     "frequency": string(),
-    "harmonics": integer(5, 1),
-    "subharmonic": integer(1, 1),
-    "samples": Key("an integer >= 2*harmonics+1, or null", lambda v: v is None or (_int(v) and v >= 3), None),
+    "harmonics": Key("an integer from 1 to 2000", lambda v: _int(v) and 1 <= v <= 2000, 5),
+    "subharmonic": Key("an integer from 1 to 64", lambda v: _int(v) and 1 <= v <= 64, 1),
+    "samples": Key("an integer from 2*harmonics+1 to 2**20, or null",
+                   lambda v: v is None or (_int(v) and 3 <= v <= 2**20), None),
     "stability": string("both", ("hill", "floquet", "both", "none")),
     "stability_options": mapping(),
     "switch": listing([], lambda x: x in ("pd", "bp"), "a list of bifurcation kinds among 'pd', 'bp'"),
@@ -288,7 +294,7 @@ def parse_scene(text: str, source: str = "<string>", overrides=()) -> Scene:
     model = _check_section(model, schema, "model", lines)
     analysis = data["analysis"]
     atype = analysis.get("type")
-    if atype not in ANALYSES:
+    if not isinstance(atype, str) or atype not in ANALYSES:
         raise SceneError("analysis.type", "one of " + ", ".join(repr(a) for a in ANALYSES), atype,
                          lines.get("analysis.type"), hint=suggest(atype, ANALYSES) if isinstance(atype, str) else "")
     analysis = _check_section(analysis, ANALYSES[atype], "analysis", lines)

@@ -151,6 +151,14 @@ def test_element_kinds_are_registered():
     assert EXCITATION_ELEMENTS["expr"] is ExpressionExcitation
 
 
+def test_build_custom_model_is_what_the_runner_calls():
+    sc = load_scene(ROOT / "scenes/custom_duffing.yaml")
+    model = build_custom_model(sc)
+    assert model.name == "custom_duffing" and model.param_names == ("m", "c", "k", "g", "F", "w")
+    assert model.effects == ("mass", "damping", "stiffness", "expr", "excitation")
+    assert [type(f) for f in model.forces] == [ExpressionForce]
+
+
 def test_model_description_lists_the_terms():
     model = custom(RICH)
     text = model.describe()
@@ -230,8 +238,7 @@ model:
 def test_gap_oscillator_first_harmonic_matches_describing_function(A):
     """H = 1: R = [mean, (k - w^2 m + k_eq(A)) A - F, -c w A] with the dead-zone describing function."""
     g, kc, c, F = 1.0, 20.0, 0.05, 0.2
-    N = 4096
-    for sides in ("both", "'+'"):
+    for sides, N in (("both", 256), ("both", 4096), ("'+'", 4096)):
         model = custom(GAP.replace("SIDES", sides))
         hb = HarmonicBalance(model, "w", HBOptions(harmonics=1, samples=N))
         for w in (0.7, 2.0):
@@ -244,8 +251,8 @@ def test_gap_oscillator_first_harmonic_matches_describing_function(A):
                 th0 = math.acos(g / A)
                 mean = kc / math.pi * (A * math.sin(th0) - g * th0)
             expected = np.array([mean, (1.0 - w * w + keq) * A - F, -c * w * A])
-            # trapezoidal AFT on a force with kinks: error O(kc A / N^2)
-            np.testing.assert_allclose(R, expected, atol=20 * kc * A / N**2 + 1e-12)
+            # sampling a force with kinks (at the contact onsets): error O(kc A / N^2), about 1.2 kc A / N^2 here
+            np.testing.assert_allclose(R, expected, atol=3 * kc * A / N**2 + 1e-12)
 
 
 def test_gap_element_and_equivalent_expression_agree(rng):
@@ -350,6 +357,11 @@ def test_bad_custom_input_names_the_key(old, new, pattern):
         custom(text)
 
 
+def test_badly_scaled_but_regular_mass_is_accepted():
+    model = custom(BASE.replace("  mass: [[m, 0], [0, m]]", "  mass: [[1e-8, 0], [0, 1e8]]"))
+    np.testing.assert_allclose(np.diag(model.mass.value(model.parameter_vector())), [1e-8, 1e8])
+
+
 def test_unknown_name_error_has_the_yaml_line():
     text = textwrap.dedent(BASE).replace('"g*x**3"', '"g*xx**3"')
     with pytest.raises(SceneError) as info:
@@ -423,6 +435,33 @@ def test_cache_file_is_written_once_and_repaired(tmp_path, monkeypatch):
     assert not [p for p in tmp_path.iterdir() if p.suffix == ".tmp"]
     assert codegen.kernel_cache_dir() == tmp_path
     assert codegen.load_module(source).VALUE == 1
+
+
+RACE_CODE = """
+import sys
+from contin import codegen
+mod = codegen.load_module("# race\\nVALUE = 42\\n" + "X = 1\\n" * 20000)
+print(mod.VALUE, mod.__file__)
+"""
+
+
+def test_processes_racing_to_write_a_kernel_module(tmp_path):
+    env = dict(os.environ, CONTIN_CACHE_DIR=str(tmp_path))
+    procs = [subprocess.Popen([sys.executable, "-c", RACE_CODE], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                              text=True, env=env) for _ in range(6)]
+    outs = [p.communicate(timeout=60) for p in procs]
+    assert all(p.returncode == 0 for p in procs), [e for _, e in outs]
+    files = {o.split()[1] for o, _ in outs}
+    assert {o.split()[0] for o, _ in outs} == {"42"} and len(files) == 1
+    assert sorted(p.name for p in tmp_path.iterdir() if p.is_file()) == [Path(files.pop()).name]
+
+
+def test_unwritable_cache_directory_falls_back(tmp_path, monkeypatch):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a directory")
+    monkeypatch.setenv("CONTIN_CACHE_DIR", str(blocker / "kernels"))
+    mod = codegen.load_module("# fallback test\nVALUE = 7\n")
+    assert mod.VALUE == 7 and not str(mod.__file__).startswith(str(blocker))
 
 
 # ---------------------------------------------------------------- example scenes

@@ -126,11 +126,14 @@ def mutated_scene(draw):
     data = copy.deepcopy(draw(st.sampled_from(BASES)))
     for _ in range(draw(st.integers(1, 3))):
         paths = [p for p in _paths(data) if p]
+        inner = [p for p in paths if len(p) >= 2 and p[0] == "model"]
+        if inner and draw(st.integers(0, 4)) < 4:  # mostly inside the model section, the code under test
+            paths = inner
         if not paths:
             break
         path = draw(st.sampled_from(paths))
         parent, last = _get(data, path[:-1]), path[-1]
-        op = draw(st.sampled_from(["delete", "rename", "value", "expr", "wrap", "stringify", "nested", "add_key"]))
+        op = draw(st.sampled_from(["value", "expr", "rename", "delete", "wrap", "stringify", "nested", "add_key"]))
         if op == "delete":
             del parent[last]
         elif op == "rename" and isinstance(parent, dict):
@@ -238,4 +241,23 @@ def test_random_overrides(overrides):
 def test_custom_duffing_scene_still_builds():
     model = build_model(parse_scene((ROOT / "scenes/custom_duffing.yaml").read_text()))
     assert model.degree == 3
-    assert os.path.exists(ROOT / "scenes/gap_oscillator.yaml")
+
+
+HUGE = 10**400
+# Inputs the fuzzing once found escaping as TypeError, OverflowError or MemoryError.
+ESCAPES = [
+    ("scenes/duffing.yaml", "analysis.type=[frequency_response]"),
+    ("scenes/duffing.yaml", "analysis.type={a: 1}"),
+    ("scenes/duffing.yaml", f"analysis.range=[0.5, {HUGE}]"),
+    ("scenes/duffing.yaml", "model.options={1: 2}"),
+    ("scenes/duffing.yaml", f"model.parameters.F={HUGE}"),
+    ("scenes/custom_duffing.yaml", f"analysis.harmonics={10**14}"),
+]
+
+
+@pytest.mark.parametrize("scene,override", ESCAPES, ids=[c[1][:30] for c in ESCAPES])
+def test_former_escapes_are_clean_errors(scene, override, capsys):
+    key = override.split("=", 1)[0]
+    assert main(["check", str(ROOT / scene), "--set", override]) == 2
+    err = capsys.readouterr().err.replace("\n", " ")
+    assert key.split(".")[0] in err and "expected" in err

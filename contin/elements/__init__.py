@@ -4,8 +4,10 @@ Importing this package registers the built-in element kinds in
 :data:`contin.model.FORCE_ELEMENTS` and :data:`contin.model.EXCITATION_ELEMENTS`.
 """
 
+from contin.elements.expression import ExpressionExcitation, ExpressionForce
 from contin.elements.gap import GapForce, RadialGapForce
 from contin.elements.harmonic import HarmonicExcitation
 from contin.elements.polynomial import PolynomialForce
 
-__all__ = ["PolynomialForce", "HarmonicExcitation", "GapForce", "RadialGapForce"]
+__all__ = ["PolynomialForce", "HarmonicExcitation", "GapForce", "RadialGapForce", "ExpressionForce",
+           "ExpressionExcitation"]

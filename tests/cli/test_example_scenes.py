@@ -70,3 +70,38 @@ def test_mathieu_duffing_scene_switches_at_period_doubling(tmp_path):
         sel = rows["branch"] == b
         start = rows["delta"][sel][np.argmin(rows["amp_x"][sel])]
         assert np.min(np.abs(pds - start)) < 1e-2
+
+
+def test_absorber_exercise_matches_den_hartog_and_the_closed_form_frf(tmp_path):
+    rows, sp = run("absorber_exercise.yaml", tmp_path)
+    m1, k1, m2, F = 100.0, 5e5, 10.0, 1.0
+    beta = m2 / m1
+    p = np.sqrt(k1 / m1)
+    k2 = k1 * beta / (1 + beta) ** 2
+    c = 2 * m2 * p * np.sqrt(3 * beta / (8 * (1 + beta) ** 3))
+    assert abs(k2 - 41322.31) < 0.01 and abs(c - 237.379) < 1e-3  # the exercise's answers
+    M = np.diag([m1, m2])
+    C = np.array([[c, -c], [-c, c]])
+    K = np.array([[k1 + k2, -k2], [-k2, k2]])
+    X1 = np.array([abs(np.linalg.solve(K - w**2 * M + 1j * w * C, [F, 0.0])[0]) for w in rows["w"]])
+    np.testing.assert_allclose(rows["amp_x1"], X1, rtol=1e-10)
+    # Den Hartog: both fixed points at height sqrt((2 + beta)/beta) delta_st; the optimum's true peak
+    # lies slightly above them
+    height = np.sqrt((2 + beta) / beta)
+    peak = rows["amp_x1"].max() / (F / k1)
+    assert height <= peak < 1.03 * height
+
+
+def test_gap_oscillator_is_linear_inside_the_clearance_and_folds_beyond(tmp_path):
+    rows, sp = run("gap_oscillator.yaml", tmp_path)
+    c, F, g = 0.05, 0.2, 1.0
+    w = rows["w"]
+    free = rows["max_x"] < g - 1e-9  # never touches a stop: exactly the linear oscillator
+    assert free.sum() > 10
+    linear = F / np.sqrt((1 - w[free] ** 2) ** 2 + (c * w[free]) ** 2)
+    np.testing.assert_allclose(rows["h1_x"][free], linear, rtol=1e-9)
+    np.testing.assert_allclose(rows["h3_x"][free], 0.0, atol=1e-12)
+    # beyond the clearance the stops harden the resonance: a jump region with two folds above w = 1
+    folds = np.sort(sp["w"][sp["kind"] == "fold"])
+    assert len(folds) == 2 and 1.0 < folds[0] < folds[1]
+    assert rows["max_x"].max() > g
