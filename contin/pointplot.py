@@ -26,7 +26,7 @@ def load_state_row(outdir: Path, row: int) -> dict:
                 rec = json.loads(line)
             except json.JSONDecodeError:
                 break  # a run killed mid-line: the rows before it are valid
-            if rec["row"] == row:
+            if rec.get("type", "point") == "point" and rec["row"] == row:
                 return rec
     raise SceneError("--point", f"a row number of {path.parent / 'branches.csv'}", row)
 
@@ -51,6 +51,9 @@ def plot_point(outdir: Path, row: int, samples: int = 512) -> Path:
     summary = json.loads((outdir / "summary.json").read_text())
     scene = parse_scene(yaml.safe_dump(summary["scene"]), str(outdir / "summary.json"))
     rec = load_state_row(outdir, row)
+    scene.analysis["subharmonic"] = rec["nu"]  # the row's own order and harmonic count
+    scene.analysis["harmonics"] = rec["H"]
+    scene.analysis["samples"] = None
     model = build_model(scene)
     hb = build_problem(scene, model)
     u = np.asarray(rec["u"], float)

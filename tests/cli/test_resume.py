@@ -74,3 +74,46 @@ def test_resume_refuses_a_different_scene(tmp_path, reference):
     summary["status"] = "running"
     (out / "summary.json").write_text(json.dumps(summary))
     assert main(["run", SCENE, "-o", str(out), "-q", "--resume", "--set", "analysis.harmonics=7"]) == 2
+
+
+def test_ctrl_c_stops_cleanly_with_what_was_computed(tmp_path):
+    out = tmp_path / "int"
+    proc = subprocess.Popen([sys.executable, "-m", "contin", "run", SCENE, "-o", str(out), *SETS],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    t0 = time.time()
+    while rows_of(out / "branches.csv") < 50 and proc.poll() is None and time.time() - t0 < 120:
+        time.sleep(0.01)
+    proc.send_signal(signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 130, stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "interrupted"
+    assert any(b["status"] == "interrupted" for b in summary["analysis"]["branches"])
+    rows = read_csv(out / "branches.csv")
+    assert len(rows["delta"]) >= 50 and (out / "bifurcation_diagram.png").exists()
+    assert "Traceback" not in stderr
+    # and the interrupted run can be resumed
+    assert main(["run", SCENE, "-o", str(out), "-q", "--resume", *SETS]) == 0
+
+
+def test_plot_command_draws_a_stored_point(tmp_path, reference):
+    assert main(["plot", str(reference), "--point", "300"]) == 0
+    assert (reference / "point_300.png").stat().st_size > 10_000
+    assert main(["plot", str(reference), "--point", "100000"]) == 2
+
+
+def test_progress_line_appears_only_for_long_runs():
+    import io
+
+    from contin.progress import Progress
+
+    buf = io.StringIO()
+    p = Progress(stream=buf, delay=0.0, interval=0.0)
+    p.update("branch 0  w=1.5  point 3")
+    p.close()
+    assert "w=1.5" in buf.getvalue()
+    quiet = io.StringIO()
+    q = Progress(stream=quiet, delay=10.0)
+    q.update("never shown")
+    q.close()
+    assert quiet.getvalue() == ""
