@@ -35,7 +35,7 @@ def test_unknown_key_with_suggestion_and_line():
 
 
 @pytest.mark.parametrize("override,pattern", [
-    ("analysis.harmonics=ten", r"analysis.harmonics.*integer >= 1.*found 'ten'"),
+    ("analysis.harmonics=ten", r"analysis.harmonics.*integer from 1 to 2000.*found 'ten'"),
     ("analysis.harmonics=2.5", r"analysis.harmonics.*integer"),
     ("analysis.range=[1]", r"analysis.range.*two different numbers.*found \[1\]"),
     ("analysis.range=[2, 2]", r"analysis.range.*two different numbers"),

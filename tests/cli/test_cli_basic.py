@@ -61,7 +61,7 @@ def test_check_without_forcing_effect_has_no_forcing_term(tmp_path, capsys):
 @pytest.mark.parametrize("override,fragment", [
     ("analysis.harmonic=3", "analysis.harmonic.*did you mean 'harmonics'"),
     ("analysis.range=[1, 1]", "analysis.range.*two different numbers"),
-    ("analysis.harmonics=0", "analysis.harmonics.*integer >= 1"),
+    ("analysis.harmonics=0", "analysis.harmonics.*integer from 1 to 2000"),
     ("model.builtin=dufing", "model.builtin.*did you mean 'duffing'"),
     ("model.parameters.FF=1", "model.parameters.FF.*did you mean 'F'"),
 ])
