@@ -9,3 +9,19 @@ The package is layered so that each idea lives in one module:
 """
 
 __version__ = "0.1.0"
+
+
+def _find_models_in_source_tree():
+    # Installed, the built-in models are the subpackage contin/models. In a source
+    # checkout they live in ../models (the project layout); make them importable as
+    # contin.models there too, so `python -m contin` works from the repository root.
+    import os
+
+    here = os.path.dirname(os.path.abspath(__file__))
+    root = os.path.dirname(here)
+    if not os.path.isdir(os.path.join(here, "models")) and os.path.isfile(os.path.join(root, "models", "__init__.py")):
+        if root not in __path__:
+            __path__.append(root)
+
+
+_find_models_in_source_tree()
