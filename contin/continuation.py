@@ -811,16 +811,39 @@ class _Engine:
         h = cand.h
         xb = cand.x
 
-        def point_at(sigma: float):
-            guess = xa + (sigma / h) * (xb - xa)
+        def solve_on_arc(sigma: float):
+            # chord guess first; where Newton's basin is smaller than the chord's
+            # error (stiff contact), march from the earlier point in substeps
+            # along the family of hyperplanes normal to its tangent
             try:
-                res = self._bordered_solve(guess, xa, ta, sigma)
+                res = self._bordered_solve(xa + (sigma / h) * (xb - xa), xa, ta, sigma)
+                if res.converged and res.lu is not None:
+                    return res, ""
+                for n_sub in (4, 16):
+                    x, t, ok = xa, ta, True
+                    for k in range(1, n_sub + 1):
+                        sk = sigma * k / n_sub
+                        res = self._bordered_solve(x + (sigma / n_sub) * t / max(float(t @ ta), 0.1), xa, ta, sk)
+                        if not res.converged or res.lu is None:
+                            ok = False
+                            break
+                        x = res.x
+                        z = res.lu.solve(self._e_last)
+                        t = z / np.linalg.norm(z)
+                        if float(t @ ta) < 0:
+                            t = -t
+                    if ok:
+                        return res, ""
             except NUMERICAL_ERRORS as exc:
                 return None, f"evaluation failed ({type(exc).__name__}: {exc})"
-            if not res.converged:
-                return None, f"Newton did not converge ({res.message})"
             if res.lu is None:
                 return None, "singular bordered Jacobian"
+            return None, f"Newton did not converge ({res.message})"
+
+        def point_at(sigma: float):
+            res, why = solve_on_arc(sigma)
+            if res is None:
+                return None, why
             z = res.lu.solve(self._e_last)
             nz = float(np.linalg.norm(z))
             if not (math.isfinite(nz) and nz > 0):

@@ -1,0 +1,182 @@
+"""Rotor whose lower bearing hits its casing through a radial clearance (seed 001).
+
+Nondimensional equations (Inagaki, Ishida & Hayashi, Trans. JSME C 71-702
+(2005), eq. 11; two printed lines drop a dot, restored here):
+
+    x1'' + ip w y1' + c1 x1' + (x1 - alpha x2)        = e w^2 cos(w t)
+    y1'' - ip w x1' + c1 y1' + (y1 - alpha y2)        = e w^2 sin(w t) + f0
+    beta x2'' + c2 x2' + ks2 (alpha x2 - x1) + (x2/r2) Fn = 0
+    beta y2'' + c2 y2' + ks2 (alpha y2 - y1) + (y2/r2) Fn = 0
+
+    r2 = sqrt(x2^2 + y2^2),  Fn = kbn (r2 - delta) + cbn (x2' cos th + y2' sin th)  for r2 >= delta, else 0.
+
+dofs ``x1, y1`` (disc) and ``x2, y2`` (lower bearing).
+
+Contact law option ``clip``: the paper's law (eq. 3) lets the damping term
+pull the bearing back while it separates (``Fn < 0`` during rebound); with
+``clip: true`` ``Fn`` is cut at zero (no adhesion). The default is
+``clip: false``, the paper's law, so that its diagrams are reproduced; with
+``cbn = 0.515`` against ``kbn = 12881`` the adhesive part is small.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.integrate import quad
+
+from contin.catalog import ModelSpec, register_model
+from contin.elements import HarmonicExcitation, RadialGapForce
+from contin.model import Model, Monomial, ParametricMatrix
+
+__all__ = ["bearing_rotor", "hertz_cylinder_stiffness", "contact_damping", "restitution_coefficient"]
+
+PARAMETERS = {"alpha": 0.611, "ks2": 0.611, "ip": 0.1, "beta": 0.019, "delta": 0.1, "e": 0.5, "f0": 0.5,
+              "kbn": 12881.0, "cbn": 0.515, "c1": 0.005, "c2": 0.05, "w": 2.0}
+EFFECTS = {
+    "gyroscopic": "gyroscopic coupling ip*w of the disc (x1', y1')",
+    "unbalance": "unbalance forcing e*w^2 (cos, sin)(w t) on the disc",
+    "static_force": "static lateral force f0 on y1",
+    "contact": "radial contact spring kbn*(r2 - delta) of the bearing beyond the clearance",
+    "contact_damping": "contact damping cbn * radial velocity while in contact",
+    "disc_damping": "disc damping c1",
+    "bearing_damping": "bearing damping c2",
+}
+
+
+def _mono(text: str, names) -> Monomial:
+    return Monomial.parse(text, list(names), "bearing_rotor")
+
+
+def _build(params: dict, effects: tuple, clip: bool = False) -> Model:
+    names = list(params)
+    z = 0
+    C = [[("c1" if "disc_damping" in effects else z), ("ip*w" if "gyroscopic" in effects else z), z, z],
+         [("-ip*w" if "gyroscopic" in effects else z), ("c1" if "disc_damping" in effects else z), z, z],
+         [z, z, ("c2" if "bearing_damping" in effects else z), z],
+         [z, z, z, ("c2" if "bearing_damping" in effects else z)]]
+    K = [[1, z, "-alpha", z], [z, 1, z, "-alpha"], ["-ks2", z, "ks2*alpha", z], [z, "-ks2", z, "ks2*alpha"]]
+    M = [[1, z, z, z], [z, 1, z, z], [z, z, "beta", z], [z, z, z, "beta"]]
+    forces, excitations = [], []
+    terms = ["M x'' + K x (frequency domain): disc 1, bearing beta; shaft stiffness alpha, ks2"]
+    if "gyroscopic" in effects:
+        terms.append("gyroscopic +-ip*w on the disc velocities (frequency domain)")
+    if "disc_damping" in effects or "bearing_damping" in effects:
+        terms.append("damping " + ", ".join(n for n, e in (("c1", "disc_damping"), ("c2", "bearing_damping")) if e in effects)
+                     + " (frequency domain)")
+    if "contact" in effects:
+        damping = _mono("cbn", names) if "contact_damping" in effects else Monomial(0.0)
+        forces.append(RadialGapForce((2, 3), _mono("delta", names), _mono("kbn", names), damping, clip=clip,
+                                     label="contact"))
+    elif "contact_damping" in effects:
+        raise ValueError("model.effects: 'contact_damping' needs 'contact'")
+    if "unbalance" in effects:
+        excitations.append(HarmonicExcitation(0, _mono("e*w^2", names), 1.0, 0.0, "unbalance"))
+        excitations.append(HarmonicExcitation(1, _mono("e*w^2", names), 1.0, -math.pi / 2, "unbalance"))
+    if "static_force" in effects:
+        excitations.append(HarmonicExcitation(1, _mono("f0", names), 0.0, 0.0, "static_force"))
+    return Model(
+        name="bearing_rotor",
+        dof_names=("x1", "y1", "x2", "y2"),
+        parameters=dict(params),
+        mass=ParametricMatrix.from_entries(M, names, "model.mass"),
+        damping=ParametricMatrix.from_entries(C, names, "model.damping"),
+        stiffness=ParametricMatrix.from_entries(K, names, "model.stiffness"),
+        forces=forces,
+        excitations=excitations,
+        effects=tuple(effects),
+        terms=terms,
+    )
+
+
+bearing_rotor = register_model(
+    ModelSpec(
+        name="bearing_rotor",
+        summary="rotor with a radial clearance at the lower bearing (Inagaki, Ishida & Hayashi 2005)",
+        parameters=PARAMETERS,
+        effects=EFFECTS,
+        default_effects=tuple(EFFECTS),
+        builder=_build,
+        options={"clip": False},
+    )
+)
+
+
+def hertz_cylinder_stiffness(P_m: float, E1: float, nu1: float, E2: float, nu2: float, R1: float, R2: float,
+                             length: float) -> float:
+    """Equivalent linear contact stiffness of a cylinder inside a cylinder (eq. 4-6).
+
+    The approach of a convex cylinder (radius ``R1``, the bearing holder) pressed
+    into a concave one (``R2 > R1``, the casing) over the axial length ``l`` is
+
+        d(P) = 2P(k1 + k2)/(pi l) * (1.8864 + ln(l / (2 b))),
+        b = sqrt(2P(k1 + k2) R1 R2 / (pi l (R2 - R1))),   k_i = (1 - nu_i^2)/E_i.
+
+    The linear spring storing the same strain energy at the load ``P_m`` is
+    ``kbn = 2 S_m / d(P_m)^2`` with ``S_m = d(P_m) P_m - int_0^P_m d(P) dP``.
+
+    Parameters
+    ----------
+    P_m : float
+        Reference load [N] (the paper takes the largest bearing load at the
+        main resonance of the bearing-supported linear model).
+    E1, nu1, E2, nu2 : float
+        Young's moduli [Pa] and Poisson ratios of holder and casing.
+    R1, R2 : float
+        Radii [m], ``R2 > R1``.
+    length : float
+        Axial contact length [m].
+
+    Returns
+    -------
+    float
+        ``kbn`` [N/m].
+    """
+    if not (0 < R1 < R2) or min(P_m, E1, E2, length) <= 0:
+        raise ValueError("hertz_cylinder_stiffness needs 0 < R1 < R2 and positive load, moduli and length")
+    kk = (1 - nu1**2) / E1 + (1 - nu2**2) / E2
+
+    def approach(P):
+        if P <= 0:
+            return 0.0
+        b = math.sqrt(2 * P * kk * R1 * R2 / (math.pi * length * (R2 - R1)))
+        return 2 * P * kk / (math.pi * length) * (1.8864 + math.log(length / (2 * b)))
+
+    d_m = approach(P_m)
+    energy = d_m * P_m - quad(approach, 0.0, P_m, limit=200)[0]
+    return 2 * energy / d_m**2
+
+
+def contact_damping(restitution: float, m2: float, kbn: float) -> float:
+    """Contact damping from a restitution coefficient (eq. 7-9).
+
+    A bearing of mass ``m2`` hitting a spring ``kbn`` with a dashpot ``cbn``
+    rebounds after half a damped period with ``v1 = -v0 exp(-pi z / sqrt(1 - z^2))``,
+    ``z = cbn / (2 sqrt(m2 kbn))`` (eq. 7-8). Solving ``e = -v1/v0`` for ``cbn``:
+
+        cbn = 2 sqrt(m2 kbn) * (-ln e) / sqrt(pi^2 + (ln e)^2).
+
+    The paper prints eq. 9 as ``sqrt(2 (ln e)^2 m2 kbn / (pi^2 + (ln e)^2))``,
+    a factor ``sqrt(2)`` below this; eq. 7-8 as printed give the expression
+    above, which the tests check against a simulated impact.
+
+    Parameters
+    ----------
+    restitution : float
+        ``0 < e <= 1``.
+    m2, kbn : float
+        Bearing mass and contact stiffness (consistent units).
+    """
+    if not 0 < restitution <= 1 or m2 <= 0 or kbn <= 0:
+        raise ValueError("contact_damping needs 0 < restitution <= 1 and positive m2, kbn")
+    L = -math.log(restitution)
+    return 2 * math.sqrt(m2 * kbn) * L / math.sqrt(math.pi**2 + L**2)
+
+
+def restitution_coefficient(cbn: float, m2: float, kbn: float) -> float:
+    """Inverse of :func:`contact_damping` (eq. 7-8): ``e = exp(-pi z / sqrt(1 - z^2))``."""
+    z = cbn / (2 * math.sqrt(m2 * kbn))
+    if z >= 1:
+        return 0.0
+    return math.exp(-math.pi * z / math.sqrt(1 - z * z))
