@@ -178,12 +178,12 @@ def assemble_jacobian(dfdx, dfdxd, Omega, H, J):
         return
     Tv = np.zeros((m, m))
     multiplication_matrix(dfdxd, H, Tv, 1.0)
-    for l in range(1, H + 1):
-        for b in range(n):
-            ca = (2 * l - 1) * n + b
-            cb = 2 * l * n + b
+    for r in range(m):  # row by row: the arrays are C-ordered
+        for l in range(1, H + 1):
             s = Omega * l
-            for r in range(m):
+            for b in range(n):
+                ca = (2 * l - 1) * n + b
+                cb = 2 * l * n + b
                 J[r, ca] -= s * Tv[r, cb]
                 J[r, cb] += s * Tv[r, ca]
 

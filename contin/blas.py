@@ -27,6 +27,8 @@ def limit_blas_threads(threads: int | None = None):
         Default: ``$CONTIN_BLAS_THREADS`` or 1.
     """
     global _limiter
+    import numpy.linalg  # noqa: F401  (load both BLAS libraries first: limits apply to loaded ones)
+    import scipy.linalg  # noqa: F401
     from threadpoolctl import threadpool_limits
 
     if threads is None:

@@ -106,6 +106,24 @@ def linear_operator(M, C, K, Omega, H, out, dOmega_only):
                 out[rs + a, rc + b] -= off
 
 
+@nb.njit(cache=True)
+def linear_apply(M, C, K, Omega, U):
+    """``A(Omega; M, C, K) u`` block by block, shape (2H+1, n), without the dense ``A``."""
+    n = M.shape[0]
+    H = (U.shape[0] - 1) // 2
+    out = K @ U[0]
+    res = np.empty((2 * H + 1, n))
+    res[0] = out
+    for k in range(1, H + 1):
+        a = U[2 * k - 1]
+        b = U[2 * k]
+        D = K - (k * Omega) ** 2 * M
+        G = k * Omega * C
+        res[2 * k - 1] = D @ a + G @ b
+        res[2 * k] = D @ b - G @ a
+    return res
+
+
 class HarmonicBalance:
     """The residual ``R(u, lambda)`` of a model's periodic solutions.
 
@@ -163,6 +181,7 @@ class HarmonicBalance:
         self._fext_key = None
         # M, C, K are fixed during a run unless they depend on lambda: split once
         self._lin_parts = None if self._linear_depends_on_lambda() else self._split_linear(self.p0)
+        self._MCK = self.model.linear(self.p0)
         self._work = (
             np.zeros((self.N, self.n)),
             np.zeros((self.N, self.n, self.n)),
@@ -205,27 +224,29 @@ class HarmonicBalance:
         """The linear operator ``A(Omega, p)``, shape (size, size)."""
         Omega = p[self.kw] / self.nu
         if self._lin_parts is None:
-            A0, A1, A2 = self._split_linear(p)
-        else:
-            A0, A1, A2 = self._lin_parts
+            M, C, K = self.model.linear(p)
+            A = np.zeros((self.size, self.size))
+            linear_operator(M, C, K, Omega, self.H, A, False)
+            return A
+        A0, A1, A2 = self._lin_parts
         return A0 + Omega * A1 + Omega * Omega * A2
 
-    def _linear_matrix_dp(self, p: np.ndarray) -> np.ndarray:
+    def _linear_dp_times(self, p: np.ndarray, u: np.ndarray):
+        """``(dA/dlambda) u``, shape (size,), without forming ``dA``; None if ``A`` does not depend on lambda."""
         Omega = p[self.kw] / self.nu
+        U = np.ascontiguousarray(coefficient_blocks(u, self.n))
         if self._lin_parts is None:
             M, C, K = self.model.linear(p)
             dM, dC, dK = self.model.linear_dp(p, self.k)
-            dA = np.zeros((self.size, self.size))
-            linear_operator(dM, dC, dK, Omega, self.H, dA, False)
+            out = linear_apply(dM, dC, dK, Omega, U)
             if self.k == self.kw:
-                dOm = np.zeros((self.size, self.size))
-                linear_operator(M, C, K, Omega, self.H, dOm, True)
-                dA += dOm / self.nu
-            return dA
+                # d/dOmega of [K - k^2 Omega^2 M, k Omega C] is A at Omega = 1 with M -> 2 Omega M, K -> 0
+                out += linear_apply(2.0 * Omega * M, C, np.zeros_like(K), 1.0, U) / self.nu
+            return out.reshape(-1)
         if self.k != self.kw:
             return None  # the linear part does not depend on lambda
         _, A1, A2 = self._lin_parts
-        return (A1 + 2.0 * Omega * A2) / self.nu
+        return (A1 @ u + 2.0 * Omega * (A2 @ u)) / self.nu
 
     # -- excitation -------------------------------------------------------
     def excitation(self, p: np.ndarray):
@@ -284,7 +305,9 @@ class HarmonicBalance:
         """``R(u, lambda)``, shape (size,)."""
         p = self.params_at(lam)
         fext, _ = self.excitation(p)
-        R = self.linear_matrix(p) @ u - fext
+        M, C, K = self.model.linear(p) if self._lin_parts is None else self._MCK
+        U = np.ascontiguousarray(coefficient_blocks(u, self.n))
+        R = linear_apply(M, C, K, p[self.kw] / self.nu, U).reshape(-1) - fext
         if self.model.forces:
             x, xd, _ = self.samples_of(u, lam)
             f, _, _ = self._forces_at(x, xd, p)
@@ -307,8 +330,8 @@ class HarmonicBalance:
         fext, dfext = self.excitation(p)
         J = self.linear_matrix(p)
         R = J @ u - fext
-        dA = self._linear_matrix_dp(p)
-        Jlam = -dfext if dA is None else dA @ u - dfext
+        dAu = self._linear_dp_times(p, u)
+        Jlam = -dfext if dAu is None else dAu - dfext
         if self.model.forces:
             x, xd, xp = self.samples_of(u, lam)
             f, dfdx, dfdxd = self._forces_at(x, xd, p)

@@ -1,0 +1,86 @@
+"""Robust starting points for stiff problems: homotopy in a parameter.
+
+A Newton solve of a harmonic-balance problem from the linear solution can fail
+when the problem is stiff or its linear part is singular. The rotor with a
+clearance bearing is both: out of contact the shaft pivots as a rigid body
+(singular K), and in contact the contact is 12881 times stiffer than the shaft,
+so Newton's basin is tiny. A homotopy in the contact stiffness solves the soft
+problem first (a wide basin, where the static load alone fixes the contact
+side), then follows the solution with the continuation engine to the real
+stiffness, and finally to the wanted start value of the continuation
+parameter if the homotopy had to be done elsewhere.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from contin.continuation import ContinuationOptions, continuation
+from contin.harmonic_balance import HarmonicBalance
+from contin.newton import solve_at_parameter
+
+__all__ = ["HomotopyFailed", "homotopy_start"]
+
+
+class HomotopyFailed(RuntimeError):
+    """No start could be found; the message says which stage failed and why."""
+
+
+def homotopy_start(hb: HarmonicBalance, lam0: float, parameter: str, soft_value: float, guess: np.ndarray,
+                   at: float | None = None, options: ContinuationOptions | None = None) -> np.ndarray:
+    """A converged solution of ``hb`` at ``lam = lam0`` by homotopy in ``parameter``.
+
+    Parameters
+    ----------
+    hb : HarmonicBalance
+        The problem whose continuation parameter is ``lam``.
+    lam0 : float
+        Where the solution is wanted.
+    parameter : str
+        The homotopy parameter (e.g. the contact stiffness ``kbn``); its target
+        value is the one ``hb`` holds.
+    soft_value : float
+        Its value in the easy problem.
+    guess : ndarray, shape (hb.size,)
+        Start guess for the easy problem.
+    at : float, optional
+        Value of ``lam`` at which to do the homotopy (default ``lam0``); the
+        solution is then continued in ``lam`` to ``lam0``.
+    options : ContinuationOptions, optional
+
+    Returns
+    -------
+    ndarray, shape (hb.size,)
+
+    Raises
+    ------
+    HomotopyFailed
+    """
+    opts = options or ContinuationOptions(ds=0.01, ds_max=0.1, newton_max_iter=30)
+    at = lam0 if at is None else at
+    model = hb.model
+    target = float(hb.p0[model.parameter_index(parameter)])
+    params = dict(zip(model.param_names, hb.p0))
+    params[hb.parameter] = at
+    params[parameter] = soft_value
+    easy = HarmonicBalance(model, parameter, hb.options, params)
+    res = solve_at_parameter(easy, np.asarray(guess, float), soft_value, opts)
+    if not res.converged:
+        raise HomotopyFailed(f"the soft problem ({parameter}={soft_value:g}, {hb.parameter}={at:g}) did not "
+                             f"converge: {res.message}")
+    lo, hi = sorted((soft_value, target))
+    br = continuation(easy, res.x, soft_value, (lo, hi), opts.replace(direction=1 if target > soft_value else -1),
+                      parameter_name=parameter)
+    if not len(br) or br.parameter[-1] != target:
+        raise HomotopyFailed(f"the homotopy in {parameter} stopped at "
+                             f"{br.parameter[-1] if len(br) else soft_value:g} before {target:g}: {br.message}")
+    u = br.unknowns[-1]
+    if at == lam0:
+        return u
+    params[parameter] = target
+    lo, hi = sorted((at, lam0))
+    path = continuation(hb, u, at, (lo, hi), opts.replace(direction=1 if lam0 > at else -1),
+                        parameter_name=hb.parameter)
+    if not len(path) or path.parameter[-1] != lam0:
+        raise HomotopyFailed(f"continuing the start from {hb.parameter}={at:g} to {lam0:g} stopped: {path.message}")
+    return path.unknowns[-1]
