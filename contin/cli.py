@@ -96,6 +96,7 @@ def cmd_run(args) -> int:
 
 
 def main(argv=None) -> int:
+    from contin.runner import RunError
     from contin.scene import SceneError
 
     args = _parser().parse_args(argv)
@@ -115,6 +116,8 @@ def main(argv=None) -> int:
         return cmd_run(args)
     except SceneError as exc:
         return _fail(str(exc))
+    except RunError as exc:
+        return _fail(str(exc), EXIT_FAILED)
     except KeyboardInterrupt:
         return _fail("interrupted", EXIT_INTERRUPTED)
 

@@ -291,6 +291,9 @@ class Model:
     terms: list = field(default_factory=list)
     #: minimum AFT sample count requested by the model (e.g. for contact)
     min_samples: int = 0
+    #: optional ``start(hb, lam0) -> u0`` for models whose linear solution is no
+    #: usable start (stiff contact); raises :class:`contin.start.HomotopyFailed`
+    start: object = None
 
     registry_kind: ClassVar[str] = "model"
 

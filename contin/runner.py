@@ -17,7 +17,11 @@ from contin.progress import Progress
 from contin.results import write_json_atomic
 from contin.scene import Scene, SceneError
 
-__all__ = ["RunContext", "build_model", "run_scene", "versions"]
+__all__ = ["RunContext", "RunError", "build_model", "run_scene", "versions"]
+
+
+class RunError(RuntimeError):
+    """A run that could not proceed for numerical reasons (for example no starting solution)."""
 
 
 @dataclass
@@ -109,6 +113,10 @@ def run_scene(scene: Scene, outdir: str | Path, progress: bool = True, resume: b
     previous = signal.signal(signal.SIGINT, on_sigint) if _main_thread() else None
     try:
         result = get_runner(scene.analysis["type"])(ctx)
+    except RunError as exc:
+        summary.update({"status": "failed", "message": str(exc), "timings": ctx.timings})
+        write_json_atomic(outdir / "summary.json", summary)
+        raise
     finally:
         if previous is not None:
             signal.signal(signal.SIGINT, previous)

@@ -76,7 +76,7 @@ def _build(params: dict, effects: tuple, clip: bool = False) -> Model:
         excitations.append(HarmonicExcitation(1, _mono("e*w^2", names), 1.0, -math.pi / 2, "unbalance"))
     if "static_force" in effects:
         excitations.append(HarmonicExcitation(1, _mono("f0", names), 0.0, 0.0, "static_force"))
-    return Model(
+    model = Model(
         name="bearing_rotor",
         dof_names=("x1", "y1", "x2", "y2"),
         parameters=dict(params),
@@ -88,6 +88,31 @@ def _build(params: dict, effects: tuple, clip: bool = False) -> Model:
         effects=tuple(effects),
         terms=terms,
     )
+    if "contact" in effects:
+        model.start = _homotopy_start
+    return model
+
+
+def _homotopy_start(hb, lam0: float):
+    """Start by homotopy in the contact stiffness (see :mod:`contin.start`).
+
+    The guess puts disc and bearing on the side the static force pushes them
+    to; with a soft contact (``kbn = 20``) Newton converges from there. If the
+    homotopy fails at the start speed it is done at ``w = 2`` and the solution
+    continued in ``w`` to the start.
+    """
+    from contin.start import HomotopyFailed, homotopy_start
+
+    guess = np.zeros(hb.size)
+    f0 = hb.p0[hb.model.parameter_index("f0")]
+    side = 1.0 if f0 >= 0 else -1.0
+    guess[:4] = [0.0, side * 0.5, 0.0, side * 0.2]
+    try:
+        return homotopy_start(hb, lam0, "kbn", 20.0, guess)
+    except HomotopyFailed:
+        if hb.parameter != "w":
+            raise
+        return homotopy_start(hb, lam0, "kbn", 20.0, guess, at=2.0)
 
 
 bearing_rotor = register_model(

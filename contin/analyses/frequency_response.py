@@ -208,6 +208,14 @@ def run(ctx) -> dict:
         if len(a["guess"]) != hb.size:
             raise scene.error("analysis.guess", f"{hb.size} numbers (n*(2H+1) coefficients)", f"{len(a['guess'])} numbers")
         u0 = np.array(a["guess"], dtype=float)
+    elif model.start is not None:
+        from contin.runner import RunError
+        from contin.start import HomotopyFailed
+
+        try:
+            u0 = model.start(hb, lam0)
+        except HomotopyFailed as exc:
+            raise RunError(f"no starting solution at {hb.parameter}={lam0:g}: {exc}") from None
     else:
         u0 = hb.linear_solution(lam0)
     previous = {}
