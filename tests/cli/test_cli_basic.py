@@ -70,3 +70,16 @@ def test_bad_input_names_the_key(override, fragment, capsys):
     err = capsys.readouterr().err.replace("\n", " ")
     import re
     assert re.search(fragment, err), err
+
+
+def test_rotor_scene_checks_and_a_failed_start_is_reported(tmp_path, capsys):
+    assert main(["check", str(ROOT / "scenes/rotor_harmonic.yaml")]) == 0
+    out = capsys.readouterr().out
+    assert "contact" in out and "unknowns: 324 = 4 dof x (2H+1)" in out
+    # a negative contact stiffness has no soft-to-stiff homotopy path: a numerical failure, exit 1
+    code = main(["run", str(ROOT / "scenes/rotor_harmonic.yaml"), "-o", str(tmp_path / "r"), "-q",
+                 "--set", "model.parameters.kbn=-5", "--set", "analysis.harmonics=10", "--set", "analysis.samples=256"])
+    assert code == 1
+    assert "no starting solution at w=1.6" in capsys.readouterr().err
+    summary = json.loads((tmp_path / "r" / "summary.json").read_text())
+    assert summary["status"] == "failed" and "homotopy in kbn" in summary["message"]
