@@ -129,3 +129,40 @@ def load_module(source: str) -> types.ModuleType:
         exec(code, module.__dict__)  # noqa: S102  (generated source from checked expressions only)
     _LOADED[name] = module
     return module
+
+
+def array_names(param_names, dof_names=(), *, x: str = "x[j, {}]", xd: str = "xd[j, {}]", tau: str = "tau[j]",
+                p: str = "p[{}]", error=ValueError):
+    """The function that spells a whitelisted expression name as generated code.
+
+    Parameters
+    ----------
+    param_names, dof_names : sequence of str
+    x, xd, tau, p : str
+        Templates for a displacement, a velocity (``NAME_dot``), the phase and a
+        parameter; ``{}`` takes the index.
+    error : exception class
+        Raised for a name that has no spelling (names are checked on parse, so
+        this only guards against misuse).
+
+    Returns
+    -------
+    callable
+        ``name -> str``.
+    """
+    params, dofs = list(param_names), list(dof_names)
+
+    def name_of(name: str) -> str:
+        if name in params:
+            return p.format(params.index(name))
+        if name in dofs:
+            return x.format(dofs.index(name))
+        if name.endswith("_dot") and name[:-4] in dofs:
+            return xd.format(dofs.index(name[:-4]))
+        if name == "tau":
+            return tau
+        if name == "pi":
+            return "np.pi"
+        raise error(f"unknown name {name!r} in generated code")
+
+    return name_of

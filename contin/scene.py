@@ -313,3 +313,8 @@ def load_scene(path: str | Path, overrides=()) -> Scene:
     except OSError as exc:
         raise SceneError(str(path), "a readable scene file", None, hint=f" ({exc.strerror})") from None
     return parse_scene(text, str(path), overrides)
+
+
+from contin.analyses.simulate import SIMULATE  # noqa: E402  (the schema lives beside its analysis)
+
+ANALYSES["simulate"] = SIMULATE

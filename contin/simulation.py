@@ -58,8 +58,10 @@ switching inside expression forces (``abs``, ``sign``, ``min``, ``max``) is
 not located.
 
 Non-finite states stop the run with :class:`SimulationError` naming the time
-and the parameter values; a fixed step too large for a stiff contact
-(``h sqrt(k/m) > 2.8``) shows up this way.
+and the parameter values. A fixed step too large for a stiff contact is
+refused before the run: RK4 is stable for ``h |lambda| <= 2.8`` only, and in
+an unstable contact mode the event location would otherwise chop the steps
+and return a wrong answer instead of blowing up (:meth:`CompiledModel.fastest_rate`).
 """
 
 from __future__ import annotations
@@ -69,12 +71,13 @@ import hashlib
 import inspect
 import math
 import time
-from typing import Callable, Mapping, Sequence
+from typing import Callable, Mapping
 
 import numba as nb
 import numpy as np
 
 from contin import codegen
+from contin.codegen import array_names
 from contin import expressions as ex
 from contin.model import Model
 
@@ -90,6 +93,8 @@ __all__ = [
 
 #: bumped when the integrator template changes meaning
 SIMULATION_TEMPLATE_VERSION = "1"
+#: largest h*|lambda| accepted (classical RK4 is stable up to 2 sqrt 2 on the imaginary axis)
+RK4_STABILITY = 2.8
 
 
 class SimulationError(ArithmeticError):
@@ -216,8 +221,16 @@ class CompiledForm:
         """Caveats reported with the result (e.g. unlocated non-smooth terms)."""
         return []
 
+    def contact_matrices(self, p: np.ndarray, n: int):
+        """Stiffness and damping the element adds where its law is active, shape (n, n) each, or None.
+
+        Used to check before a run that the fixed step keeps RK4 stable in contact.
+        """
+        return None
+
 
 _FORMS: dict[type, type] = {}
+_BUILTIN_FORMS: list = []  # non-empty once the built-in element kinds are registered (on first use)
 
 
 def register_compiled_form(element_class: type):
@@ -225,6 +238,15 @@ def register_compiled_form(element_class: type):
 
     def deco(form_cls):
         _FORMS[element_class] = form_cls
+        return form_cls
+
+    return deco
+
+
+def _builtin_form(element_class: type):
+    # a form registered by the user for a built-in element class takes precedence
+    def deco(form_cls):
+        _FORMS.setdefault(element_class, form_cls)
         return form_cls
 
     return deco
@@ -260,7 +282,7 @@ def _register_builtin_forms():
     from contin.elements.harmonic import HarmonicExcitation
     from contin.elements.polynomial import PolynomialForce, _poly_kernel
 
-    @register_compiled_form(GapForce)
+    @_builtin_form(GapForce)
     class GapForm(CompiledForm):
         n_switch = 2
         imports = ("from contin.simulation import _gap_force, _gap_switch",)
@@ -274,11 +296,19 @@ def _register_builtin_forms():
             return [f"_gap_force(X, V, {e.dof}, cst[{c}], cst[{c + 1}], cst[{c + 2}], {e.side}, mode[{m}], "
                     f"mode[{m + 1}], F)"]
 
+        def contact_matrices(self, p, n):
+            _, k, c = self.element._values(p)
+            Kc, Cc = np.zeros((n, n)), np.zeros((n, n))
+            Kc[self.element.dof, self.element.dof] = k
+            Cc[self.element.dof, self.element.dof] = c
+            return Kc, Cc
+
         def switch_lines(self, tag, c, m):
             e = self.element
-            return [f"_gap_switch(X, V, {e.dof}, cst[{c}], cst[{c + 1}], cst[{c + 2}], {e.side}, cst[{c + 3}] != 0.0, S, {m})"]
+            return [f"_gap_switch(X, V, {e.dof}, cst[{c}], cst[{c + 1}], cst[{c + 2}], {e.side}, "
+                    f"cst[{c + 3}] != 0.0, S, {m})"]
 
-    @register_compiled_form(RadialGapForce)
+    @_builtin_form(RadialGapForce)
     class RadialForm(CompiledForm):
         n_switch = 1
         imports = ("from contin.simulation import _radial_force, _radial_switch",)
@@ -291,11 +321,20 @@ def _register_builtin_forms():
             e = self.element
             return [f"_radial_force(X, V, {e.ix}, {e.iy}, cst[{c}], cst[{c + 1}], cst[{c + 2}], mode[{m}], F)"]
 
+        def contact_matrices(self, p, n):
+            _, k, c = self.element._values(p)
+            Kc, Cc = np.zeros((n, n)), np.zeros((n, n))
+            for i in (self.element.ix, self.element.iy):  # the radial direction may point along either dof
+                Kc[i, i] = k
+                Cc[i, i] = c
+            return Kc, Cc
+
         def switch_lines(self, tag, c, m):
             e = self.element
-            return [f"_radial_switch(X, V, {e.ix}, {e.iy}, cst[{c}], cst[{c + 1}], cst[{c + 2}], cst[{c + 3}] != 0.0, S, {m})"]
+            return [f"_radial_switch(X, V, {e.ix}, {e.iy}, cst[{c}], cst[{c + 1}], cst[{c + 2}], "
+                    f"cst[{c + 3}] != 0.0, S, {m})"]
 
-    @register_compiled_form(PolynomialForce)
+    @_builtin_form(PolynomialForce)
     class PolynomialForm(CompiledForm):
         imports = ("from contin.elements.polynomial import _poly_kernel",)
         kernels = (_poly_kernel,)
@@ -316,21 +355,12 @@ def _register_builtin_forms():
             return [f"_poly_kernel(X, V, TAU, {tag}target, cst[{c}:{c + T}], {tag}ex, {tag}ev, {tag}torder, "
                     f"{tag}tphase, F, DUM, DUM, False)"]
 
-    @register_compiled_form(ExpressionForce)
+    @_builtin_form(ExpressionForce)
     class ExpressionForceForm(CompiledForm):
         def _name_of(self, name):
             e = self.element
-            if name in e.param_names:
-                return f"p[{e.param_names.index(name)}]"
-            if name in e.dof_names:
-                return f"X[0, {e.dof_names.index(name)}]"
-            if name.endswith("_dot") and name[:-4] in e.dof_names:
-                return f"V[0, {e.dof_names.index(name[:-4])}]"
-            if name == "tau":
-                return "tau"
-            if name == "pi":
-                return "np.pi"
-            raise SimulationError(f"expression force: unknown name {name!r}")
+            return array_names(e.param_names, e.dof_names, x="X[0, {}]", xd="V[0, {}]", tau="tau",
+                               error=SimulationError)(name)
 
         def force_lines(self, tag, c, m):
             w = ex.CodeWriter(self._name_of, f"{tag}t")
@@ -346,7 +376,7 @@ def _register_builtin_forms():
                         "(fixed-step error there is first order in h)"]
             return []
 
-    @register_compiled_form(HarmonicExcitation)
+    @_builtin_form(HarmonicExcitation)
     class HarmonicForm(CompiledForm):
         def constants(self, p):
             e = self.element
@@ -359,17 +389,10 @@ def _register_builtin_forms():
                 return [f"R[{e.dof}] += cst[{c}]"]
             return [f"R[{e.dof}] += cst[{c}] * np.cos({_lit(e.order)} * tau + {_lit(e.phase)})"]
 
-    @register_compiled_form(ExpressionExcitation)
+    @_builtin_form(ExpressionExcitation)
     class ExpressionExcitationForm(CompiledForm):
         def _name_of(self, name):
-            e = self.element
-            if name in e.param_names:
-                return f"p[{e.param_names.index(name)}]"
-            if name == "tau":
-                return "tau"
-            if name == "pi":
-                return "np.pi"
-            raise SimulationError(f"expression excitation: unknown name {name!r}")
+            return array_names(self.element.param_names, tau="tau", error=SimulationError)(name)
 
         def excitation_lines(self, tag, c):
             w = ex.CodeWriter(self._name_of, f"{tag}t")
@@ -438,12 +461,10 @@ def integrate(y, mode, k0, k1, S, h, p, Minv, C, K, cst, locate, max_events, rec
     q3 = np.empty(n2)
     q4 = np.empty(n2)
     yt = np.empty(n2)
-    ynew = np.empty(n2)
     ym = np.empty(n2)
     yb = np.empty(n2)
     ns = max(NS, 1)
     s0 = np.zeros(ns)
-    s1 = np.zeros(ns)
     sm = np.zeros(ns)
     sb = np.zeros(ns)
     crossed = np.zeros(ns, dtype=np.bool_)
@@ -452,67 +473,36 @@ def integrate(y, mode, k0, k1, S, h, p, Minv, C, K, cst, locate, max_events, rec
         switch(y, p, cst, X, V, s0)
     for k in range(k0, k1):
         kk = k % S
-        theta = 0.0
+        theta = 0.0  # fraction of the step done
         nev = 0
+        searching = False
+        a = 0.0
+        b = 1.0
+        ga = 0.0
+        gb = 0.0
+        side = 0
+        it = 0
         while True:
             frac = 1.0 - theta
             tau0 = (kk + theta) * dphi
-            _step(y, tau0, frac * dphi, frac * h, p, Minv, C, K, cst, mode, X, V, TAU, F, DUM, R,
-                  q1, q2, q3, q4, yt, ynew)
-            stats[3] += 1
-            if NS == 0:
-                for i in range(n2):
-                    y[i] = ynew[i]
-                break
-            switch(ynew, p, cst, X, V, s1)
-            ncross = 0
-            for j in range(NS):
-                crossed[j] = (s1[j] > 0.0) != (mode[j] != 0)
-                if crossed[j]:
-                    ncross += 1
-            if ncross == 0:
-                for i in range(n2):
-                    y[i] = ynew[i]
-                for j in range(NS):
-                    s0[j] = s1[j]
-                break
-            if (not locate) or nev >= max_events:
-                # take the step as it is and follow the state's own contact state
-                for i in range(n2):
-                    y[i] = ynew[i]
-                for j in range(NS):
-                    s0[j] = s1[j]
-                    mode[j] = 1 if s1[j] > 0.0 else 0
-                if locate:
-                    stats[1] += 1
-                break
-            ga = _gfun(s0, mode, crossed)
-            gb = _gfun(s1, mode, crossed)
-            if ga > 0.0:
-                # the start is already past a surface (round-off at an earlier event): resynchronise
-                for j in range(NS):
-                    if crossed[j]:
-                        mode[j] = 1 if s0[j] > 0.0 else 0
-                nev += 1
-                stats[1] += 1
-                continue
-            a = 0.0
-            b = 1.0
-            for i in range(n2):
-                yb[i] = ynew[i]
-            for j in range(NS):
-                sb[j] = s1[j]
-            side = 0
-            for it in range(200):
-                if b - a <= 1e-13:
-                    break
+            # one trial per pass: the rest of the step, or a point of the Illinois iteration on a crossing
+            mth = 1.0
+            if searching:
                 mth = b - gb * (b - a) / (gb - ga)
                 if not (mth > a and mth < b):
                     mth = 0.5 * (a + b)
-                _step(y, tau0, mth * frac * dphi, mth * frac * h, p, Minv, C, K, cst, mode, X, V, TAU, F, DUM, R,
-                      q1, q2, q3, q4, yt, ym)
+            # the only call site of _step: it is inlined, and every copy costs compile time
+            _step(y, tau0, mth * frac * dphi, mth * frac * h, p, Minv, C, K, cst, mode, X, V, TAU, F, DUM, R,
+                  q1, q2, q3, q4, yt, ym)
+            if NS == 0:
+                for i in range(n2):
+                    y[i] = ym[i]
+                stats[3] += 1
+                break
+            switch(ym, p, cst, X, V, sm)
+            if searching:
                 stats[4] += 1
-                switch(ym, p, cst, X, V, sm)
+                it += 1
                 gm = _gfun(sm, mode, crossed)
                 if gm >= 0.0:
                     b = mth
@@ -530,21 +520,67 @@ def integrate(y, mode, k0, k1, S, h, p, Minv, C, K, cst, locate, max_events, rec
                     if side == -1:
                         gb *= 0.5
                     side = -1
-            # accept the state just past the surface and switch the crossing laws
+                if b - a > 1e-13 and it < 200:
+                    continue
+                # accept the state just past the surface and switch the crossing laws
+                searching = False
+                for j in range(NS):
+                    if crossed[j]:
+                        d = -sb[j] if mode[j] != 0 else sb[j]
+                        if d >= 0.0:
+                            mode[j] = 1 - mode[j]
+                for i in range(n2):
+                    y[i] = yb[i]
+                for j in range(NS):
+                    s0[j] = sb[j]
+                theta = theta + b * frac
+                nev += 1
+                stats[0] += 1
+                if theta >= 1.0 - 1e-12:
+                    break
+                continue
+            stats[3] += 1
+            ncross = 0
             for j in range(NS):
+                crossed[j] = (sm[j] > 0.0) != (mode[j] != 0)
                 if crossed[j]:
-                    d = -sb[j] if mode[j] != 0 else sb[j]
-                    if d >= 0.0:
-                        mode[j] = 1 - mode[j]
-            for i in range(n2):
-                y[i] = yb[i]
-            for j in range(NS):
-                s0[j] = sb[j]
-            theta = theta + b * frac
-            nev += 1
-            stats[0] += 1
-            if theta >= 1.0 - 1e-12:
+                    ncross += 1
+            if ncross == 0:
+                for i in range(n2):
+                    y[i] = ym[i]
+                for j in range(NS):
+                    s0[j] = sm[j]
                 break
+            if (not locate) or nev >= max_events:
+                # take the step as it is and follow the state's own contact state
+                for i in range(n2):
+                    y[i] = ym[i]
+                for j in range(NS):
+                    s0[j] = sm[j]
+                    mode[j] = 1 if sm[j] > 0.0 else 0
+                if locate:
+                    stats[1] += 1
+                break
+            ga = _gfun(s0, mode, crossed)
+            gb = _gfun(sm, mode, crossed)
+            if ga > 0.0:
+                # the start is already past a surface (round-off at an earlier event): resynchronise
+                for j in range(NS):
+                    if crossed[j]:
+                        mode[j] = 1 if s0[j] > 0.0 else 0
+                nev += 1
+                stats[1] += 1
+                continue
+            # bracket [0, 1] of the remaining step: locate the first crossing in the frozen mode
+            a = 0.0
+            b = 1.0
+            side = 0
+            it = 0
+            for i in range(n2):
+                yb[i] = ym[i]
+            for j in range(NS):
+                sb[j] = sm[j]
+            searching = True
         for i in range(n2):
             if not np.isfinite(y[i]):
                 stats[2] = k + 1
@@ -589,6 +625,9 @@ class CompiledModel:
     """
 
     def __init__(self, model: Model):
+        if not _BUILTIN_FORMS:
+            _register_builtin_forms()
+            _BUILTIN_FORMS.append(True)
         self.model = model
         self.n = model.n_dof
         self.forces = [_form_of(el) for el in model.forces]
@@ -627,7 +666,8 @@ class CompiledModel:
         head = [
             f"# contin generated simulation module (codegen {codegen.CODEGEN_VERSION}, "
             f"template {SIMULATION_TEMPLATE_VERSION}, kernels {_fingerprint(kernels)})",
-            f"# model '{self.model.name}', dofs {list(self.model.dof_names)}, parameters {list(self.model.param_names)}",
+            # no model name here: models of the same structure share one module (and its compiled code)
+            f"# {n} dofs, {len(self.forces)} force elements, {len(self.excitations)} excitation elements",
             "import numpy as np",
             "from numba import njit",
         ] + sorted(imports) + ["", f"N = {n}", f"NS = {m}"] + globals_
@@ -691,13 +731,38 @@ class CompiledModel:
             raise SimulationError(f"model '{self.model.name}': the mass matrix is singular, "
                                   f"time simulation needs an invertible M") from None
         if not np.all(np.isfinite(Minv)) or np.linalg.cond(M) > 1e14:
-            raise SimulationError(f"model '{self.model.name}': the mass matrix is singular (cond {np.linalg.cond(M):.3g})")
+            raise SimulationError(f"model '{self.model.name}': the mass matrix is singular "
+                                  f"(cond {np.linalg.cond(M):.3g})")
         cst = []
         for f in self.forces + self.excitations:
             cst += [float(v) for v in f.constants(p)]
         cst = np.array(cst if cst else [0.0], dtype=float)
         return (np.ascontiguousarray(Minv), np.ascontiguousarray(C, dtype=float),
                 np.ascontiguousarray(K, dtype=float), cst)
+
+    def fastest_rate(self, p: np.ndarray) -> float:
+        """Largest ``|lambda|`` of the linear part with every contact law active.
+
+        The eigenvalues of ``[[0, I], [-M^-1 (K + Kc), -M^-1 (C + Cc)]]``, with the
+        contact stiffness and damping of the elements added; classical RK4 is
+        stable for ``h |lambda| <= 2.8`` (its stability boundary on the imaginary
+        axis is ``2 sqrt 2``).
+        """
+        n = self.n
+        M, C, K = self.model.linear(p)
+        K, C = K.astype(float).copy(), C.astype(float).copy()
+        for f in self.forces:
+            mats = f.contact_matrices(p, n)
+            if mats is not None:
+                K += mats[0]
+                C += mats[1]
+        Minv = np.linalg.inv(M)
+        A = np.zeros((2 * n, 2 * n))
+        A[:n, n:] = np.eye(n)
+        A[n:, :n] = -Minv @ K
+        A[n:, n:] = -Minv @ C
+        lam = np.linalg.eigvals(A)
+        return float(np.max(np.abs(lam))) if lam.size else 0.0
 
     def _work(self):
         n = self.n
@@ -740,20 +805,13 @@ class CompiledModel:
         return out
 
 
-_COMPILED: dict[str, CompiledModel] = {}
-
-
 def compile_model(model: Model) -> CompiledModel:
-    """The :class:`CompiledModel` of ``model`` (one generated module per model structure)."""
-    if not _FORMS:
-        _register_builtin_forms()
-    cm = CompiledModel(model)
-    # reuse the loaded module of an identical structure (same source text)
-    prev = _COMPILED.get(cm.source)
-    if prev is not None:
-        cm._module = prev._module
-    _COMPILED[cm.source] = cm
-    return cm
+    """The :class:`CompiledModel` of ``model``.
+
+    Models of the same structure produce the same source text, hence the
+    same module (:func:`contin.codegen.load_module` caches it by content).
+    """
+    return CompiledModel(model)
 
 
 # ---------------------------------------------------------------- results and driver
@@ -844,7 +902,7 @@ def simulate(model: Model, params: Mapping[str, float] | None = None, x0=None, v
              periods: float | None = None, steps_per_period: int = 4096, record_every: int | None = None,
              record_from: float = 0.0, locate_events: bool = True, max_events_per_step: int = 8,
              progress: Callable[[float, float], None] | None = None, should_stop: Callable[[], bool] | None = None,
-             mode0=None) -> SimulationResult:
+             mode0=None, check_step: bool = True) -> SimulationResult:
     """Integrate a model in time with fixed-step RK4 (event-located contact switching).
 
     Parameters
@@ -876,6 +934,9 @@ def simulate(model: Model, params: Mapping[str, float] | None = None, x0=None, v
         what was integrated).
     mode0 : array_like of int, optional
         Initial contact mode (default: from the signs of the switching functions).
+    check_step : bool
+        Refuse a step beyond RK4's stability limit for the linear part with
+        the contacts closed (``h |lambda|max > 2.8``, :meth:`CompiledModel.fastest_rate`).
 
     Returns
     -------
@@ -884,9 +945,9 @@ def simulate(model: Model, params: Mapping[str, float] | None = None, x0=None, v
     Raises
     ------
     SimulationError
-        Non-finite state (with the time, step and parameter values), or a
-        model that cannot be simulated (singular mass matrix, element without
-        compiled form).
+        Non-finite state (with the time, step and parameter values), a step
+        too large for the contact stiffness, or a model that cannot be
+        simulated (singular mass matrix, element without compiled form).
     ValueError
         Bad arguments (non-positive frequency, both or neither of ``t_end`` and
         ``periods``, shapes).
@@ -918,7 +979,8 @@ def simulate(model: Model, params: Mapping[str, float] | None = None, x0=None, v
         raise ValueError(f"simulate: record_every must be >= 1, got {record_every}")
     rec_start = int(math.ceil(record_from * S - 1e-9))
     if not 0 <= rec_start <= nsteps:
-        raise ValueError(f"simulate: record_from ({record_from} periods) must lie within the run ({nsteps / S:g} periods)")
+        raise ValueError(f"simulate: record_from ({record_from} periods) must lie within the run "
+                         f"({nsteps / S:g} periods)")
     y = np.zeros(2 * n)
     for arr, sl, name in ((x0, slice(0, n), "x0"), (v0, slice(n, 2 * n), "v0")):
         if arr is not None:
@@ -929,6 +991,14 @@ def simulate(model: Model, params: Mapping[str, float] | None = None, x0=None, v
     if not np.all(np.isfinite(y)):
         raise ValueError("simulate: the initial state is not finite")
     Minv, C, K, cst = cm.arguments(p)
+    rate = cm.fastest_rate(p)
+    if check_step and rate * h > RK4_STABILITY:
+        need = int(math.ceil(rate * T / RK4_STABILITY))
+        raise SimulationError(
+            f"simulation of '{model.name}': the step h = T/{S} = {h:.3g} is too large for the stiffest mode "
+            f"(|lambda| = {rate:.4g} with the contacts closed: h*|lambda| = {rate * h:.3g} > {RK4_STABILITY}, RK4 "
+            f"would blow up or, with event location, chop its steps into a wrong answer); use steps_per_period >= "
+            f"{need} ({_param_text(model, p)})")
     tc = time.perf_counter()
     mod = cm.module
     if mode0 is None:

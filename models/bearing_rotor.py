@@ -169,7 +169,7 @@ def hertz_cylinder_stiffness(P_m: float, E1: float, nu1: float, E2: float, nu2: 
         return 2 * P * kk / (math.pi * length) * (1.8864 + math.log(length / (2 * b)))
 
     d_m = approach(P_m)
-    energy = d_m * P_m - quad(approach, 0.0, P_m, limit=200)[0]
+    energy = d_m * P_m - quad(approach, 0.0, P_m, limit=200, epsabs=0.0, epsrel=1e-12)[0]
     return 2 * energy / d_m**2
 
 

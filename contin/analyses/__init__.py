@@ -22,6 +22,6 @@ def register_analysis(name: str):
 
 
 def get_runner(name: str) -> Callable:
-    from contin.analyses import frequency_response  # noqa: F401  (registers)
+    from contin.analyses import frequency_response, simulate  # noqa: F401  (registers)
 
     return ANALYSIS_RUNNERS[name]

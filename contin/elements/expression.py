@@ -25,6 +25,8 @@ from typing import Sequence
 
 import numpy as np
 
+from contin.codegen import array_names
+
 from contin import codegen
 from contin import expressions as ex
 from contin.model import ExcitationElement, ForceElement, register_excitation, register_force
@@ -143,17 +145,7 @@ class ExpressionForce(ForceElement):
 
     # -- generated code ----------------------------------------------------
     def _name_of(self, name: str) -> str:
-        if name in self.param_names:
-            return f"p[{self.param_names.index(name)}]"
-        if name in self.dof_names:
-            return f"x[j, {self.dof_names.index(name)}]"
-        if name.endswith("_dot") and name[:-4] in self.dof_names:
-            return f"xd[j, {self.dof_names.index(name[:-4])}]"
-        if name == "tau":
-            return "tau[j]"
-        if name == "pi":
-            return "np.pi"
-        raise ValueError(f"unknown name {name!r}")  # pragma: no cover  (names are checked on parse)
+        return array_names(self.param_names, self.dof_names)(name)
 
     def _loop(self, targets, indent: str) -> list:
         """Statements of a loop over samples accumulating ``(array text, node)`` pairs."""

@@ -1,0 +1,325 @@
+"""``simulate``: time integration to steady state at given parameter values.
+
+For each value of ``parameter`` the model is integrated by fixed-step RK4
+(:func:`contin.simulation.simulate`, ``steps_per_period`` steps per forcing
+period, contact switching located in time) over ``transient`` revolutions,
+then ``record`` revolutions are recorded and classified
+(:func:`contin.poincare.classify`: ``period-k`` or ``not periodic``, from the
+Poincare section at ``tau = 0 mod 2 pi`` and the spectrum). This is the
+brute-force computation of the rotor paper (Inagaki, Ishida & Hayashi, Trans.
+JSME C 71 (2005), section 3 and Fig. 3, 5, 7: Runge-Kutta with 4096 steps per
+revolution, time histories, orbits and spectra of the disc).
+
+Result files: ``simulation.csv`` (one row per value, written as each value
+finishes), ``simulation_<i>.npz`` (recorded window and section points),
+plots ``simulation_<i>.png`` (time history of the observed pair over the last
+revolutions, orbit, amplitude spectrum in units of ``w``) and, for several
+values, ``simulation_summary.png``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import numpy as np
+
+from contin.analyses import register_analysis
+
+__all__ = ["SIMULATE", "run", "COLUMNS_HEAD"]
+
+
+@dataclass(frozen=True)
+class _Key:
+    """Schema of one key, with the fields of :class:`contin.scene.Key`.
+
+    Defined here so that :mod:`contin.scene` can import this module's schema
+    without a circular import.
+    """
+
+    expected: str
+    check: Callable[[Any], bool] = lambda v: True
+    default: Any = None
+    required: bool = False
+
+
+def _int(v) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
+def _number(v) -> bool:
+    if not isinstance(v, (int, float)) or isinstance(v, bool):
+        return False
+    try:
+        return math.isfinite(v)
+    except OverflowError:
+        return False
+
+
+def _initial_ok(v) -> bool:
+    return v in ("rest", "small", "previous") or (isinstance(v, list) and len(v) > 0 and all(_number(x) for x in v))
+
+
+def _dofs_ok(v) -> bool:
+    return v is None or (isinstance(v, list) and 1 <= len(v) <= 2 and all(isinstance(x, str) for x in v)
+                         and len(set(v)) == len(v))
+
+
+def _int_key(default, lo, hi, what="an integer"):
+    return _Key(f"{what} from {lo} to {hi}", lambda v: _int(v) and lo <= v <= hi, default)
+
+
+#: scene schema of ``analysis`` for ``type: simulate``
+SIMULATE = {
+    "type": _Key("a string", lambda v: isinstance(v, str) and v != "", None, True),
+    "parameter": _Key("a string", lambda v: isinstance(v, str) and v != ""),
+    "values": _Key("a non-empty list of finite numbers",
+                   lambda v: isinstance(v, list) and len(v) > 0 and all(_number(x) for x in v), None),
+    "steps_per_period": _int_key(4096, 8, 2**20),
+    "transient": _Key("a number >= 0 (revolutions)", lambda v: _number(v) and v >= 0, 500),
+    "record": _int_key(100, 4, 100000, "an integer (revolutions)"),
+    "samples_per_period": _int_key(64, 8, 2**20),
+    "initial": _Key("'rest', 'small', 'previous' or a list of 2n numbers (displacements, then velocities)",
+                    _initial_ok, "rest"),
+    "locate_events": _Key("true or false", lambda v: isinstance(v, bool), True),
+    "tolerance": _Key("a positive number", lambda v: _number(v) and v > 0, 1e-3),
+    "max_period": _int_key(8, 1, 64),
+    "dofs": _Key("a list of one or two dof names (the observed pair, e.g. the disc [x1, y1])", _dofs_ok, None),
+    "plot_periods": _int_key(8, 1, 100000),
+    "seed": _int_key(0, 0, 2**63 - 1),
+}
+
+COLUMNS_HEAD = ["class", "period", "settled", "spread", "mismatch_1", "mismatch_2", "pattern_ratio",
+                "subharmonic_dominance"]
+N_LINES = 4
+WHIRL_COLUMNS = {"+w/2": "whirl_fwd_half", "-w/2": "whirl_bwd_half", "+w": "whirl_fwd_1", "-w": "whirl_bwd_1"}
+
+
+def _columns(parameter: str, dof_names) -> list:
+    cols = [parameter] + COLUMNS_HEAD
+    for j in range(1, N_LINES + 1):
+        cols += [f"line{j}_freq", f"line{j}_amp"]
+    cols += ["lines"] + list(WHIRL_COLUMNS.values())
+    for d in dof_names:
+        cols += [f"amp_{d}", f"max_{d}", f"min_{d}", f"mean_{d}"]
+    cols += ["events", "unresolved_events", "periods", "steps_per_period", "wall_time", "cost_per_period_us"]
+    return cols
+
+
+def _row(parameter, value, res, cls, dof_names) -> dict:
+    row = {parameter: float(value), "class": cls.label, "period": cls.period, "settled": cls.settled,
+           "spread": cls.spread, "mismatch_1": cls.mismatch.get(1), "mismatch_2": cls.mismatch.get(2),
+           "pattern_ratio": cls.pattern_ratio, "subharmonic_dominance": cls.subharmonic_dominance}
+    if row["subharmonic_dominance"] is not None and not math.isfinite(row["subharmonic_dominance"]):
+        row["subharmonic_dominance"] = 1e300
+    for j, (f, a) in enumerate(cls.lines[:N_LINES], start=1):
+        row[f"line{j}_freq"], row[f"line{j}_amp"] = f, a
+    row["lines"] = " ".join(f"{f:+.4f}:{a:.4g}" for f, a in cls.lines)
+    for key, col in WHIRL_COLUMNS.items():
+        row[col] = abs(cls.whirl[key])
+    for i, d in enumerate(dof_names):
+        x = res.x[:, i]
+        row.update({f"amp_{d}": float(np.ptp(x) / 2), f"max_{d}": float(x.max()), f"min_{d}": float(x.min()),
+                    f"mean_{d}": float(x.mean())})
+    row.update({"events": res.events, "unresolved_events": res.unresolved_events, "periods": res.periods,
+                "steps_per_period": res.steps_per_period, "wall_time": res.wall_time,
+                "cost_per_period_us": res.cost_per_period_us})
+    return row
+
+
+def _initial_state(a, model, previous, rng):
+    from contin.scene import SceneError
+
+    n = model.n_dof
+    init = a["initial"]
+    if isinstance(init, list):
+        if len(init) != 2 * n:
+            raise SceneError("analysis.initial", f"2n = {2 * n} numbers (displacements of {list(model.dof_names)}, "
+                             f"then velocities)", f"{len(init)} numbers")
+        y = np.array(init, dtype=float)
+        return y[:n], y[n:]
+    if init == "previous" and previous is not None:
+        return previous[:n].copy(), previous[n:].copy()
+    if init == "small":
+        return 1e-3 * rng.standard_normal(n), 1e-3 * rng.standard_normal(n)
+    return np.zeros(n), np.zeros(n)
+
+
+@register_analysis("simulate")
+def run(ctx) -> dict:
+    """Run a ``simulate`` scene; returns its part of ``summary.json``."""
+    from contin.poincare import steady_state
+    from contin.results import CsvStream
+    from contin.scene import SceneError
+    from contin.simulation import SimulationError
+
+    scene, model = ctx.scene, ctx.model
+    a = scene.analysis
+    param = a["parameter"] or model.frequency
+    if param not in model.parameters:
+        raise scene.error("analysis.parameter", f"a parameter of the model {list(model.parameters)}", param)
+    values = a["values"] if a["values"] is not None else [model.parameters[param]]
+    S = a["steps_per_period"]
+    spp = a["samples_per_period"]
+    if S % spp:
+        raise scene.error("analysis.samples_per_period", f"a divisor of steps_per_period = {S}", spp)
+    names = list(model.dof_names)
+    obs = a["dofs"] or names[: min(2, len(names))]
+    for d in obs:
+        if d not in names:
+            raise scene.error("analysis.dofs", f"names among the dofs {names}", d)
+    dofs = [names.index(d) for d in obs]
+    rng = np.random.default_rng(a["seed"])
+    out = CsvStream(ctx.outdir / "simulation.csv", _columns(param, names))
+    records, rows = [], []
+    previous = None
+    t_all = time.perf_counter()
+    try:
+        for i, value in enumerate(values):
+            if ctx.stop_requested:
+                ctx.interrupted = True
+                break
+            x0, v0 = _initial_state(a, model, previous, rng)
+
+            def progress(done, total, i=i, value=value):
+                ctx.progress.update(f"simulate {param}={value:.6g} ({i + 1}/{len(values)}): "
+                                    f"{done:.0f}/{total:.0f} revolutions")
+
+            try:
+                res, cls = steady_state(model, {param: value}, x0, v0, transient=a["transient"], record=a["record"],
+                                        steps_per_period=S, samples_per_period=spp,
+                                        locate_events=a["locate_events"], dofs=dofs, tol=a["tolerance"],
+                                        max_period=a["max_period"], progress=progress,
+                                        should_stop=lambda: ctx.stop_requested)
+            except SimulationError as exc:
+                raise SceneError("analysis.values", "parameter values at which the simulation stays finite", value,
+                                 hint=f"; {exc}") from None
+            except ValueError as exc:
+                raise SceneError("analysis", "settings the simulation can use", None, hint=f": {exc}") from None
+            if cls is None:
+                ctx.interrupted = True  # stopped by the user mid-run: keep the values that are complete
+                break
+            previous = res.final_state
+            row = _row(param, value, res, cls, names)
+            out.write(row)
+            rows.append(row)
+            np.savez_compressed(ctx.outdir / f"simulation_{i}.npz", t=res.t, x=res.x, v=res.v,
+                                section=res.section, section_t=np.arange(res.section.shape[0]) * res.period,
+                                dof_names=np.array(names), parameter=param, value=float(value))
+            records.append({"index": i, "value": float(value), "class": cls.label, "period": cls.period,
+                            "settled": cls.settled, "note": cls.note, "events": res.events,
+                            "unresolved_events": res.unresolved_events, "wall_time": res.wall_time,
+                            "compile_time": res.compile_time, "cost_per_period_us": res.cost_per_period_us,
+                            "notes": res.notes,
+                            "_plot": (res.t, res.x[:, dofs].copy(), res.period, res.w, cls)})
+    finally:
+        out.close()
+    ctx.timings["simulation"] = time.perf_counter() - t_all
+    ctx.plot = lambda: _plot(ctx, param, obs, records)
+    return {
+        "parameter": param,
+        "values": [float(v) for v in values],
+        "completed": len(records),
+        "steps_per_period": S,
+        "transient": a["transient"],
+        "record": int(math.ceil(a["record"] / 2.0)) * 2,
+        "locate_events": a["locate_events"],
+        "dofs": obs,
+        "results": [{k: v for k, v in r.items() if not k.startswith("_")} for r in records],
+        "classes": {c: sum(1 for r in records if r["class"] == c) for c in sorted({r["class"] for r in records})},
+    }
+
+
+def _plot(ctx, param, obs, records) -> list:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from contin.poincare import spectrum
+
+    files = []
+    n_plot = ctx.scene.analysis["plot_periods"]
+    model = ctx.model
+    for r in records:
+        t, x, T, w, cls = r["_plot"]
+        fig, axs = plt.subplots(1, 3, figsize=(13, 3.9), constrained_layout=True)
+        sel = t >= t[-1] - n_plot * T
+        for j, d in enumerate(obs):
+            axs[0].plot(t[sel] / T, x[sel, j], lw=1.0, label=d)
+        axs[0].set_xlabel("t / T (revolutions)")
+        axs[0].set_ylabel("displacement")
+        axs[0].set_title(f"last {n_plot} revolutions")
+        axs[0].legend(fontsize=8)
+        if x.shape[1] == 2:
+            axs[1].plot(x[:, 0], x[:, 1], lw=0.5)
+            P = cls.section
+            i0, i1 = model.dof_index(obs[0]), model.dof_index(obs[1])
+            axs[1].plot(P[:, i0], P[:, i1], ".", color="tab:red", ms=4, label="Poincare section")
+            axs[1].set_xlabel(obs[0])
+            axs[1].set_ylabel(obs[1])
+            axs[1].set_aspect("equal", adjustable="datalim")
+            axs[1].legend(fontsize=7, loc="upper right")
+            axs[1].set_title("orbit")
+            f, amp = spectrum(t, x[:, 0] + 1j * x[:, 1], w)
+            axs[2].set_xlabel("frequency / w  (+ forward, - backward whirl)")
+        else:
+            axs[1].plot(x[:-1, 0], np.diff(x[:, 0]) / np.diff(t), lw=0.5)
+            axs[1].set_xlabel(obs[0])
+            axs[1].set_ylabel(obs[0] + "_dot")
+            axs[1].set_title("phase portrait")
+            f, amp = spectrum(t, x[:, 0], w)
+            axs[2].set_xlabel("frequency / w")
+        keep = np.abs(f) <= 3.0
+        axs[2].plot(f[keep], amp[keep], lw=0.9)
+        for fl, al in cls.lines[:4]:
+            if abs(fl) <= 3.0:
+                axs[2].annotate(f"{fl:+.3g}", (fl, al), textcoords="offset points", xytext=(2, 3), fontsize=7)
+        axs[2].set_ylabel("amplitude")
+        axs[2].set_yscale("log")
+        lo = max(amp[keep].max() * 1e-5, 1e-300) if np.any(keep) else 1e-12
+        axs[2].set_ylim(bottom=lo)
+        axs[2].set_title("spectrum (Hann window)")
+        fig.suptitle(f"{model.name}: {param} = {r['value']:.6g}: {cls.label}"
+                     + ("" if cls.settled else " (converging)"))
+        path = ctx.outdir / f"simulation_{r['index']}.png"
+        fig.savefig(path, dpi=100)
+        plt.close(fig)
+        files.append(path.name)
+    if len(records) > 1:
+        fig, ax = plt.subplots(figsize=(7, 4.4), constrained_layout=True)
+        v = np.array([r["value"] for r in records])
+        fw = np.array([abs(r["_plot"][4].whirl["+w/2"]) for r in records])
+        f1 = np.array([abs(r["_plot"][4].whirl["+w"]) for r in records])
+        ax.plot(v, f1, "-", color="0.6", lw=0.8)
+        ax.plot(v, fw, "-", color="tab:blue", lw=0.8)
+        style = {1: ("o", "tab:green"), 2: ("s", "tab:red")}
+        seen = set()
+        for vi, a1, a2, r in zip(v, f1, fw, records):
+            m, c = style.get(r["period"], ("D", "tab:purple") if r["period"] else ("x", "k"))
+            lab = r["class"] if r["class"] not in seen else None
+            seen.add(r["class"])
+            ax.plot(vi, a2, m, color=c, mfc="none", label=lab)
+            ax.plot(vi, a1, m, color=c, ms=4)
+        ax.set_xlabel(param)
+        ax.set_ylabel("whirl radius of " + " + i ".join(obs))
+        ax.set_title("+w/2 forward whirl (open markers) and +w (filled)")
+        ax.legend(fontsize=8)
+        path = ctx.outdir / "simulation_summary.png"
+        fig.savefig(path, dpi=100)
+        plt.close(fig)
+        files.append(path.name)
+    return files
+
+
+def _register_schema():
+    # the scene module keeps the schemas of all analyses: make `simulate` known to it on import
+    # (at the end of this module, so that contin.scene may import SIMULATE from here)
+    from contin import scene
+
+    scene.ANALYSES.setdefault("simulate", SIMULATE)
+
+
+_register_schema()
