@@ -228,7 +228,7 @@ def run(ctx) -> dict:
     ctx.recorder = rec
     from contin.analyses.stability_hooks import stability_setup
 
-    _, _, follow = stability_setup(a, hb)
+    follow = stability_setup(a, hb)
     branches_info = []
     t0 = time.perf_counter()
     try:

@@ -61,4 +61,4 @@ def stability_setup(analysis: dict, hb):
                              "origin": None if org is None else {k: org[k] for k in ("kind", "parameter") if k in org}}))
         return out
 
-    return (), (), follow
+    return follow
