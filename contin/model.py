@@ -291,6 +291,10 @@ class Model:
     terms: list = field(default_factory=list)
     #: minimum AFT sample count requested by the model (e.g. for contact)
     min_samples: int = 0
+    #: optional ``observables(u, n_dof, nu) -> dict`` of model-specific columns for
+    #: ``branches.csv`` (named in ``observable_names``), e.g. whirl radii
+    observables: object = None
+    observable_names: tuple = ()
     #: optional ``start(hb, lam0) -> u0`` for models whose linear solution is no
     #: usable start (stiff contact); raises :class:`contin.start.HomotopyFailed`
     start: object = None

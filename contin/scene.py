@@ -119,6 +119,9 @@ FREQUENCY_RESPONSE = {
     "switch": listing([], lambda x: x in ("pd", "bp"), "a list of bifurcation kinds among 'pd', 'bp'"),
     "max_branches": integer(8, 1),
     "continuation": CONTINUATION_KEYS,
+    "start_from": string("model", ("model", "linear", "simulation")),
+    "start_simulation": mapping(),
+    "both_ways": Key("true or false", lambda v: isinstance(v, bool), False),
     "guess": Key("a list of numbers (the harmonic coefficients) or null",
                  lambda v: v is None or (isinstance(v, list) and all(_number(x) for x in v)), None),
 }

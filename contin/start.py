@@ -19,7 +19,7 @@ from contin.continuation import ContinuationOptions, continuation
 from contin.harmonic_balance import HarmonicBalance
 from contin.newton import solve_at_parameter
 
-__all__ = ["HomotopyFailed", "homotopy_start"]
+__all__ = ["HomotopyFailed", "homotopy_start", "simulation_start"]
 
 
 class HomotopyFailed(RuntimeError):
@@ -84,3 +84,46 @@ def homotopy_start(hb: HarmonicBalance, lam0: float, parameter: str, soft_value:
     if not len(path) or path.parameter[-1] != lam0:
         raise HomotopyFailed(f"continuing the start from {hb.parameter}={at:g} to {lam0:g} stopped: {path.message}")
     return path.unknowns[-1]
+
+
+def simulation_start(hb: HarmonicBalance, lam0: float, *, transient: float = 500, steps_per_period: int = 4096,
+                     x0=None, v0=None, options: ContinuationOptions | None = None) -> np.ndarray:
+    """A converged solution at ``lam = lam0`` started from a time simulation.
+
+    The model is integrated (:func:`contin.simulation.simulate`) for
+    ``transient`` revolutions, then over ``nu`` more; the Fourier coefficients
+    of that last stretch (period ``2 pi nu / w``) are the Newton guess. This is
+    how a stable subharmonic is reached without switching at a period doubling,
+    where a guess from one or two harmonics would fall back onto the harmonic
+    solution.
+
+    Raises
+    ------
+    HomotopyFailed
+        If the motion is not ``nu``-periodic enough for Newton to converge
+        (the message gives the residual of the simulated orbit).
+    """
+    from contin.simulation import simulate
+
+    params = dict(zip(hb.model.param_names, hb.p0))
+    params[hb.parameter] = lam0
+    n, nu, H = hb.n, hb.nu, hb.H
+    run = simulate(hb.model, params, x0, v0, periods=transient, steps_per_period=steps_per_period,
+                   record_every=steps_per_period)
+    xs, vs = run.final_state[:n], run.final_state[n:]
+    last = simulate(hb.model, params, xs, vs, periods=nu, steps_per_period=steps_per_period, record_every=1,
+                    mode0=run.final_mode)
+    x = last.x[: nu * steps_per_period]
+    F = np.fft.rfft(x, axis=0) / len(x)
+    U = np.zeros((2 * H + 1, n))
+    U[0] = F[0].real
+    kmax = min(H, F.shape[0] - 1)
+    U[1:2 * kmax:2] = 2 * F[1:kmax + 1].real
+    U[2:2 * kmax + 1:2] = -2 * F[1:kmax + 1].imag
+    u = U.reshape(-1)
+    res = solve_at_parameter(hb, u, lam0, options or ContinuationOptions(newton_max_iter=30))
+    if not res.converged:
+        r0 = float(np.abs(hb.residual(u, lam0)).max())
+        raise HomotopyFailed(f"the simulated motion at {hb.parameter}={lam0:g} after {transient:g} revolutions is not "
+                             f"close to a solution of order nu={nu} (residual {r0:.2e}); Newton: {res.message}")
+    return res.x

@@ -90,7 +90,47 @@ def _build(params: dict, effects: tuple, clip: bool = False) -> Model:
     )
     if "contact" in effects:
         model.start = _homotopy_start
+    model.observables = whirl_components
+    model.observable_names = WHIRL_COLUMNS
     return model
+
+
+WHIRL_COLUMNS = tuple(f"whirl_{d}_{f}_{part}" for part in ("disc", "bearing") for f in ("half", "1")
+                      for d in ("fwd", "bwd"))
+
+
+def whirl_components(u: np.ndarray, n_dof: int, nu: int) -> dict:
+    """Forward and backward whirl radii of the disc and the bearing at w/2 and at w.
+
+    With ``x = a cos(k theta) + b sin(k theta)`` and ``y = c cos(k theta) + d sin(k theta)``,
+    ``x + i y = F e^{i k theta} + B e^{-i k theta}`` with
+    ``|F| = |(a + d) + i(c - b)|/2`` (forward) and ``|B| = |(a - d) + i(c + b)|/2``
+    (backward). The ``w/2`` component is harmonic ``k = nu/2`` of the base
+    frequency ``w/nu`` (zero for ``nu = 1``: the harmonic solution has none,
+    the zero-amplitude solution of the paper's Fig. 4); the ``w`` component is
+    ``k = nu``.
+
+    Returns
+    -------
+    dict
+        ``whirl_{fwd,bwd}_{half,1}_{disc,bearing}``.
+    """
+    U = np.asarray(u).reshape(-1, n_dof)
+    H = (U.shape[0] - 1) // 2
+    out = {}
+    for part, (ix, iy) in (("disc", (0, 1)), ("bearing", (2, 3))):
+        for label, num in (("half", 1), ("1", 2)):
+            k2 = nu * num  # 2k: the component is k = nu*num/2
+            fwd = bwd = 0.0
+            if k2 % 2 == 0 and 1 <= k2 // 2 <= H:
+                k = k2 // 2
+                a, b = U[2 * k - 1, ix], U[2 * k, ix]
+                c, d = U[2 * k - 1, iy], U[2 * k, iy]
+                fwd = 0.5 * float(np.hypot(a + d, c - b))
+                bwd = 0.5 * float(np.hypot(a - d, c + b))
+            out[f"whirl_fwd_{label}_{part}"] = fwd
+            out[f"whirl_bwd_{label}_{part}"] = bwd
+    return out
 
 
 def _homotopy_start(hb, lam0: float):

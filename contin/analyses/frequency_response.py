@@ -66,11 +66,13 @@ class BranchRecorder:
         Number of ``hK`` columns is ``min(H, harmonic_columns) + 1``.
     """
 
-    def __init__(self, outdir, dof_names, parameter, harmonic_columns, H, append=False):
+    def __init__(self, outdir, dof_names, parameter, harmonic_columns, H, append=False, model=None):
         self.dof_names = list(dof_names)
         self.parameter = parameter
         self.harmonic_columns = harmonic_columns
-        self.measures = measure_names(self.dof_names, harmonic_columns, H)
+        self.observables = getattr(model, "observables", None)
+        self.measures = measure_names(self.dof_names, harmonic_columns, H) + list(
+            getattr(model, "observable_names", ()) if self.observables else ())
         head = ["branch", "nu", parameter, "stable", "n_unstable", "max_multiplier"]
         self.branch_columns = head + self.measures + ["newton_iterations", "residual_norm"]
         self.special_columns = ["branch", "kind", parameter, "index"] + self.measures + SPECIAL_EXTRA
@@ -85,8 +87,11 @@ class BranchRecorder:
         self.curves: dict[int, dict] = {}
         self.special_list: list[dict] = []
 
-    def _measures(self, u, n):
-        return point_measures(u, n, self.dof_names, self.harmonic_columns)
+    def _measures(self, u, n, nu):
+        out = point_measures(u, n, self.dof_names, self.harmonic_columns)
+        if self.observables is not None:
+            out.update(self.observables(u, n, nu))
+        return out
 
     def point(self, branch_id: int, nu: int, branch, i: int, H: int | None = None) -> None:
         self.offsets.setdefault(branch_id, self.n_rows - i)
@@ -98,7 +103,7 @@ class BranchRecorder:
             row["stable"] = bool(pd["stable"][i])
             row["n_unstable"] = int(pd["n_unstable"][i])
             row["max_multiplier"] = float(pd["max_multiplier"][i])
-        row.update(self._measures(u, len(self.dof_names)))
+        row.update(self._measures(u, len(self.dof_names), nu))
         row["newton_iterations"] = int(branch.newton_iterations[i])
         row["residual_norm"] = float(branch.residual_norms[i])
         self.rows.write(row)
@@ -129,7 +134,7 @@ class BranchRecorder:
             if i + 1 < len(branch) and abs(branch.parameter[i + 1] - sp.parameter) < abs(branch.parameter[i] - sp.parameter):
                 i += 1
             row = {"branch": branch_id, "kind": sp.kind.value, self.parameter: float(sp.parameter), "index": off + i}
-            row.update(self._measures(sp.unknowns, len(self.dof_names)))
+            row.update(self._measures(sp.unknowns, len(self.dof_names), self.curves.get(branch_id, {}).get("nu", 1)))
             lo, hi = sp.interval
             row.update({"interval_lo": float(lo), "interval_hi": float(hi), "located": bool(sp.located),
                         "detail": _detail(sp)})
@@ -167,6 +172,26 @@ class BranchRecorder:
         self.rows.close()
         self.special.close()
         self.state.close()
+
+
+def _start(scene, model, hb, lam0: float):
+    """The start guess: ``analysis.start_from`` = model (its own start, else linear), linear or simulation."""
+    from contin.runner import RunError
+    from contin.start import HomotopyFailed, simulation_start
+
+    how = scene.analysis["start_from"]
+    try:
+        if how == "simulation":
+            opts = dict(scene.analysis["start_simulation"])
+            unknown = set(opts) - {"transient", "steps_per_period"}
+            if unknown:
+                raise scene.error("analysis.start_simulation", "keys transient, steps_per_period", sorted(unknown))
+            return simulation_start(hb, lam0, **opts)
+        if how == "model" and model.start is not None:
+            return model.start(hb, lam0)
+    except HomotopyFailed as exc:
+        raise RunError(f"no starting solution at {hb.parameter}={lam0:g}: {exc}") from None
+    return hb.linear_solution(lam0)
 
 
 def _restore(outdir, parameter: str) -> dict:
@@ -208,21 +233,13 @@ def run(ctx) -> dict:
         if len(a["guess"]) != hb.size:
             raise scene.error("analysis.guess", f"{hb.size} numbers (n*(2H+1) coefficients)", f"{len(a['guess'])} numbers")
         u0 = np.array(a["guess"], dtype=float)
-    elif model.start is not None:
-        from contin.runner import RunError
-        from contin.start import HomotopyFailed
-
-        try:
-            u0 = model.start(hb, lam0)
-        except HomotopyFailed as exc:
-            raise RunError(f"no starting solution at {hb.parameter}={lam0:g}: {exc}") from None
     else:
-        u0 = hb.linear_solution(lam0)
+        u0 = _start(scene, model, hb, lam0)
     previous = {}
     if ctx.resume:
         previous = _restore(ctx.outdir, hb.parameter)
     rec = BranchRecorder(ctx.outdir, model.dof_names, hb.parameter, scene.output["harmonic_columns"], hb.H,
-                         append=bool(previous))
+                         append=bool(previous), model=model)
     if previous:
         rec.restore(previous)
     ctx.recorder = rec

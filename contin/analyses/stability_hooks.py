@@ -29,6 +29,7 @@ def stability_setup(analysis: dict, hb):
     follow : callable
         ``follow(hb, u0, lam0, lam_range, options, recorder, ctx, previous) -> [(Branch, meta)]``:
         traces the first branch with stability (unless ``stability: none``),
+        in both directions from the start if ``analysis.both_ways``,
         switches at the kinds listed in ``analysis.switch`` (one generation,
         at most ``analysis.max_branches`` branches), and records every point
         as it is found.
@@ -49,12 +50,24 @@ def stability_setup(analysis: dict, hb):
 
             return callback
 
-        diagram = follow_diagram(hb, u0, lam0, lam_range, options, stability=stab, switch=switch,
-                                 max_depth=1 if switch else 0, parameter_name=hb.parameter,
-                                 max_branches=analysis["max_branches"], callback_factory=factory,
-                                 previous=previous)
+        previous = previous or {}
+        inside = lam_range[0] < lam0 < lam_range[1]
+        runs = [options] + ([options.replace(direction=-options.direction)] if analysis["both_ways"] and inside else [])
+        pairs, offset = [], 0
+        for opts in runs:
+            def shifted(index, problem, offset=offset):
+                return factory(index + offset, problem)
+
+            prev = {j - offset: b for j, b in previous.items() if j >= offset}
+            diagram = follow_diagram(hb, u0, lam0, lam_range, opts, stability=stab, switch=switch,
+                                     max_depth=1 if switch else 0, parameter_name=hb.parameter,
+                                     max_branches=analysis["max_branches"], callback_factory=shifted, previous=prev)
+            pairs += list(zip(diagram.branches, diagram.problems))
+            offset += len(diagram.branches)
+            if any(b.status.value == "interrupted" for b in diagram.branches):
+                break
         out = []
-        for j, (br, prob) in enumerate(zip(diagram.branches, diagram.problems)):
+        for j, (br, prob) in enumerate(pairs):
             rec.special_points(j, br)
             org = br.info.get("origin")
             out.append((br, {"nu": prob.nu, "harmonics": prob.H, "parent": br.info.get("parent"),

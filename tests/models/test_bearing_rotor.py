@@ -269,3 +269,22 @@ def test_rotor_entrainment_and_self_excited_whirl():
     assert c.label == "not periodic"
     f_self = next(f for f, _ in c.lines if abs(f - round(f)) > 0.05)
     assert 0.55 < f_self < 0.63  # forward (positive), near p_f / w, not a multiple of w/2
+
+
+def test_whirl_components_of_circular_orbits():
+    """x + i y = r e^{+i k theta} is a forward whirl of radius r; r e^{-i k theta} a backward one."""
+    from contin.harmonics import index
+    from contin.models.bearing_rotor import whirl_components
+
+    n, H = 4, 4
+    for nu, k_half, k_one in ((2, 1, 2), (1, None, 1)):
+        u = np.zeros(n * (2 * H + 1))
+        if k_half:
+            u[index(0, k_half, "c", n)], u[index(1, k_half, "s", n)] = 0.3, 0.3  # disc: forward at w/2
+        u[index(2, k_one, "c", n)], u[index(3, k_one, "s", n)] = 0.1, -0.1  # bearing: backward at w
+        u[index(0, k_one, "c", n)], u[index(1, k_one, "c", n)] = 0.2, 0.0  # disc: a line = half fwd + half bwd
+        wc = whirl_components(u, n, nu)
+        assert wc["whirl_fwd_half_disc"] == pytest.approx(0.3 if k_half else 0.0)
+        assert wc["whirl_bwd_half_disc"] == pytest.approx(0.0)
+        assert wc["whirl_fwd_1_bearing"] == pytest.approx(0.0) and wc["whirl_bwd_1_bearing"] == pytest.approx(0.1)
+        assert wc["whirl_fwd_1_disc"] == pytest.approx(0.1) and wc["whirl_bwd_1_disc"] == pytest.approx(0.1)
