@@ -8,7 +8,6 @@ non-empty message; anything else (``TypeError``, ``KeyError``,
 """
 
 import copy
-import os
 import tempfile
 import time
 from pathlib import Path

@@ -15,7 +15,7 @@ import numpy as np
 
 from contin.analyses import register_analysis
 from contin.branch import BranchStatus
-from contin.continuation import ContinuationOptions, continuation
+from contin.continuation import ContinuationOptions
 from contin.harmonic_balance import HarmonicBalance, HBOptions
 from contin.checkpoint import encode, special_record
 from contin.measures import measure_names, point_measures

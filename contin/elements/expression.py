@@ -175,7 +175,6 @@ class ExpressionForce(ForceElement):
         return lines
 
     def _module_source(self) -> str:
-        n = len(self.dof_names)
         f_targets, dp_branches = [], []
         for i, t in enumerate(self.totals):
             if t != ex.ZERO:

@@ -1,7 +1,6 @@
 """A run killed in the middle leaves parseable files, and --resume completes it."""
 
 import json
-import os
 import signal
 import subprocess
 import sys

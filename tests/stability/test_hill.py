@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from scipy.special import mathieu_a, mathieu_b
+from conftest import mathieu_boundaries
 
 from contin.catalog import build_model
 from contin.continuation import ContinuationOptions, continuation
@@ -79,21 +79,6 @@ def test_select_exponents_handles_a_degenerate_pair_at_minus_one():
     mult = np.exp(s[sel] * 2 * np.pi / Om)
     np.testing.assert_allclose(mult, [-1, -1], atol=1e-12)
     assert quality == 1.0
-
-
-def mathieu_boundaries(eps, rmax):
-    """Transition curves delta = a_r(q)/4, b_r(q)/4, q = 2 eps (Abramowitz & Stegun 20.1).
-
-    x'' + (delta + eps cos t) x = 0 with t = 2z is y'' + (4 delta + 4 eps cos 2z) y = 0,
-    Mathieu's equation with a = 4 delta, q = -2 eps; the set of curves {a_r, b_r} is
-    the same for q and -q. Even r: 2 pi-periodic solutions (multiplier +1), odd r:
-    4 pi-periodic (multiplier -1).
-    """
-    q = 2 * eps
-    out = [(mathieu_a(0, q) / 4, 0)]
-    for r in range(1, rmax + 1):
-        out += [(mathieu_b(r, q) / 4, r), (mathieu_a(r, q) / 4, r)]
-    return sorted(out)
 
 
 @pytest.mark.parametrize("eps, rmax, hi", [(0.2, 2, 1.3), (0.5, 3, 2.45)])

@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from scipy.special import mathieu_a, mathieu_b
+from conftest import mathieu_boundaries
 
 from contin.catalog import build_model
 from contin.continuation import ContinuationOptions, continuation
@@ -106,17 +106,6 @@ def test_clearance_oscillator_rk4_is_first_order():
     assert errs[3200] < errs[200] / 8  # 16x smaller step: at least first order overall
     # a smooth problem at the same step count is far more accurate (fourth order)
     assert errs[3200] > 1e-5
-
-
-def mathieu_boundaries(eps, rmax):
-    """delta = a_r(q)/4, b_r(q)/4 with q = 2 eps (x'' + (delta + eps cos t) x = 0 with t = 2z
-    is Mathieu's y'' + (a - 2 Q cos 2z) y = 0 with a = 4 delta, Q = -2 eps; the set
-    {a_r, b_r} is even in Q). Odd r: multiplier -1; even r: +1."""
-    q = 2 * eps
-    out = [(mathieu_a(0, q) / 4, 0)]
-    for r in range(1, rmax + 1):
-        out += [(mathieu_b(r, q) / 4, r), (mathieu_a(r, q) / 4, r)]
-    return sorted(out)
 
 
 @pytest.mark.parametrize("eps, rmax, hi", [(0.2, 2, 1.3), (0.5, 3, 2.45)])
