@@ -1,3 +1,6 @@
+import contextlib
+import signal
+
 import numpy as np
 from scipy.special import mathieu_a, mathieu_b
 import pytest
@@ -36,3 +39,52 @@ def mathieu_boundaries(eps, rmax):
     for r in range(1, rmax + 1):
         out += [(mathieu_b(r, q) / 4, r), (mathieu_a(r, q) / 4, r)]
     return sorted(out)
+
+
+class Hang(Exception):
+    """Raised by :func:`no_hang` when a call does not return (a hang, not a speed check)."""
+
+
+@contextlib.contextmanager
+def no_hang(seconds: int = 60):
+    """Fail a call that does not return within a generous bound (a hang guard, not a timing)."""
+
+    def alarm(signum, frame):
+        raise Hang(f"no result after {seconds} s: the call hangs")
+
+    previous = signal.signal(signal.SIGALRM, alarm)
+    signal.alarm(seconds)
+    try:
+        yield
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+def check_mathieu_tongues(eps, rmax, hi, harmonics, stability_options):
+    """Trace x = 0 of the undamped Mathieu equation in delta and compare its stability
+    changes with :func:`mathieu_boundaries`: located to 1e-6, classified pd (odd r) or
+    bp (even r), with the critical multiplier at -1 or +1. Returns ``(hb, branch, found)``."""
+    from contin.catalog import build_model
+    from contin.continuation import ContinuationOptions, continuation
+    from contin.harmonic_balance import HarmonicBalance, HBOptions
+    from contin.stability import StabilityMonitor, stability_events
+
+    model = build_model("mathieu", {"c": 0.0, "g": 0.0, "eps": eps}, effects=["parametric"])
+    hb = HarmonicBalance(model, "delta", HBOptions(harmonics=harmonics))
+    mon = StabilityMonitor(hb, stability_options)
+    lo, step = -0.3, 0.003  # narrower than the thinnest tongue checked (~0.008 for r = 3, eps = 0.5)
+    opts = ContinuationOptions(ds=step / (hi - lo), ds_max=step / (hi - lo), detect_folds=False,
+                               detect_branch_points=False, max_points=5000)
+    br = continuation(hb, np.zeros(hb.size), lo, (lo, hi), opts, parameter_name="delta",
+                      events=stability_events(mon), monitors=[mon])
+    found = [p for p in br.special_points if p.kind.value in ("bp", "pd", "ns", "fold")]
+    ref = mathieu_boundaries(eps, rmax)
+    assert len(found) == len(ref), [p.parameter for p in found]
+    for p, (d_ref, r) in zip(found, ref):
+        assert p.located
+        assert abs(p.parameter - d_ref) < 1e-6, (p.parameter, d_ref, r)
+        assert p.kind.value == ("pd" if r % 2 else "bp")
+        # double multiplier +-1 at the boundary; |mu -+ 1| ~ sqrt(location error) there
+        assert abs(p.data["multiplier"] - (-1 if r % 2 else 1)) < 1e-3
+    return hb, br, found

@@ -9,10 +9,10 @@ non-empty message; anything else (``TypeError``, ``KeyError``,
 
 import copy
 import tempfile
-import time
 from pathlib import Path
 
 import pytest
+from conftest import no_hang
 import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -170,13 +170,12 @@ def _allowed(exc: BaseException) -> bool:
 
 
 def _build(text: str, overrides=()):
-    t0 = time.perf_counter()
     try:
-        build_model(parse_scene(text, "<fuzz>", overrides))
+        with no_hang(60):
+            build_model(parse_scene(text, "<fuzz>", overrides))
     except Exception as exc:  # noqa: BLE001  (the point of the test)
         if not _allowed(exc):
             raise AssertionError(f"{type(exc).__name__} escaped: {exc!r}\n--- scene ---\n{text[:3000]}") from exc
-    assert time.perf_counter() - t0 < 10.0, "building took too long"
 
 
 # -------------------------------------------------------------- tests
@@ -197,14 +196,13 @@ def test_mutated_scenes_give_clear_errors(scratch, data, run_check):
     if run_check:
         path = scratch / "scene.yaml"
         path.write_text(text)
-        t0 = time.perf_counter()
         try:
-            code = main(["check", str(path)])
+            with no_hang(60):
+                code = main(["check", str(path)])
             assert code in (0, 2)
         except Exception as exc:  # noqa: BLE001
             if not _allowed(exc):
                 raise AssertionError(f"contin check: {type(exc).__name__} escaped: {exc!r}\n{text[:3000]}") from exc
-        assert time.perf_counter() - t0 < 10.0
 
 
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])

@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from conftest import mathieu_boundaries
+from conftest import check_mathieu_tongues
 
 from contin.catalog import build_model
 from contin.continuation import ContinuationOptions, continuation
@@ -90,24 +90,8 @@ def test_undamped_mathieu_tongues_with_hill(eps, rmax, hi):
     O(tolerance^2) because ``|mu| - 1`` grows like the square root of the
     distance to the boundary (the multipliers are double at a boundary).
     """
-    model = build_model("mathieu", {"c": 0.0, "g": 0.0, "eps": eps}, effects=["parametric"])
-    hb = HarmonicBalance(model, "delta", HBOptions(harmonics=8))
-    mon = StabilityMonitor(hb, StabilityOptions(method="hill"))
-    step = 0.003  # narrower than the thinnest tongue checked (~0.008 for r = 3, eps = 0.5)
-    lo = -0.3
-    opts = ContinuationOptions(ds=step / (hi - lo), ds_max=step / (hi - lo), detect_folds=False,
-                               detect_branch_points=False, max_points=5000)
-    br = continuation(hb, np.zeros(hb.size), lo, (lo, hi), opts, parameter_name="delta",
-                      events=stability_events(mon), monitors=[mon])
-    found = [p for p in br.special_points if p.kind.value in ("bp", "pd", "ns", "fold")]
-    ref = mathieu_boundaries(eps, rmax)
-    assert len(found) == len(ref), [p.parameter for p in found]
-    for p, (d_ref, r) in zip(found, ref):
-        assert p.located
-        assert abs(p.parameter - d_ref) < 1e-6, (p.parameter, d_ref, r)
-        assert p.kind.value == ("pd" if r % 2 else "bp")
-        # double multiplier +-1 at the boundary; |mu -+ 1| ~ sqrt(location error) there
-        assert abs(p.data["multiplier"] - (-1 if r % 2 else 1)) < 1e-3
+    hb, _, found = check_mathieu_tongues(eps, rmax, hi, 8, StabilityOptions(method="hill"))
+    for p in found:
         assert p.data["eigenvector"].shape == (hb.size,)
 
 

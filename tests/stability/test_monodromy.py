@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from conftest import mathieu_boundaries
+from conftest import check_mathieu_tongues
 
 from contin.catalog import build_model
 from contin.continuation import ContinuationOptions, continuation
@@ -11,14 +11,12 @@ from contin.harmonic_balance import HarmonicBalance, HBOptions
 from contin.model import Monomial
 from contin.models.polynomial import polynomial_model
 from contin.stability import (
-    StabilityMonitor,
     StabilityOptions,
     monodromy_orbit_ivp,
     monodromy_reference,
     monodromy_rk4,
     multiplier_distance,
     orbit_state,
-    stability_events,
 )
 from contin.stability.monodromy import state_matrices
 
@@ -115,19 +113,5 @@ def test_undamped_mathieu_tongues_with_monodromy(eps, rmax, hi):
     RK4 is not symplectic: in the stable regions it moves |mu| off the unit
     circle by ~(w h)^4 T / 120 < 1e-8 here, far inside the 1e-6 margin.
     """
-    model = build_model("mathieu", {"c": 0.0, "g": 0.0, "eps": eps}, effects=["parametric"])
-    hb = HarmonicBalance(model, "delta", HBOptions(harmonics=4))
-    mon = StabilityMonitor(hb, StabilityOptions(method="floquet", steps_per_period=512))
-    lo, step = -0.3, 0.003
-    opts = ContinuationOptions(ds=step / (hi - lo), ds_max=step / (hi - lo), detect_folds=False,
-                               detect_branch_points=False, max_points=5000)
-    br = continuation(hb, np.zeros(hb.size), lo, (lo, hi), opts, parameter_name="delta",
-                      events=stability_events(mon), monitors=[mon])
-    found = [p for p in br.special_points if p.kind.value in ("bp", "pd", "ns", "fold")]
-    ref = mathieu_boundaries(eps, rmax)
-    assert len(found) == len(ref)
-    for p, (d_ref, r) in zip(found, ref):
-        assert abs(p.parameter - d_ref) < 1e-6, (p.parameter, d_ref)
-        assert p.kind.value == ("pd" if r % 2 else "bp")
-        assert abs(p.data["multiplier"] - (-1 if r % 2 else 1)) < 1e-3
+    _, br, _ = check_mathieu_tongues(eps, rmax, hi, 4, StabilityOptions(method="floquet", steps_per_period=512))
     assert np.all(br.point_data["hill_quality"] == -1.0)  # Hill was not used
