@@ -49,7 +49,7 @@ def build_model(scene: Scene) -> Model:
         except ValueError as exc:
             raise SceneError("model.builtin", "the name of a built-in model (see `contin models`)", m["builtin"],
                              scene.lines.get("model.builtin"), hint=str(exc).split(m["builtin"] + "'", 1)[-1]) from None
-        from contin.scene import _number
+        from contin.schema import is_number as _number
 
         params = {}
         for k, v in m["parameters"].items():

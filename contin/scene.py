@@ -8,95 +8,17 @@ found and, where the YAML parser knows it, the line.
 
 from __future__ import annotations
 
-import copy
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import yaml
 
 from contin.model import suggest
+from contin.schema import (Key, SceneError, anything, check_section, integer, is_int, is_number, listing,
+                           mapping, number, string)
 
-__all__ = ["SceneError", "Scene", "load_scene", "parse_scene", "apply_override", "ANALYSES"]
-
-
-class SceneError(ValueError):
-    """Bad input in a scene, with the key path, expectation and finding."""
-
-    def __init__(self, key: str, expected: str, found: Any = None, line: int | None = None, hint: str = ""):
-        self.key, self.expected, self.found, self.line = key, expected, found, line
-        where = f" (line {line})" if line else ""
-        found_txt = "" if found is None else f", found {found!r}"
-        super().__init__(f"{key}{where}: expected {expected}{found_txt}{hint}")
-
-
-# ---------------------------------------------------------------- checkers
-def _number(v) -> bool:
-    if not isinstance(v, (int, float)) or isinstance(v, bool):
-        return False
-    try:
-        return math.isfinite(v)
-    except OverflowError:  # a YAML integer beyond the float range
-        return False
-
-
-def _int(v) -> bool:
-    return isinstance(v, int) and not isinstance(v, bool)
-
-
-@dataclass(frozen=True)
-class Key:
-    """Schema of one key: a check, a description of the expected form, a default."""
-
-    expected: str
-    check: Callable[[Any], bool] = lambda v: True
-    default: Any = None
-    required: bool = False
-
-
-NUMBER = "a finite number"
-STR = "a string"
-
-
-def number(default=None, required=False, positive=False, min_value=None):
-    def check(v):
-        if not _number(v):
-            return False
-        if positive and v <= 0:
-            return False
-        return min_value is None or v >= min_value
-
-    exp = "a positive number" if positive else NUMBER if min_value is None else f"a number >= {min_value}"
-    return Key(exp, check, default, required)
-
-
-def integer(default=None, minimum=None, required=False):
-    exp = "an integer" if minimum is None else f"an integer >= {minimum}"
-    return Key(exp, lambda v: _int(v) and (minimum is None or v >= minimum), default, required)
-
-
-def string(default=None, choices=None, required=False):
-    if choices:
-        return Key("one of " + ", ".join(repr(c) for c in choices), lambda v: v in choices, default, required)
-    return Key(STR, lambda v: isinstance(v, str) and v != "", default, required)
-
-
-def mapping(default=None):
-    return Key("a mapping (key: value)", lambda v: isinstance(v, dict), {} if default is None else default)
-
-
-def listing(default=None, item=None, expected="a list"):
-    return Key(expected, lambda v: isinstance(v, list) and (item is None or all(item(x) for x in v)),
-               [] if default is None else default)
-
-
-def anything(default=None):
-    return Key("any value", lambda v: True, default)
-
-
-def number_or_expr(v) -> bool:
-    return _number(v) or (isinstance(v, str) and v.strip() != "")
+__all__ = ["SceneError", "Scene", "load_scene", "parse_scene", "apply_override", "analysis_schemas"]
 
 
 # ---------------------------------------------------------------- schema
@@ -106,14 +28,14 @@ FREQUENCY_RESPONSE = {
     "type": string(required=True),
     "parameter": string(),
     "range": Key("a list of two different numbers [start, end]",
-                 lambda v: isinstance(v, list) and len(v) == 2 and all(_number(x) for x in v) and v[0] != v[1],
+                 lambda v: isinstance(v, list) and len(v) == 2 and all(is_number(x) for x in v) and v[0] != v[1],
                  required=True),
     "start": number(),
     "frequency": string(),
-    "harmonics": Key("an integer from 1 to 2000", lambda v: _int(v) and 1 <= v <= 2000, 5),
-    "subharmonic": Key("an integer from 1 to 64", lambda v: _int(v) and 1 <= v <= 64, 1),
+    "harmonics": Key("an integer from 1 to 2000", lambda v: is_int(v) and 1 <= v <= 2000, 5),
+    "subharmonic": Key("an integer from 1 to 64", lambda v: is_int(v) and 1 <= v <= 64, 1),
     "samples": Key("an integer from 2*harmonics+1 to 2**20, or null",
-                   lambda v: v is None or (_int(v) and 3 <= v <= 2**20), None),
+                   lambda v: v is None or (is_int(v) and 3 <= v <= 2**20), None),
     "stability": string("both", ("hill", "floquet", "both", "none")),
     "stability_options": mapping(),
     "switch": listing([], lambda x: x in ("pd", "bp"), "a list of bifurcation kinds among 'pd', 'bp'"),
@@ -123,10 +45,9 @@ FREQUENCY_RESPONSE = {
     "start_simulation": mapping(),
     "both_ways": Key("true or false", lambda v: isinstance(v, bool), False),
     "guess": Key("a list of numbers (the harmonic coefficients) or null",
-                 lambda v: v is None or (isinstance(v, list) and all(_number(x) for x in v)), None),
+                 lambda v: v is None or (isinstance(v, list) and all(is_number(x) for x in v)), None),
 }
 
-ANALYSES: dict[str, dict] = {"frequency_response": FREQUENCY_RESPONSE}
 
 OUTPUT = {
     "measure": string(),
@@ -242,27 +163,6 @@ def apply_override(data: dict, assignment: str) -> None:
     node[parts[-1]] = value
 
 
-def _check_section(section: dict, schema: dict, prefix: str, lines: dict) -> dict:
-    out = {}
-    for k in section:
-        if k not in schema:
-            path = f"{prefix}.{k}"
-            raise SceneError(path, "one of the keys " + ", ".join(schema), None, lines.get(path),
-                             hint=f"; unknown key '{k}'{suggest(k, schema)}")
-    for k, spec in schema.items():
-        path = f"{prefix}.{k}"
-        if k not in section or (section[k] is None and not spec.required):
-            if spec.required:
-                raise SceneError(path, spec.expected + " (required)", None, lines.get(prefix))
-            out[k] = copy.deepcopy(spec.default)
-            continue
-        v = section[k]
-        if not spec.check(v):
-            raise SceneError(path, spec.expected, v, lines.get(path))
-        out[k] = v
-    return out
-
-
 def parse_scene(text: str, source: str = "<string>", overrides=()) -> Scene:
     """Parse, override and validate a scene given as YAML text.
 
@@ -294,17 +194,18 @@ def parse_scene(text: str, source: str = "<string>", overrides=()) -> Scene:
             raise SceneError(sec, "a mapping (required section)", data.get(sec), lines.get(sec))
     model = data["model"]
     schema = BUILTIN_MODEL if "builtin" in model else CUSTOM_MODEL
-    model = _check_section(model, schema, "model", lines)
+    model = check_section(model, schema, "model", lines)
     analysis = data["analysis"]
     atype = analysis.get("type")
-    if not isinstance(atype, str) or atype not in ANALYSES:
-        raise SceneError("analysis.type", "one of " + ", ".join(repr(a) for a in ANALYSES), atype,
-                         lines.get("analysis.type"), hint=suggest(atype, ANALYSES) if isinstance(atype, str) else "")
-    analysis = _check_section(analysis, ANALYSES[atype], "analysis", lines)
+    schemas = analysis_schemas()
+    if not isinstance(atype, str) or atype not in schemas:
+        raise SceneError("analysis.type", "one of " + ", ".join(repr(a) for a in schemas), atype,
+                         lines.get("analysis.type"), hint=suggest(atype, schemas) if isinstance(atype, str) else "")
+    analysis = check_section(analysis, schemas[atype], "analysis", lines)
     output = data.get("output") or {}
     if not isinstance(output, dict):
         raise SceneError("output", "a mapping", output, lines.get("output"))
-    output = _check_section(output, OUTPUT, "output", lines)
+    output = check_section(output, OUTPUT, "output", lines)
     return Scene({"model": model, "analysis": analysis, "output": output}, source, lines)
 
 
@@ -318,6 +219,9 @@ def load_scene(path: str | Path, overrides=()) -> Scene:
     return parse_scene(text, str(path), overrides)
 
 
-from contin.analyses.simulate import SIMULATE  # noqa: E402  (the schema lives beside its analysis)
+def analysis_schemas() -> dict:
+    """``analysis.type`` name -> schema of its section, for every registered analysis."""
+    from contin.analyses import ANALYSIS_SCHEMAS, load_all
 
-ANALYSES["simulate"] = SIMULATE
+    load_all()
+    return {"frequency_response": FREQUENCY_RESPONSE, **ANALYSIS_SCHEMAS}

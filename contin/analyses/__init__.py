@@ -1,27 +1,47 @@
 """Analyses a scene can run, by ``analysis.type``.
 
-Each entry maps a type name to a function ``run(context) -> dict`` (the
-analysis part of ``summary.json``); see :mod:`contin.runner`.
+Each analysis module registers a function ``run(context) -> dict`` (the
+analysis part of ``summary.json``; see :mod:`contin.runner`) and, except for
+``frequency_response`` whose schema lives in :mod:`contin.scene`, the schema
+of its ``analysis`` section (built from :mod:`contin.schema`). A new analysis
+is a new module listed in :data:`ANALYSIS_MODULES`; nothing else changes.
 """
 
 from __future__ import annotations
 
+import importlib
 from typing import Callable
 
-__all__ = ["ANALYSIS_RUNNERS", "register_analysis", "get_runner"]
+__all__ = ["ANALYSIS_RUNNERS", "ANALYSIS_SCHEMAS", "ANALYSIS_MODULES", "register_analysis", "get_runner",
+           "load_all"]
 
 ANALYSIS_RUNNERS: dict[str, Callable] = {}
+ANALYSIS_SCHEMAS: dict[str, dict] = {}
+
+#: modules that register analyses on import
+ANALYSIS_MODULES = (
+    "contin.analyses.frequency_response",
+    "contin.analyses.simulate",
+)
 
 
-def register_analysis(name: str):
+def register_analysis(name: str, schema: dict | None = None):
+    """Decorator registering ``run`` for ``analysis.type: name`` (and its section schema)."""
+
     def deco(fn):
         ANALYSIS_RUNNERS[name] = fn
+        if schema is not None:
+            ANALYSIS_SCHEMAS[name] = schema
         return fn
 
     return deco
 
 
-def get_runner(name: str) -> Callable:
-    from contin.analyses import frequency_response, simulate  # noqa: F401  (registers)
+def load_all() -> None:
+    for mod in ANALYSIS_MODULES:
+        importlib.import_module(mod)
 
+
+def get_runner(name: str) -> Callable:
+    load_all()
     return ANALYSIS_RUNNERS[name]

@@ -21,45 +21,17 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
-from typing import Any, Callable
 
 import numpy as np
 
 from contin.analyses import register_analysis
+from contin.schema import Key, SceneError, int_range, is_number
 
 __all__ = ["SIMULATE", "run", "COLUMNS_HEAD"]
 
 
-@dataclass(frozen=True)
-class _Key:
-    """Schema of one key, with the fields of :class:`contin.scene.Key`.
-
-    Defined here so that :mod:`contin.scene` can import this module's schema
-    without a circular import.
-    """
-
-    expected: str
-    check: Callable[[Any], bool] = lambda v: True
-    default: Any = None
-    required: bool = False
-
-
-def _int(v) -> bool:
-    return isinstance(v, int) and not isinstance(v, bool)
-
-
-def _number(v) -> bool:
-    if not isinstance(v, (int, float)) or isinstance(v, bool):
-        return False
-    try:
-        return math.isfinite(v)
-    except OverflowError:
-        return False
-
-
 def _initial_ok(v) -> bool:
-    return v in ("rest", "small", "previous") or (isinstance(v, list) and len(v) > 0 and all(_number(x) for x in v))
+    return v in ("rest", "small", "previous") or (isinstance(v, list) and len(v) > 0 and all(is_number(x) for x in v))
 
 
 def _dofs_ok(v) -> bool:
@@ -67,28 +39,24 @@ def _dofs_ok(v) -> bool:
                          and len(set(v)) == len(v))
 
 
-def _int_key(default, lo, hi, what="an integer"):
-    return _Key(f"{what} from {lo} to {hi}", lambda v: _int(v) and lo <= v <= hi, default)
-
-
 #: scene schema of ``analysis`` for ``type: simulate``
 SIMULATE = {
-    "type": _Key("a string", lambda v: isinstance(v, str) and v != "", None, True),
-    "parameter": _Key("a string", lambda v: isinstance(v, str) and v != ""),
-    "values": _Key("a non-empty list of finite numbers",
-                   lambda v: isinstance(v, list) and len(v) > 0 and all(_number(x) for x in v), None),
-    "steps_per_period": _int_key(4096, 8, 2**20),
-    "transient": _Key("a number >= 0 (revolutions)", lambda v: _number(v) and v >= 0, 500),
-    "record": _int_key(100, 4, 100000, "an integer (revolutions)"),
-    "samples_per_period": _int_key(64, 8, 2**20),
-    "initial": _Key("'rest', 'small', 'previous' or a list of 2n numbers (displacements, then velocities)",
+    "type": Key("a string", lambda v: isinstance(v, str) and v != "", None, True),
+    "parameter": Key("a string", lambda v: isinstance(v, str) and v != ""),
+    "values": Key("a non-empty list of finite numbers",
+                   lambda v: isinstance(v, list) and len(v) > 0 and all(is_number(x) for x in v), None),
+    "steps_per_period": int_range(4096, 8, 2**20),
+    "transient": Key("a number >= 0 (revolutions)", lambda v: is_number(v) and v >= 0, 500),
+    "record": int_range(100, 4, 100000, "an integer (revolutions)"),
+    "samples_per_period": int_range(64, 8, 2**20),
+    "initial": Key("'rest', 'small', 'previous' or a list of 2n numbers (displacements, then velocities)",
                     _initial_ok, "rest"),
-    "locate_events": _Key("true or false", lambda v: isinstance(v, bool), True),
-    "tolerance": _Key("a positive number", lambda v: _number(v) and v > 0, 1e-3),
-    "max_period": _int_key(8, 1, 64),
-    "dofs": _Key("a list of one or two dof names (the observed pair, e.g. the disc [x1, y1])", _dofs_ok, None),
-    "plot_periods": _int_key(8, 1, 100000),
-    "seed": _int_key(0, 0, 2**63 - 1),
+    "locate_events": Key("true or false", lambda v: isinstance(v, bool), True),
+    "tolerance": Key("a positive number", lambda v: is_number(v) and v > 0, 1e-3),
+    "max_period": int_range(8, 1, 64),
+    "dofs": Key("a list of one or two dof names (the observed pair, e.g. the disc [x1, y1])", _dofs_ok, None),
+    "plot_periods": int_range(8, 1, 100000),
+    "seed": int_range(0, 0, 2**63 - 1),
 }
 
 COLUMNS_HEAD = ["class", "period", "settled", "spread", "mismatch_1", "mismatch_2", "pattern_ratio",
@@ -130,7 +98,6 @@ def _row(parameter, value, res, cls, dof_names) -> dict:
 
 
 def _initial_state(a, model, previous, rng):
-    from contin.scene import SceneError
 
     n = model.n_dof
     init = a["initial"]
@@ -147,12 +114,11 @@ def _initial_state(a, model, previous, rng):
     return np.zeros(n), np.zeros(n)
 
 
-@register_analysis("simulate")
+@register_analysis("simulate", SIMULATE)
 def run(ctx) -> dict:
     """Run a ``simulate`` scene; returns its part of ``summary.json``."""
     from contin.poincare import steady_state
     from contin.results import CsvStream
-    from contin.scene import SceneError
     from contin.simulation import SimulationError
 
     scene, model = ctx.scene, ctx.model
@@ -312,14 +278,3 @@ def _plot(ctx, param, obs, records) -> list:
         plt.close(fig)
         files.append(path.name)
     return files
-
-
-def _register_schema():
-    # the scene module keeps the schemas of all analyses: make `simulate` known to it on import
-    # (at the end of this module, so that contin.scene may import SIMULATE from here)
-    from contin import scene
-
-    scene.ANALYSES.setdefault("simulate", SIMULATE)
-
-
-_register_schema()
