@@ -38,7 +38,9 @@ class HBOptions:
     Parameters
     ----------
     harmonics : int
-        ``H``, number of harmonics of the base frequency ``w/nu`` (>= 1).
+        ``H``, number of harmonics of the base frequency ``w/nu`` (>= 0).
+        ``H = 0`` is the static problem ``K x + f_nl(x, 0) = f_0`` (only
+        constant excitation allowed); its ``Ju`` is the tangent stiffness.
     subharmonic : int
         ``nu``, the solution period is ``2 pi nu / w`` (>= 1).
     samples : int or None
@@ -52,10 +54,10 @@ class HBOptions:
     samples: int | None = None
 
     def __post_init__(self):
-        for name in ("harmonics", "subharmonic"):
+        for name, lo in (("harmonics", 0), ("subharmonic", 1)):
             v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
-                raise ValueError(f"HBOptions.{name} must be an integer >= 1, got {v!r}")
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
+                raise ValueError(f"HBOptions.{name} must be an integer >= {lo}, got {v!r}")
         if self.samples is not None:
             s = self.samples
             if isinstance(s, bool) or not isinstance(s, (int, np.integer)) or s < 2 * self.harmonics + 1:

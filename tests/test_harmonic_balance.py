@@ -83,13 +83,28 @@ def test_duffing_h1_residual_is_the_amplitude_equation():
 
 def test_options_are_validated_with_field_names():
     with pytest.raises(ValueError, match="HBOptions.harmonics"):
-        HBOptions(harmonics=0)
+        HBOptions(harmonics=-1)
     with pytest.raises(ValueError, match="HBOptions.samples"):
         HBOptions(harmonics=5, samples=10)
     with pytest.raises(ValueError, match="harmonic.*did you mean 'harmonics'"):
         HBOptions.from_dict({"harmonic": 3})
     with pytest.raises(ValueError, match="unknown parameter 'ww'.*did you mean 'w'"):
         HarmonicBalance(build_model("duffing"), "ww")
+
+
+def test_zero_harmonics_is_the_static_residual(rng):
+    """H = 0: R(x) = K x + f_nl(x, 0) - f_const, and Ju the tangent stiffness (closed form)."""
+    model = polynomial_model(["x", "y"], {"k": 2.0, "kc": 0.5, "g": 0.7, "P": 0.3, "w": 1.0}, mass=[[1, 0], [0, 1]],
+                             stiffness=[["k", "-kc"], ["-kc", "k"]],
+                             nonlinear=[{"dof": "x", "coef": "g", "x": {"x": 3}},
+                                        {"dof": "y", "coef": "g", "x": {"x": 1, "y": 1}}],
+                             forcing=[{"dof": "y", "amplitude": "P", "order": 0}])
+    hb = HarmonicBalance(model, "P", HBOptions(harmonics=0))
+    x, y = rng.normal(size=2)
+    R, Ju, Jlam = hb.linearize(np.array([x, y]), 0.3)
+    np.testing.assert_allclose(R, [2 * x - 0.5 * y + 0.7 * x**3, -0.5 * x + 2 * y + 0.7 * x * y - 0.3], atol=1e-13)
+    np.testing.assert_allclose(Ju, [[2 + 2.1 * x**2, -0.5], [-0.5 + 0.7 * y, 2 + 0.7 * x]], atol=1e-13)
+    np.testing.assert_allclose(Jlam, [0, -1], atol=1e-14)
 
 
 def test_excitation_must_be_representable():
