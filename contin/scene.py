@@ -1,13 +1,15 @@
 """Scene files: YAML loading, ``--set`` overrides, schema check and defaults.
 
 A scene has three sections, ``model``, ``analysis`` and ``output`` (SPEC 4.2).
-Loading uses ``yaml.safe_load``; the schema check then reports every problem
+Loading uses PyYAML's safe loader, with YAML 1.2's float syntax (PyYAML
+follows YAML 1.1, where ``1e-6`` without a dot is a string); the schema check then reports every problem
 as a :class:`SceneError` naming the dotted key, the expected form, what was
 found and, where the YAML parser knows it, the line.
 """
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -18,7 +20,27 @@ from contin.model import suggest
 from contin.schema import (Key, SceneError, anything, check_section, integer, is_int, is_number, listing,
                            mapping, number, string)
 
-__all__ = ["SceneError", "Scene", "load_scene", "parse_scene", "apply_override", "analysis_schemas"]
+__all__ = ["SceneError", "Scene", "load_scene", "parse_scene", "apply_override", "analysis_schemas", "SceneLoader"]
+
+
+class SceneLoader(yaml.SafeLoader):
+    """Safe YAML loader that reads ``1e-6`` as a number, as YAML 1.2 does."""
+
+
+SceneLoader.yaml_implicit_resolvers = {k: list(v) for k, v in yaml.SafeLoader.yaml_implicit_resolvers.items()}
+SceneLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+    |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
+    |\.[0-9_]+(?:[eE][-+][0-9]+)?
+    |[-+]?\.(?:inf|Inf|INF)
+    |\.(?:nan|NaN|NAN))$""", re.X),
+    list("-+0123456789."),
+)
+
+
+def _load(text: str):
+    return yaml.load(text, Loader=SceneLoader)  # noqa: S506  (a SafeLoader subclass)
 
 
 # ---------------------------------------------------------------- schema
@@ -118,7 +140,7 @@ def _line_map(text: str) -> dict:
     """Dotted key -> line number, from the YAML node tree."""
     lines: dict = {}
     try:
-        root = yaml.compose(text, Loader=yaml.SafeLoader)
+        root = yaml.compose(text, Loader=SceneLoader)
     except yaml.YAMLError:
         return lines
 
@@ -148,7 +170,7 @@ def apply_override(data: dict, assignment: str) -> None:
     if not key or any(not part for part in key.split(".")):
         raise SceneError("--set", "a dotted key such as model.parameters.f0", key)
     try:
-        value = yaml.safe_load(text) if text.strip() else None
+        value = _load(text) if text.strip() else None
     except yaml.YAMLError as exc:
         raise SceneError(f"--set {key}", "a YAML value", text, hint=f" ({str(exc).splitlines()[0]})") from None
     node = data
@@ -172,7 +194,7 @@ def parse_scene(text: str, source: str = "<string>", overrides=()) -> Scene:
         On malformed YAML or any schema violation.
     """
     try:
-        data = yaml.safe_load(text)
+        data = _load(text)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         line = mark.line + 1 if mark is not None else None

@@ -77,3 +77,12 @@ def test_start_outside_range_is_refused(tmp_path):
     s = parse_scene(GOOD, overrides=["analysis.start=5", "analysis.stability=none"])
     with pytest.raises(SceneError, match=r"analysis.start.*inside range \[0.5, 3\]"):
         run_scene(s, tmp_path, progress=False)
+
+
+def test_exponent_without_a_dot_is_a_number():
+    """PyYAML (YAML 1.1) reads 1e-6 as a string; scenes read it as YAML 1.2 does."""
+    scene = parse_scene("model: {builtin: duffing, parameters: {F: 2e-1}}\n"
+                        "analysis: {type: frequency_response, range: [0.5, 2], continuation: {newton_tol: 1e-9}}\n",
+                        overrides=["analysis.continuation.ds=5E-3"])
+    assert scene.model["parameters"]["F"] == 0.2
+    assert scene.analysis["continuation"] == {"newton_tol": 1e-9, "ds": 5e-3}
