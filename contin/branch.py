@@ -50,6 +50,8 @@ class SpecialKind(str, enum.Enum):
     NS = "ns"
     #: generic, unclassified stability change
     STABILITY = "stability"
+    #: a corner of the branch: the tangent jumps (non-smooth problems, e.g. contact onset/grazing)
+    KINK = "kink"
     END = "end"
     START = "start"
     USER = "user"

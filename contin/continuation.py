@@ -21,6 +21,12 @@ Method
   after a failure (no convergence, a corrector moving farther than ``ds``
   from the prediction, or a tangent turning by more than ``max_angle_deg``,
   which prevents jumping onto another branch).
+- Corners: a non-smooth problem (a contact that opens or closes, grazing)
+  has branches whose tangent jumps. A smooth curve's turn shrinks with the
+  step (``angle ~ curvature * ds``); a corner's does not. When the turn over
+  a step ``corner_ratio`` times shorter than an earlier rejected one is still
+  more than half as large, the step is accepted and a ``kink`` special point
+  is recorded (``corners=True``); otherwise the step keeps shrinking.
 - Range ends are landed on exactly (Newton at fixed ``lam = end``).
 """
 
@@ -155,6 +161,12 @@ class ContinuationOptions:
         Maximum solves per located event.
     detect_folds, detect_branch_points : bool
         Enable the built-in fold / branch-point events.
+    corners : bool
+        Accept a tangent jump that persists as the step shrinks by
+        ``corner_ratio`` (a corner of a non-smooth branch) and record it as a
+        ``kink`` special point; False stops the branch there instead.
+    corner_ratio : float
+        Step reduction (> 1) over which a turn must persist to be a corner.
     """
 
     ds: float = 0.02
@@ -175,6 +187,8 @@ class ContinuationOptions:
     locate_max_iter: int = 60
     detect_folds: bool = True
     detect_branch_points: bool = True
+    corners: bool = True
+    corner_ratio: float = 8.0
 
     def __post_init__(self):
         def bad(field, requirement, value):
@@ -225,14 +239,17 @@ class ContinuationOptions:
         positive("locate_tol")
         if not _is_int(self.locate_max_iter) or self.locate_max_iter < 1:
             bad("locate_max_iter", "an integer >= 1", self.locate_max_iter)
-        for field in ("detect_folds", "detect_branch_points"):
+        if not _is_real(self.corner_ratio) or not (math.isfinite(self.corner_ratio) and self.corner_ratio > 1):
+            bad("corner_ratio", "a finite number > 1", self.corner_ratio)
+        for field in ("detect_folds", "detect_branch_points", "corners"):
             v = getattr(self, field)
             if not isinstance(v, (bool, np.bool_)):
                 bad(field, "a bool", v)
             object.__setattr__(self, field, bool(v))
         for field in ("max_points", "newton_max_iter", "newton_easy", "locate_max_iter", "direction"):
             object.__setattr__(self, field, int(getattr(self, field)))
-        for field in ("ds", "ds_min", "ds_max", "newton_tol", "grow", "shrink", "max_angle_deg", "locate_tol"):
+        for field in ("ds", "ds_min", "ds_max", "newton_tol", "grow", "shrink", "max_angle_deg", "locate_tol",
+                      "corner_ratio"):
             object.__setattr__(self, field, float(getattr(self, field)))
 
     @classmethod
@@ -338,13 +355,16 @@ class _Candidate:
     h: float  # pseudo-arclength from the previous point
     ds: float
     landed: bool = False
+    kink: tuple | None = None  # (angle, ds, first angle, first ds) when accepted as a corner
 
 
 class _StepFailed(Exception):
-    def __init__(self, reason: str, rcond: float = math.nan):
+    def __init__(self, reason: str, rcond: float = math.nan, turn=None):
         super().__init__(reason)
         self.reason = reason
         self.rcond = rcond
+        #: (angle_deg, ds, candidate) when the only fault was the tangent's turn
+        self.turn = turn
 
 
 class _Engine:
@@ -370,6 +390,8 @@ class _Engine:
         self.builder = BranchBuilder(parameter_name, self.m)
         self.branch = self.builder.branch
         self.n_rejected = 0
+        self.turns: list = []  # (angle or None, ds) of the failed steps from the current point
+        self.across = False  # a fixed-parameter step across a corner is being tried
         self.n_newton = 0
         self.min_rcond = math.inf
         self.min_rcond_index = -1
@@ -649,18 +671,20 @@ class _Engine:
         t_new = self._tangent_from(lu)
         cosang = float(np.clip(self.t @ t_new, -1.0, 1.0))
         angle = math.degrees(math.acos(cosang))
-        if angle > self.opt.max_angle_deg:
-            raise _StepFailed(f"tangent turned by {angle:.1f} deg > {self.opt.max_angle_deg:g} deg", rcond)
         u, lam, R, Ju, Jlam = self.sp.last
         h = float(self.t @ (x_new - self.x))
-        if landed:
+        if landed or self.across:
             h = max(h, 0.0)  # the end may be within rounding of the current point
         elif not h > 0:
             raise _StepFailed("the new point is not ahead of the previous one", rcond)
-        return _Candidate(
+        cand = _Candidate(
             x=x_new, u=np.array(u, dtype=float), lam=float(lam), tangent=t_new, lu=lu, R=R, Ju=Ju, Jlam=Jlam,
             iterations=iterations, h=h, ds=ds, landed=landed,
         )
+        if angle > self.opt.max_angle_deg:
+            raise _StepFailed(f"tangent turned by {angle:.1f} deg > {self.opt.max_angle_deg:g} deg", rcond,
+                              turn=(angle, ds, cand))
+        return cand
 
     def _step(self, ds: float) -> _Candidate:
         xp = self.x + ds * self.t
@@ -669,12 +693,13 @@ class _Engine:
             raise _StepFailed(f"Newton did not converge ({res.message})", res.rcond)
         return self._check_new(res.x, xp, ds, res.lu, res.rcond, res.iterations)
 
-    def _land(self, end: float, ds: float, guess_x: np.ndarray) -> _Candidate:
+    def _land(self, end: float, ds: float, guess_x: np.ndarray, landed: bool = True) -> _Candidate:
         """Newton at fixed ``lam = end`` from ``guess_x`` (scaled, lam = end)."""
         sp, m = self.sp, self.m
         res = self._fixed_solve(end, guess_x[:m] * sp.su)
         if not res.converged:
-            raise _StepFailed(f"Newton did not converge at the range end {self.fmt(end)} ({res.message})", res.rcond)
+            where = "at the range end" if landed else "at"
+            raise _StepFailed(f"Newton did not converge {where} {self.fmt(end)} ({res.message})", res.rcond)
         u, _, R, Ju, Jlam = sp.last  # evaluated at the converged u
         x_new = np.empty(m + 1)
         x_new[:m] = u / sp.su
@@ -687,7 +712,7 @@ class _Engine:
             lu = factorize(A)
         except SingularMatrixError:
             lu = None
-        return self._check_new(x_new, guess_x, ds, lu, res.rcond, res.iterations, landed=True)
+        return self._check_new(x_new, guess_x, ds, lu, res.rcond, res.iterations, landed=landed)
 
     def _attempt(self, ds: float) -> _Candidate | None:
         """One step from the current point; None if the current point is at
@@ -740,6 +765,10 @@ class _Engine:
             if cand is None:
                 self._finish_range_end(len(self.branch) - 1)
                 return self.branch
+            if isinstance(cand, _StepFailed) and opt.corners:
+                corner = self._corner(cand, ds)
+                if corner is not None:
+                    cand = corner
             if isinstance(cand, _StepFailed):
                 self.n_rejected += 1
                 self.last_failure = cand.reason
@@ -763,8 +792,12 @@ class _Engine:
                     )
                 ds = max(ds * opt.shrink, opt.ds_min)
                 continue
+            if not self.turns or cand.kink is not None or ds >= self.turns[0][1] / opt.corner_ratio:
+                self.turns.clear()  # healthy again (or past the corner): forget the failures
             if not self._accept(cand):
                 return self.branch
+            if cand.kink is not None:
+                self._record_kink(cand)
             if cand.landed:
                 self._finish_range_end(len(self.branch) - 1)
                 return self.branch
@@ -773,6 +806,73 @@ class _Engine:
                 return self.branch
             if cand.iterations <= opt.newton_easy:
                 ds = min(ds * opt.grow, opt.ds_max)
+
+    def _corner(self, failed: _StepFailed, ds: float):
+        """A step across a corner of the branch, or None.
+
+        Two signs of a corner once the step has shrunk ``corner_ratio``
+        times since the first failure near the current point (failures are
+        forgotten once a step of at least that scale succeeds again): the turn of a
+        converged step does not shrink with it, or the bordered corrector,
+        whose Newton iterates straddle the corner, fails; then a step at
+        fixed parameter (``lam`` advanced by ``ds``, in scaled units, in the
+        tangent's direction) is tried, as across a corner the branch is
+        locally a graph over ``lam`` unless the corner is a fold.
+        """
+        angle = failed.turn[0] if failed.turn is not None else None
+        if not self.turns:
+            self.turns.append((angle, ds))
+            return None
+        first_angle, first_ds = self.turns[0]
+        self.turns.append((angle, ds))
+        if first_ds < self.opt.corner_ratio * ds:
+            return None
+        if angle is not None and any(a is not None and angle >= 0.5 * a for a, d in self.turns[:-1]
+                                     if d >= self.opt.corner_ratio * ds):
+            cand = self._oriented(failed.turn[2])
+            cand.kink = (angle, ds, first_angle or angle, first_ds)
+            return cand
+        sl, t_lam = self.sp.sl, self.t[-1]
+        if abs(t_lam) < 1e-3:
+            return None  # a vertical tangent: not a graph over lam
+        guess = self.x.copy()  # the unknowns as they are: the slope beyond the corner is unknown
+        guess[-1] += math.copysign(ds, t_lam)
+        self.across = True
+        try:
+            cand = self._land(float(guess[-1] * sl), ds / abs(t_lam), guess, landed=False)
+        except _StepFailed as exc:
+            if exc.turn is None:
+                return None
+            cand = exc.turn[2]
+        finally:
+            self.across = False
+        if not (self.lo <= cand.lam <= self.hi):
+            return None
+        cand = self._oriented(cand)
+        turn = math.degrees(math.acos(float(np.clip(self.t @ cand.tangent, -1.0, 1.0))))
+        if turn > self.opt.max_angle_deg:
+            cand.kink = (turn, ds, first_angle or turn, first_ds)
+        return cand
+
+    def _oriented(self, cand):
+        """Orient the tangent beyond a corner along the secant (the bordered
+        orientation, ``t_new . t_old > 0``, reverses it after a turn beyond 90 deg)."""
+        if float(cand.tangent @ (cand.x - self.x)) < 0:
+            cand.tangent = -cand.tangent
+        return cand
+
+    def _record_kink(self, cand):
+        angle, ds, first_angle, first_ds = cand.kink
+        i = len(self.branch) - 1
+        lam_a, lam_b = float(self.branch.parameter[i - 1]), float(self.branch.parameter[i])
+        self.builder.add_special(
+            SpecialPoint(SpecialKind.KINK, lam_b, cand.u.copy(), (lam_a, lam_b), i - 1,
+                         float(self.branch.arclength[i]), located=True, event="corner",
+                         message=(f"the tangent jumps by {angle:.1f} deg over a step of {ds:.1e} "
+                                  f"({first_angle:.1f} deg over {first_ds:.1e}): a corner of the branch, "
+                                  "where the problem is not smooth (a contact opening or closing: grazing)"),
+                         data={"angle_deg": angle, "ds": ds}, tangent=cand.tangent.copy())
+        )
 
     def _finish_range_end(self, index: int):
         lam = float(self.branch.parameter[index])
@@ -800,6 +900,8 @@ class _Engine:
         # events on the arc between the previous and the new point
         t_prev = self.t
         for ev, ga, gb in zip(self.events, prev_g, g_new):
+            if cand.kink is not None and isinstance(ev, (FoldEvent, BranchPointEvent)):
+                continue  # the tangent's jump at a corner is neither a fold nor a branch point
             for comp in changed_components(ev, ga, gb, prev_info, info):
                 self._locate(ev, comp, prev_x, t_prev, prev_info, cand, info, ga, gb, index - 1)
         self.x, self.u, self.lam, self.t, self.s = cand.x, cand.u, lam_new, cand.tangent, s_new

@@ -12,7 +12,7 @@ import numpy as np  # noqa: E402
 
 __all__ = ["bifurcation_diagram", "axis_label"]
 
-MARKERS = {"fold": ("o", "tab:red"), "pd": ("s", "tab:purple"), "ns": ("D", "tab:green"),
+MARKERS = {"fold": ("o", "tab:red"), "pd": ("s", "tab:purple"), "ns": ("D", "tab:green"), "kink": ("v", "tab:gray"),
            "bp": ("^", "tab:orange"), "stability": ("x", "k")}
 
 

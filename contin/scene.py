@@ -46,6 +46,10 @@ def _load(text: str):
 # ---------------------------------------------------------------- schema
 CONTINUATION_KEYS = mapping()  # validated by ContinuationOptions.from_dict
 
+#: keys a further start (``analysis.starts``) may change; the others are shared
+START_KEYS = ("start", "start_from", "start_simulation", "subharmonic", "harmonics", "samples", "both_ways",
+              "guess", "stability_options", "switch", "continuation")
+
 FREQUENCY_RESPONSE = {
     "type": string(required=True),
     "parameter": string(),
@@ -68,6 +72,8 @@ FREQUENCY_RESPONSE = {
     "both_ways": Key("true or false", lambda v: isinstance(v, bool), False),
     "guess": Key("a list of numbers (the harmonic coefficients) or null",
                  lambda v: v is None or (isinstance(v, list) and all(is_number(x) for x in v)), None),
+    "starts": listing([], lambda x: isinstance(x, dict),
+                      "a list of mappings, each a further start with keys among " + ", ".join(START_KEYS)),
 }
 
 

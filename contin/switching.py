@@ -112,9 +112,15 @@ class BranchStart:
 
 
 def doubled_problem(hb, factor: int = 2, harmonics: int | None = None):
-    """The HB problem of order ``factor*nu`` (``factor*H`` harmonics by default)."""
-    H2 = factor * hb.H if harmonics is None else int(harmonics)
-    return hb.with_options(subharmonic=factor * hb.nu, harmonics=H2)
+    """The HB problem of order ``factor*nu`` (``factor*H`` harmonics by default).
+
+    The default keeps the discretisation of the original problem: ``factor*H``
+    harmonics of ``w/(factor nu)`` and ``factor*N`` samples over the longer
+    period (the same time step).
+    """
+    if harmonics is None:
+        return hb.with_options(subharmonic=factor * hb.nu, harmonics=factor * hb.H, samples=factor * hb.N)
+    return hb.with_options(subharmonic=factor * hb.nu, harmonics=int(harmonics))
 
 
 def odd_indices(n: int, harmonics: int) -> np.ndarray:

@@ -30,7 +30,7 @@ from contin.catalog import ModelSpec, register_model
 from contin.elements import HarmonicExcitation, RadialGapForce
 from contin.model import Model, Monomial, ParametricMatrix
 
-__all__ = ["bearing_rotor", "hertz_cylinder_stiffness", "contact_damping", "restitution_coefficient"]
+__all__ = ["stable_subharmonic_interval", "bearing_rotor", "hertz_cylinder_stiffness", "contact_damping", "restitution_coefficient"]
 
 PARAMETERS = {"alpha": 0.611, "ks2": 0.611, "ip": 0.1, "beta": 0.019, "delta": 0.1, "e": 0.5, "f0": 0.5,
               "kbn": 12881.0, "cbn": 0.515, "c1": 0.005, "c2": 0.05, "w": 2.0}
@@ -139,9 +139,12 @@ def _homotopy_start(hb, lam0: float):
     The guess puts disc and bearing on the side the static force pushes them
     to; with a soft contact (``kbn = 20``) Newton converges from there. If the
     homotopy fails at the start speed it is done at ``w = 2`` and the solution
-    continued in ``w`` to the start.
+    continued in ``w`` to the start. If that fails too (a guess far from the
+    orbit: small or no static force, large bearing damping), the start comes
+    from a time simulation to steady state (:func:`contin.start.simulation_start`),
+    which finds the harmonic solution wherever it is stable.
     """
-    from contin.start import HomotopyFailed, homotopy_start
+    from contin.start import HomotopyFailed, homotopy_start, simulation_start
 
     guess = np.zeros(hb.size)
     f0 = hb.p0[hb.model.parameter_index("f0")]
@@ -152,7 +155,10 @@ def _homotopy_start(hb, lam0: float):
     except HomotopyFailed:
         if hb.parameter != "w":
             raise
-        return homotopy_start(hb, lam0, "kbn", 20.0, guess, at=2.0)
+        try:
+            return homotopy_start(hb, lam0, "kbn", 20.0, guess, at=2.0)
+        except HomotopyFailed:
+            return simulation_start(hb, lam0, transient=800, steps_per_period=2048)
 
 
 bearing_rotor = register_model(
@@ -245,3 +251,38 @@ def restitution_coefficient(cbn: float, m2: float, kbn: float) -> float:
     if z >= 1:
         return 0.0
     return math.exp(-math.pi * z / math.sqrt(1 - z * z))
+
+
+def stable_subharmonic_interval(rows: dict, special: dict, min_radius: float = 1e-3):
+    """Speed interval where a stable 1/2-subharmonic (nu = 2) branch exists, from result files.
+
+    Parameters
+    ----------
+    rows, special : dict of ndarray
+        ``branches.csv`` and ``special_points.csv`` as read by
+        :func:`contin.results.read_csv`.
+    min_radius : float
+        Smallest +w/2 forward whirl radius of the disc counted as a
+        subharmonic (the harmonic solution seen as nu = 2 has zero).
+
+    Returns
+    -------
+    (w_lo, w_hi) or None
+        Ends of the stable part, each at the located special point (Neimark-
+        Sacker, fold, period doubling) of a nu = 2 branch that bounds it where
+        there is one within 0.01, else at the last stable stored point.
+    """
+    stable = np.array([s == "true" if isinstance(s, str) else bool(s) for s in rows["stable"]], dtype=bool)
+    sel = (np.asarray(rows["nu"]) == 2) & stable & (np.asarray(rows["whirl_fwd_half_disc"]) > min_radius)
+    if not np.any(sel):
+        return None
+    w = np.asarray(rows["w"])[sel]
+    lo, hi = float(w.min()), float(w.max())
+    nu2 = set(np.asarray(rows["branch"])[np.asarray(rows["nu"]) == 2].tolist())
+    kinds = np.asarray(special["kind"]) if len(special.get("kind", ())) else np.array([])
+    cand = [float(v) for b, k, v in zip(special.get("branch", ()), kinds, special.get("w", ()))
+            if b in nu2 and k in ("ns", "fold", "pd", "stability")]
+    below = [v for v in cand if lo - 0.01 <= v <= lo]
+    above = [v for v in cand if hi <= v <= hi + 0.01]
+    return (max(below) if below else lo), (min(above) if above else hi)
+

@@ -530,3 +530,41 @@ def test_s_curve_property(ds, ds_max, max_angle, scaling):
     assert br.unknowns[-1, 0] == pytest.approx(PLASTIC, abs=1e-10)
     assert len(br.points_of_kind("fold")) == 2
     assert np.all(np.diff(br.unknowns[:, 0]) > 0)
+
+
+class Corner:
+    """u - |lam - 1| (two unknowns, the second u2 = u): a corner of the branch at lam = 1."""
+
+    def residual(self, u, lam):
+        return np.array([u[0] - abs(lam - 1.0), u[1] - u[0]])
+
+    def linearize(self, u, lam):
+        return self.residual(u, lam), np.array([[1.0, 0.0], [-1.0, 1.0]]), np.array([-math.copysign(1.0, lam - 1.0), 0.0])
+
+
+def test_a_corner_is_passed_and_recorded_as_a_kink():
+    br = continuation(Corner(), [1.0, 1.0], 0.0, (0.0, 2.0), ContinuationOptions(ds=0.05, ds_max=0.1, scaling="none"))
+    assert br.status is BranchStatus.RANGE_END and br.parameter[-1] == 2.0
+    np.testing.assert_allclose(br.unknowns[:, 0], np.abs(br.parameter - 1.0), atol=1e-12)
+    kinks = [sp for sp in br.special_points if sp.kind is SpecialKind.KINK]
+    assert len(kinks) == 1
+    k = kinks[0]
+    # the tangent turns by 2*atan(1/sqrt(2)) in (lam, u1, u2): persistent as the step shrinks
+    assert k.interval[0] <= 1.0 <= k.interval[1] + 1e-12 and k.interval[1] - k.interval[0] < 0.05
+    assert k.data["angle_deg"] > 20 and "corner" in k.message
+
+
+def test_corners_can_be_refused():
+    br = continuation(Corner(), [1.0, 1.0], 0.0, (0.0, 2.0),
+                      ContinuationOptions(ds=0.05, ds_max=0.1, scaling="none", corners=False))
+    assert br.status is BranchStatus.STEP_TOO_SMALL and "last failure" in br.message
+    assert abs(br.parameter[-1] - 1.0) < 1e-6 and np.all(br.parameter <= 1.0)
+    assert not any(sp.kind is SpecialKind.KINK for sp in br.special_points)
+
+
+def test_a_tight_smooth_turn_is_not_a_corner():
+    """A small circle (radius 1e-3) turns fast but smoothly: folds, no kink."""
+    br = continuation(Circle(1e-3), [0.0], -1e-3, (-1.0, 1.0),
+                      ContinuationOptions(ds=5e-4, ds_max=5e-4, scaling="none", max_points=200))
+    kinds = [sp.kind for sp in br.special_points]
+    assert SpecialKind.KINK not in kinds and kinds.count(SpecialKind.FOLD) >= 1

@@ -217,47 +217,69 @@ def _detail(sp) -> str:
     return "; ".join(parts)
 
 
+def _starts(scene):
+    """The scene itself, then one scene per entry of ``analysis.starts`` (its keys override)."""
+    from contin.scene import START_KEYS, Scene, check_section, FREQUENCY_RESPONSE
+
+    yield "analysis", scene
+    for i, extra in enumerate(scene.analysis["starts"]):
+        key = f"analysis.starts[{i}]"
+        schema = {k: FREQUENCY_RESPONSE[k] for k in START_KEYS}
+        merged = dict(scene.analysis)
+        merged.update({k: v for k, v in check_section(extra, schema, key, scene.lines).items() if k in extra})
+        merged["starts"] = []
+        yield key, Scene({**scene.data, "analysis": merged}, scene.source, scene.lines)
+
+
 @register_analysis("frequency_response")
 def run(ctx) -> dict:
-    """Run a ``frequency_response`` scene; returns its part of ``summary.json``."""
+    """Run a ``frequency_response`` scene; returns its part of ``summary.json``.
+
+    The branches of the main start come first, then those of each entry of
+    ``analysis.starts`` (further starts, e.g. a subharmonic branch found by
+    a time simulation beside the harmonic one), all in one diagram.
+    """
+    from contin.analyses.stability_hooks import stability_setup
+
     scene, model = ctx.scene, ctx.model
-    a = scene.analysis
-    hb = build_problem(scene, model)
-    lam_a, lam_b = float(a["range"][0]), float(a["range"][1])
-    lam0 = float(a["start"]) if a["start"] is not None else lam_a
+    lam_a, lam_b = float(scene.analysis["range"][0]), float(scene.analysis["range"][1])
     lo, hi = min(lam_a, lam_b), max(lam_a, lam_b)
-    if not lo <= lam0 <= hi:
-        raise scene.error("analysis.start", f"a value inside range [{lo:g}, {hi:g}]", lam0)
-    opts = continuation_options(scene, lam0, lam_b if lam0 != lam_b else lam_a)
-    if a["guess"] is not None:
-        if len(a["guess"]) != hb.size:
-            raise scene.error("analysis.guess", f"{hb.size} numbers (n*(2H+1) coefficients)", f"{len(a['guess'])} numbers")
-        u0 = np.array(a["guess"], dtype=float)
-    else:
-        u0 = _start(scene, model, hb, lam0)
-    previous = {}
-    if ctx.resume:
-        previous = _restore(ctx.outdir, hb.parameter)
+    setups = []
+    for key, sc in _starts(scene):
+        a = sc.analysis
+        hb = build_problem(sc, model)
+        lam0 = float(a["start"]) if a["start"] is not None else lam_a
+        if not lo <= lam0 <= hi:
+            raise scene.error(f"{key}.start", f"a value inside range [{lo:g}, {hi:g}]", lam0)
+        opts = continuation_options(sc, lam0, lam_b if lam0 != lam_b else lam_a)
+        if a["guess"] is not None and len(a["guess"]) != hb.size:
+            raise scene.error(f"{key}.guess", f"{hb.size} numbers (n*(2H+1) coefficients)", f"{len(a['guess'])} numbers")
+        setups.append((sc, hb, lam0, opts, stability_setup(a, hb)))
+    hb = setups[0][1]
+    previous = _restore(ctx.outdir, hb.parameter) if ctx.resume else {}
     rec = BranchRecorder(ctx.outdir, model.dof_names, hb.parameter, scene.output["harmonic_columns"], hb.H,
                          append=bool(previous), model=model)
     if previous:
         rec.restore(previous)
     ctx.recorder = rec
-    from contin.analyses.stability_hooks import stability_setup
-
-    follow = stability_setup(a, hb)
-    branches_info = []
+    results = []
     t0 = time.perf_counter()
     try:
-        results = follow(hb, u0, lam0, (lo, hi), opts, rec, ctx, previous)
+        for sc, hb_i, lam0, opts, follow in setups:
+            a = sc.analysis
+            u0 = np.array(a["guess"], dtype=float) if a["guess"] is not None else _start(sc, model, hb_i, lam0)
+            results += follow(hb_i, u0, lam0, (lo, hi), opts, rec, ctx, previous, first_id=len(results))
+            if ctx.stop_requested or any(b.status == BranchStatus.INTERRUPTED for b, _ in results):
+                break
     finally:
         rec.close()
+    branches_info = []
     for bid, (branch, meta) in enumerate(results):
         branches_info.append({
             "branch": bid, "nu": meta.get("nu", hb.nu), "points": len(branch), "status": branch.status.value,
             "message": branch.message, "parent": meta.get("parent"), "origin": meta.get("origin"),
             "special_points": {k: sum(1 for s in branch.special_points if s.kind.value == k)
-                               for k in ("fold", "bp", "pd", "ns", "stability")},
+                               for k in ("fold", "bp", "pd", "ns", "kink", "stability")},
             "min_rcond": branch.info.get("min_rcond"),
             "rejected_steps": branch.info.get("n_rejected_steps"),
         })
@@ -271,6 +293,7 @@ def run(ctx) -> dict:
         "harmonics": hb.H,
         "subharmonic": hb.nu,
         "samples": hb.N,
+        "starts": len(setups),
         "branches": branches_info,
         "rows": rec.n_rows,
         "special_points": len(rec.special_list),

@@ -27,12 +27,12 @@ def stability_setup(analysis: dict, hb):
     Returns
     -------
     follow : callable
-        ``follow(hb, u0, lam0, lam_range, options, recorder, ctx, previous) -> [(Branch, meta)]``:
+        ``follow(hb, u0, lam0, lam_range, options, recorder, ctx, previous, first_id) -> [(Branch, meta)]``:
         traces the first branch with stability (unless ``stability: none``),
         in both directions from the start if ``analysis.both_ways``,
         switches at the kinds listed in ``analysis.switch`` (one generation,
         at most ``analysis.max_branches`` branches), and records every point
-        as it is found.
+        as it is found; branch ids start at ``first_id``.
     """
     stab = stability_options(analysis)
     switch = tuple(analysis["switch"])
@@ -40,7 +40,7 @@ def stability_setup(analysis: dict, hb):
         raise SceneError("analysis.switch", "a stability method (analysis.stability) to detect period doubling",
                          "stability: none")
 
-    def follow(hb, u0, lam0, lam_range, options, rec, ctx, previous=None):
+    def follow(hb, u0, lam0, lam_range, options, rec, ctx, previous=None, first_id=0):
         def factory(index, problem):
             def callback(branch, i):
                 rec.point(index, problem.nu, branch, i, problem.H)
@@ -53,7 +53,7 @@ def stability_setup(analysis: dict, hb):
         previous = previous or {}
         inside = lam_range[0] < lam0 < lam_range[1]
         runs = [options] + ([options.replace(direction=-options.direction)] if analysis["both_ways"] and inside else [])
-        pairs, offset = [], 0
+        pairs, offset = [], first_id
         for opts in runs:
             def shifted(index, problem, offset=offset):
                 return factory(index + offset, problem)
@@ -67,7 +67,7 @@ def stability_setup(analysis: dict, hb):
             if any(b.status.value == "interrupted" for b in diagram.branches):
                 break
         out = []
-        for j, (br, prob) in enumerate(pairs):
+        for j, (br, prob) in enumerate(pairs, start=first_id):
             rec.special_points(j, br)
             org = br.info.get("origin")
             out.append((br, {"nu": prob.nu, "harmonics": prob.H, "parent": br.info.get("parent"),

@@ -1,0 +1,139 @@
+"""Benchmark: the rotor's f0 = 0.5 diagram against a brute-force time-simulation sweep.
+
+Two measurements, side by side in one run:
+
+1. **Diagram vs brute force.** ``scenes/rotor_f0_05.yaml`` (the harmonic branch
+   over w = 1.6..2.6 and the 1/2-subharmonic branch, both with Floquet
+   stability by monodromy) is run once and timed. The brute-force alternative,
+   what the rotor paper did, integrates eq. 11 to steady state at each speed
+   (RK4, 4096 steps per revolution, ``--transient`` revolutions, then
+   ``--record`` more classified by :func:`contin.poincare.classify`). It is
+   timed at ``--speeds`` speeds spread over the same range; its cost for the
+   diagram's speed resolution (the number of distinct speeds the diagram
+   stored) is that per-speed cost times that number. The ratio is printed.
+   The classification of each brute-force speed is printed beside what the
+   diagram says there (stable harmonic, stable nu = 2, or neither).
+2. **Convergence in H of the stable nu = 2 interval.** The nu = 2 branch is
+   traced with ``H`` harmonics of w/2 for each ``--harmonics`` value
+   (samples ``max(1024, 25 H)``) and the end points of its stable interval
+   (a Neimark-Sacker point and a fold) are printed with their change against
+   the finest H.
+
+    python scripts/bench_rotor.py [--quick] [--speeds 12] [--harmonics 40,60,80,120]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def run(name, overrides, outdir):
+    from contin.runner import run_scene
+    from contin.scene import load_scene
+
+    scene = load_scene(ROOT / "scenes" / f"{name}.yaml", overrides)
+    return scene, run_scene(scene, outdir, progress=False)
+
+
+def diagram_class(rows, w: float) -> str:
+    """What the diagram says at speed w: a stable branch of nu = 1 or 2 through it, or neither."""
+    out = []
+    for b in np.unique(rows["branch"]):
+        m = rows["branch"] == b
+        ws, st, nu = rows["w"][m], np.array([bool(s) for s in rows["stable"][m]]), int(rows["nu"][m][0])
+        for i in range(len(ws) - 1):
+            if min(ws[i], ws[i + 1]) <= w <= max(ws[i], ws[i + 1]) and st[i] and st[i + 1]:
+                if nu == 2 and rows["whirl_fwd_half_disc"][m][i] < 1e-3:
+                    continue
+                out.append({1: "harmonic", 2: "subharmonic"}[nu])
+    return "+".join(sorted(set(out))) or "neither"
+
+
+def main(argv=None) -> int:
+    from contin.blas import limit_blas_threads
+    from contin.catalog import build_model
+    from contin.poincare import steady_state
+    from contin.models.bearing_rotor import stable_subharmonic_interval
+    from contin.results import read_csv
+
+    limit_blas_threads(1)
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="small settings (a smoke run; figures not converged)")
+    ap.add_argument("--speeds", type=int, default=12, help="brute-force speeds timed")
+    ap.add_argument("--transient", type=float, default=1500, help="revolutions to steady state")
+    ap.add_argument("--record", type=int, default=40, help="revolutions classified")
+    ap.add_argument("--harmonics", default="40,60,80,120", help="H values (of w/2) for the nu = 2 convergence")
+    args = ap.parse_args(argv)
+    overrides = []
+    hs = [int(h) for h in args.harmonics.split(",")]
+    if args.quick:
+        overrides = ["analysis.range=[2.12, 2.2]", "analysis.harmonics=12", "analysis.samples=256",
+                     "analysis.stability_options.steps_per_period=512", "analysis.starts=[]"]
+        args.speeds, args.transient, args.record, hs = 2, 50, 8, [12, 16]
+    tmp = Path(tempfile.mkdtemp(prefix="bench_rotor_"))
+
+    # 1. the diagram, then brute force at the same speeds
+    t0 = time.perf_counter()
+    scene, summary = run("rotor_f0_05", overrides, tmp / "diagram")
+    t_diagram = time.perf_counter() - t0
+    rows = read_csv(tmp / "diagram" / "branches.csv")
+    n_speeds = len(np.unique(np.round(rows["w"], 9)))
+    lo, hi = scene.analysis["range"]
+    model = build_model("bearing_rotor", {"f0": 0.5})
+    rng = np.random.default_rng(1)
+    speeds = np.linspace(lo, hi, args.speeds + 2)[1:-1]
+    print(f"diagram: {t_diagram:.1f} s for {len(rows)} points at {n_speeds} distinct speeds "
+          f"({len(summary['analysis']['branches'])} branches)")
+    print(f"{'w':>7s} {'brute force':>14s} {'diagram':>22s} {'time s':>7s}")
+    t_bf = []
+    for w in speeds:
+        t1 = time.perf_counter()
+        _, res = steady_state(model, {"w": float(w)}, x0=1e-3 * rng.normal(size=4), v0=np.zeros(4),
+                              transient=args.transient, record=args.record)
+        t_bf.append(time.perf_counter() - t1)
+        cls = {1: "harmonic", 2: "subharmonic"}.get(res.period, "neither")
+        print(f"{w:7.4f} {cls:>14s} {diagram_class(rows, float(w)):>22s} {t_bf[-1]:7.2f}")
+    per_speed = float(np.mean(t_bf))
+    print(f"brute force: {per_speed:.2f} s per speed; for the diagram's {n_speeds} speeds {per_speed * n_speeds:.1f} s; "
+          f"ratio brute force / diagram = {per_speed * n_speeds / t_diagram:.1f}x")
+
+    # 2. the stable nu = 2 interval against H
+    if args.quick:
+        print("(quick run: the nu = 2 convergence study is skipped)")
+        return 0
+    print(f"\n{'H (of w/2)':>10s} {'samples':>8s} {'stable from':>12s} {'to':>10s} {'time s':>7s}")
+    results = []
+    for H in hs:
+        N = max(1024, 25 * H)
+        ov = ["analysis.harmonics=40", "analysis.samples=1024", "analysis.range=[2.1, 2.25]", "analysis.start=2.16",
+              "analysis.starts=[]", "analysis.subharmonic=2", f"analysis.harmonics={H}", f"analysis.samples={N}",
+              "analysis.start_from=simulation", "analysis.both_ways=true",
+              "analysis.start_simulation={transient: 1500, steps_per_period: 4096}",
+              "analysis.stability_options.steps_per_period=8192",
+              "analysis.continuation={ds: 0.005, ds_max: 0.03, newton_tol: 1.0e-9}"]
+        t1 = time.perf_counter()
+        run("rotor_f0_05", ov, tmp / f"nu2_H{H}")
+        dt = time.perf_counter() - t1
+        r, sp = read_csv(tmp / f"nu2_H{H}" / "branches.csv"), read_csv(tmp / f"nu2_H{H}" / "special_points.csv")
+        iv = stable_subharmonic_interval(r, sp)
+        results.append((H, N, iv, dt))
+    ref = results[-1][2]
+    for H, N, iv, dt in results:
+        if iv is None:
+            print(f"{H:10d} {N:8d} {'none':>12s} {'':>10s} {dt:7.1f}")
+            continue
+        d = "" if ref is None else f"  (change vs H={hs[-1]}: {abs(iv[0] - ref[0]):.1e}, {abs(iv[1] - ref[1]):.1e})"
+        print(f"{H:10d} {N:8d} {iv[0]:12.5f} {iv[1]:10.5f} {dt:7.1f}{d}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
