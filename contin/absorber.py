@@ -558,7 +558,7 @@ def plot_curves(ax, beta: float, mu: float, zetas, Omega, *, fixed=True, optimal
         (O1, O2), (h1, h2) = fixed_points(beta, mo)
         ax.plot([O1, O2], [h1, h2], "ks", ms=5)
         Op, hp = true_peak(beta, mo, zo)
-        ax.plot([Op], [hp], "r^", ms=7, label=f"true peak {hp:.4g} (fixed points {h1:.4g})")
+        ax.plot([Op], [hp], "r^", ms=7, label=f"true peak {hp:.5g} (fixed points {h1:.5g})")
 
 
 def plot_design(design: AbsorberDesign, path, points: int = 1200):
@@ -580,8 +580,8 @@ def plot_design(design: AbsorberDesign, path, points: int = 1200):
     for f in (d.P, d.Q):
         ax.annotate(f.name, (f.w, f.height), textcoords="offset points", xytext=(5, 6))
     tp = d.true_peak
-    ax.plot([tp.w], [tp.amplification], "r^", label=f"true peak {tp.amplification:.4g} (fixed points "
-                                                    f"{d.fixed_point_height:.4g})")
+    ax.plot([tp.w], [tp.amplification], "r^", label=f"true peak {tp.amplification:.5g} (fixed points "
+                                                    f"{d.fixed_point_height:.5g})")
     ax.axvline(d.anti_resonance, color="0.6", lw=0.8)
     ax.set_xlabel("forcing frequency w [rad/s]")
     ax.set_ylabel("|X1| / delta_st")
