@@ -203,12 +203,25 @@ def _polynomials(beta: float, mu: float, zeta: float):
     return a * a + z4 * x, s * s + z4 * x * t * t
 
 
+def _polish(beta, mu, zeta, x):
+    """Refine a maximum at ``x = Omega^2`` on the amplification itself (the polynomial ``N'D - ND'``
+    loses digits to cancellation; a bounded search on ``f`` near a flat maximum does not)."""
+    from scipy.optimize import minimize_scalar
+
+    O = math.sqrt(x)
+    r = minimize_scalar(lambda o: -amplification(o, beta, mu, zeta), bounds=(O * (1 - 1e-4), O * (1 + 1e-4)),
+                        method="bounded", options={"xatol": 1e-14 * O})
+    a0 = float(amplification(O, beta, mu, zeta))
+    return (float(r.x), float(-r.fun)) if -r.fun >= a0 else (O, a0)
+
+
 def peaks(beta: float, mu: float, zeta: float):
     """All local maxima of ``|X1|/delta_st`` over ``Omega > 0``, located exactly.
 
     The stationary points of ``f(x) = N(x)/D(x)`` (``x = Omega^2``) are the
-    positive real roots of ``N' D - N D'``; each is polished by Newton steps
-    and kept if ``f`` has a maximum there.
+    positive real roots of ``N' D - N D'`` (all of them, so no maximum is
+    missed); each is polished by Newton steps, kept if ``f`` has a maximum
+    there, and refined by a bounded search on ``|X1|/delta_st`` itself.
 
     Returns
     -------
@@ -238,7 +251,7 @@ def peaks(beta: float, mu: float, zeta: float):
         f = N(x) / D(x)
         # a maximum: f is below it on both sides
         if f >= N(x + h) / D(x + h) and (x - h <= 0 or f >= N(x - h) / D(x - h)):
-            out.append((math.sqrt(x), math.sqrt(f)))
+            out.append(_polish(beta, mu, zeta, x))
     out.sort()
     merged = []
     for o in out:  # a double root can appear twice
