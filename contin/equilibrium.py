@@ -56,17 +56,23 @@ class MeanExcitation(ExcitationElement):
         self.samples = int(samples or max(64, 4 * math.ceil(top) + 2))
         self._tau = 2.0 * np.pi * np.arange(self.samples) / self.samples
 
+    def _mean_of(self, g):
+        m = g.mean(axis=0)
+        # a pure oscillation has mean zero: drop the rounding residue of the sum (~1e-17 of its amplitude)
+        m[np.abs(m) <= 8 * self.samples * np.finfo(float).eps * np.max(np.abs(g), axis=0)] = 0.0
+        return m
+
     def evaluate(self, tau, p, f):
         g = np.zeros((self.samples, f.shape[1]))
         for el in self.elements:
             el.evaluate(self._tau, p, g)
-        f += g.mean(axis=0)
+        f += self._mean_of(g)
 
     def evaluate_dp(self, tau, p, k, dfdp):
         g = np.zeros((self.samples, dfdp.shape[1]))
         for el in self.elements:
             el.evaluate_dp(self._tau, p, k, g)
-        dfdp += g.mean(axis=0)
+        dfdp += self._mean_of(g)
 
     def depends_on(self, k):
         return any(el.depends_on(k) for el in self.elements)
@@ -166,7 +172,19 @@ def solve_equilibrium(hb: HarmonicBalance, lam: float, guess=None, rtol: float =
         R, Ju, _ = hb.linearize(x, lam)
         return R, Ju
 
-    return newton(fun_and_jac, x0, rtol * scale, max_iter)
+    res = newton(fun_and_jac, x0, rtol * scale, max_iter)
+    if res.converged and res.iterations < max_iter:
+        # one more step, kept if it lowers the residual: the tolerance bounds the residual, and the
+        # displacement error is then up to rtol/cond; a converged Newton step costs little and gains digits
+        R, J = fun_and_jac(res.x.copy())
+        try:
+            x1 = res.x - np.linalg.solve(J, R)
+        except np.linalg.LinAlgError:
+            return res
+        r1 = float(np.max(np.abs(hb.residual(x1, lam)), initial=0.0))
+        if np.all(np.isfinite(x1)) and r1 < res.residual_norm:
+            res = dataclasses.replace(res, x=x1, residual_norm=r1, iterations=res.iterations + 1)
+    return res
 
 
 def _equilibrium(hb, lam, res: NewtonResult) -> Equilibrium:
@@ -174,13 +192,16 @@ def _equilibrium(hb, lam, res: NewtonResult) -> Equilibrium:
     return Equilibrium(float(lam), res.x.copy(), M, C, K, res.iterations, res.residual_norm)
 
 
-def equilibrium_path(hb: HarmonicBalance, values, guess=None, rtol: float = 1e-10, max_iter: int = 30,
-                     max_halvings: int = 12):
-    """Equilibria at successive parameter values, each started from the previous one.
+def equilibrium_path(hb: HarmonicBalance, values, guess=None, rtol: float = 1e-10, max_iter: int = 30):
+    """Equilibria at successive parameter values, each followed from the previous one.
 
-    A step whose Newton iteration fails is subdivided (halved up to
-    ``max_halvings`` times), so a strongly nonlinear path is followed as long
-    as it does not fold.
+    The first value is solved by Newton from ``guess``. From value to value
+    the equilibrium of a nonlinear model is followed by pseudo-arclength
+    continuation (:func:`contin.continuation.continuation`), which lands
+    exactly on the next value and detects folds: where the path folds back
+    before the next value, the run stops with the fold location instead of
+    jumping silently to another equilibrium. A linear model (no nonlinear
+    force) has one equilibrium per value and is solved directly.
 
     Parameters
     ----------
@@ -189,6 +210,8 @@ def equilibrium_path(hb: HarmonicBalance, values, guess=None, rtol: float = 1e-1
     values : sequence of float
     guess : array_like, shape (n,), optional
         Start of the first solve (default zeros).
+    rtol : float
+        Newton tolerance relative to the static load (see :func:`solve_equilibrium`).
 
     Yields
     ------
@@ -198,32 +221,48 @@ def equilibrium_path(hb: HarmonicBalance, values, guess=None, rtol: float = 1e-1
     Raises
     ------
     EquilibriumFailed
-        With the value where no equilibrium was found (after the halvings).
+        With the value where no equilibrium was found, or where the path folds.
     """
+    from contin.continuation import ContinuationOptions, continuation
+
     x = None if guess is None else np.asarray(guess, dtype=float)
     prev = None
+    linear = not hb.model.forces
     for v in values:
         v = float(v)
-        if prev is None:
+        if prev is None or linear or v == prev:
             res = solve_equilibrium(hb, v, x, rtol, max_iter)
             if not res.converged:
-                raise EquilibriumFailed(f"no static equilibrium found at {hb.parameter} = {v:g} from the "
-                                        f"{'given guess' if guess is not None else 'zero displacement'}: "
+                start = "the previous value" if prev is not None else (
+                    "the given guess" if guess is not None else "zero displacement")
+                raise EquilibriumFailed(f"no static equilibrium found at {hb.parameter} = {v:g} from {start}: "
                                         f"{res.message}", v)
         else:
-            lam, target, h, halvings = prev, v, v - prev, 0
-            while True:
-                nxt = target if abs(target - lam) <= abs(h) * (1 + 1e-12) else lam + h
-                res = solve_equilibrium(hb, nxt, x, rtol, max_iter)
-                if res.converged:
-                    x, lam = res.x, nxt
-                    if nxt == target:
-                        break
-                    continue
-                halvings += 1
-                if halvings > max_halvings:
-                    raise EquilibriumFailed(f"the static equilibrium is lost between {hb.parameter} = {lam:g} and "
-                                            f"{nxt:g} (a fold or a singular tangent stiffness?): {res.message}", v)
-                h /= 2.0
+            fext, _ = hb.excitation(hb.params_at(prev))
+            scale = max(float(np.max(np.abs(fext), initial=0.0)),
+                        float(np.max(np.abs(hb.residual(np.zeros(hb.size), v)), initial=0.0)), 1e-300)
+            # scale the unknowns by the displacement itself or by the first-order change over the step
+            # (the default, |x| at the start, is useless on an unloaded start x = 0)
+            _, Ju, Jlam = hb.linearize(x, prev)
+            try:
+                move = float(np.max(np.abs(np.linalg.solve(Ju, Jlam)))) * abs(v - prev)
+            except np.linalg.LinAlgError:
+                move = 0.0
+            su = max(float(np.max(np.abs(x), initial=0.0)), move if np.isfinite(move) else 0.0)
+            su = su if su > 0 else 1.0
+            opts = ContinuationOptions(direction=1 if v > prev else -1, newton_tol=rtol * scale,
+                                       newton_max_iter=max_iter, detect_branch_points=False, max_points=10000,
+                                       unknown_scale=su)
+            br = continuation(hb, x, prev, (min(prev, v), max(prev, v)), opts, parameter_name=hb.parameter,
+                              solve_start=False)
+            folds = [sp for sp in br.special_points if sp.kind.value == "fold"]
+            if folds or len(br) == 0 or br.parameter[-1] != v:
+                where = (f"folds at {hb.parameter} = {folds[0].parameter:.10g}" if folds else
+                         f"is lost ({br.message})")
+                raise EquilibriumFailed(f"between {hb.parameter} = {prev:g} and {v:g} the static equilibrium "
+                                        f"{where}; beyond it this equilibrium does not exist", v)
+            res = solve_equilibrium(hb, v, br.unknowns[-1], rtol, max_iter)
+            if not res.converged:  # pragma: no cover - the engine stored a converged end point
+                raise EquilibriumFailed(f"no static equilibrium at {hb.parameter} = {v:g}: {res.message}", v)
         x, prev = res.x, v
         yield _equilibrium(hb, v, res)

@@ -409,6 +409,7 @@ def damped_modes(M, C, K, reference: int = 0) -> DampedModes:
         col = V[:, i]
         j = reference if abs(col[reference]) > 1e-9 * np.max(np.abs(col)) else int(np.argmax(np.abs(col)))
         V[:, i] = col / col[j]
+        V[j, i] = 1.0  # exactly, not 1 - 1e-16 from the complex division
     return DampedModes(lam, V, int(reference))
 
 
