@@ -161,7 +161,8 @@ def run(ctx) -> dict:
         raise SceneError("model", "a linear model for analysis.type frf (no nonlinear forces)", None,
                          hint="; found " + "; ".join(el.describe(model.dof_names, model.param_names)
                                                      for el in model.forces)
-                              + ". Switch those effects off, or use analysis.type frequency_response")
+                              + f" (effects on: {', '.join(model.effects)}). Switch the nonlinear effects off, "
+                                "or use analysis.type frequency_response")
     wname = model.frequency
     kw = model.parameter_index(wname)
     p0 = model.parameter_vector()
