@@ -323,7 +323,14 @@ class LinearSystem:
 
     def force(self, dof) -> np.ndarray:
         """Unit force vector on ``dof`` (index or name), shape (n,)."""
-        j = self.dof_names.index(dof) if isinstance(dof, str) else int(dof)
+        if isinstance(dof, str):
+            if dof not in self.dof_names:
+                raise ValueError(f"LinearSystem.force: unknown dof {dof!r}; expected one of {list(self.dof_names)}")
+            j = self.dof_names.index(dof)
+        else:
+            j = int(dof)
+            if not 0 <= j < self.n:
+                raise ValueError(f"LinearSystem.force: dof index must be from 0 to {self.n - 1}, got {dof!r}")
         F = np.zeros(self.n)
         F[j] = 1.0
         return F

@@ -226,3 +226,5 @@ def test_linear_system_validates_its_fields():
     s = LinearSystem(*seed002_example()[::2], dof_names=("x1", "x2"))
     np.testing.assert_allclose(s.natural_modes().omega, [1.0, np.sqrt(2.5)], rtol=1e-13)
     np.testing.assert_allclose(s.frf([0.5], "x2"), frf(s.M, s.C, s.K, [0.5], [0.0, 1.0]))
+    with pytest.raises(ValueError, match=r"LinearSystem.force: unknown dof 'x3'; expected one of \['x1', 'x2'\]"):
+        s.frf([0.5], "x3")
