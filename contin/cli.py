@@ -1,4 +1,4 @@
-"""The ``contin`` command: ``run``, ``check``, ``models`` and ``plot``."""
+"""The ``contin`` command: ``run``, ``check``, ``models``, ``absorber`` and ``plot``."""
 
 from __future__ import annotations
 
@@ -30,6 +30,20 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("scene")
     c.add_argument("--set", dest="overrides", action="append", default=[], metavar="dotted.key=value")
     sub.add_parser("models", help="list the built-in models with their parameters, defaults and effects")
+    ab = sub.add_parser("absorber", help="Den Hartog's optimal damped vibration absorber for a main system m1, k1",
+                        description="Optimal tuning and damping of a dynamic vibration absorber (fixed-point theory): "
+                        "k2, c with both damping ratios, the fixed points P and Q, the true peak of the optimal "
+                        "response, and the undamped absorber's anti-resonance and resonances. Any consistent units.")
+    ab.add_argument("--m1", type=float, required=True, help="main mass")
+    ab.add_argument("--k1", type=float, required=True, help="main spring stiffness")
+    size = ab.add_mutually_exclusive_group(required=True)
+    size.add_argument("--m2", type=float, help="absorber mass")
+    size.add_argument("--max-amplification", type=float, metavar="A",
+                      help="instead of --m2: the largest allowed |X1|/delta_st (> 1)")
+    ab.add_argument("--sizing", choices=("fixed_points", "peak"), default="fixed_points",
+                    help="with --max-amplification: put the fixed points (seed rule) or the true peak at A")
+    ab.add_argument("--plot", metavar="FILE", default=None, help="save |X1|/delta_st against w (PNG, PDF, SVG)")
+    ab.add_argument("--json", metavar="FILE", default=None, help="also write the design as JSON")
     pl = sub.add_parser("plot", help="time history, orbit and spectrum of a stored point")
     pl.add_argument("outdir", help="a result directory of `contin run`")
     pl.add_argument("--point", type=int, required=True, metavar="ROW", help="row of branches.csv (0-based)")
@@ -76,6 +90,13 @@ def cmd_check(args) -> int:
               f"samples N={hb.N}")
         print(f"  unknowns: {hb.size} = {hb.n} dof x (2H+1)")
         print(f"  stability: {a['stability']}; switching at: {', '.join(a['switch']) or 'none'}")
+    elif a["type"] == "modes":
+        what = f"versus {a['parameter']}" if a["parameter"] else "at the model's parameters"
+        print(f"  natural frequencies and modes about the static equilibrium {what}"
+              + ("; damped eigenvalues" if a["damped"] else ""))
+    elif a["type"] == "frf":
+        print(f"  impedance-matrix FRF over {a['range']} ({a['points']} points, {a['spacing']}), force: "
+              + ("the model's excitation" if a["force"] is None else str(a["force"])))
     return EXIT_OK
 
 
@@ -95,6 +116,34 @@ def cmd_run(args) -> int:
     return EXIT_INTERRUPTED if summary["status"] == "interrupted" else EXIT_OK
 
 
+def cmd_absorber(args) -> int:
+    import math
+
+    from contin.absorber import design_absorber, plot_design
+    from contin.scene import SceneError
+
+    for flag, v in (("--m1", args.m1), ("--k1", args.k1), ("--m2", args.m2),
+                    ("--max-amplification", args.max_amplification)):
+        if v is not None and not (math.isfinite(v) and v > 0):
+            raise SceneError(flag, "a positive finite number", v)
+    if args.max_amplification is not None and args.max_amplification <= 1:
+        raise SceneError("--max-amplification", "a number above 1 (the static response |X1|/delta_st = 1)",
+                         args.max_amplification)
+    if args.m2 is not None and args.sizing != "fixed_points":
+        raise SceneError("--sizing", "to be used with --max-amplification (with --m2 the mass is given)", args.sizing)
+    d = design_absorber(args.m1, args.k1, args.m2, max_amplification=args.max_amplification, sizing=args.sizing)
+    print(d.report())
+    if args.plot:
+        plot_design(d, args.plot)
+        print(f"plot: {args.plot}")
+    if args.json:
+        from contin.results import write_json_atomic
+
+        write_json_atomic(args.json, d.as_dict())
+        print(f"json: {args.json}")
+    return EXIT_OK
+
+
 def main(argv=None) -> int:
     from contin.runner import RunError
     from contin.scene import SceneError
@@ -108,6 +157,8 @@ def main(argv=None) -> int:
             return cmd_models()
         if args.command == "check":
             return cmd_check(args)
+        if args.command == "absorber":
+            return cmd_absorber(args)
         if args.command == "plot":
             from contin.pointplot import plot_point
 
