@@ -1,4 +1,9 @@
-"""Bearing rotor, f0 = 0.5: the 1/2-subharmonic branch against independent time integration."""
+"""Bearing rotor (seed 001): the paper's four cases, from result files and independent time integration.
+
+Each scene runs over a narrowed speed range (2.05..2.3, which holds the
+harmonic branch's period doublings and the whole 1/2-subharmonic branch) to
+keep the suite short; the scenes themselves span 1.6..2.6.
+"""
 
 from pathlib import Path
 
@@ -7,42 +12,81 @@ import pytest
 
 from contin.catalog import build_model
 from contin.cli import main
+from contin.models.bearing_rotor import stable_subharmonic_interval
 from contin.poincare import steady_state
 from contin.results import read_csv
 
 ROOT = Path(__file__).resolve().parents[2]
+NARROW = ["--set", "analysis.range=[2.05, 2.3]", "--set", "analysis.start=2.05"]
 
 
-@pytest.fixture(scope="module")
-def diagram(tmp_path_factory):
-    out = tmp_path_factory.mktemp("rotor_nu2")
-    assert main(["run", str(ROOT / "scenes/rotor_subharmonic.yaml"), "-o", str(out), "-q"]) == 0
+def _run(tmp_path_factory, scene):
+    out = tmp_path_factory.mktemp(scene)
+    assert main(["run", str(ROOT / f"scenes/{scene}.yaml"), "-o", str(out), "-q", *NARROW]) == 0
     return read_csv(out / "branches.csv"), read_csv(out / "special_points.csv")
 
 
-def test_stable_forward_half_order_whirl_over_a_speed_interval(diagram):
-    rows, sp = diagram
-    assert np.all(rows["nu"] == 2)
-    stable = rows["stable"]
-    w, r = rows["w"][stable], rows["whirl_fwd_half_disc"][stable]
-    assert w.max() - w.min() > 0.04  # a finite speed interval of entrainment
-    assert r.min() > 0.3  # with a finite +w/2 forward whirl
+@pytest.fixture(scope="module")
+def f05(tmp_path_factory):
+    return _run(tmp_path_factory, "rotor_f0_05")
+
+
+@pytest.fixture(scope="module")
+def f02(tmp_path_factory):
+    return _run(tmp_path_factory, "rotor_f0_02")
+
+
+def _harmonic(rows, sp):
+    m = rows["nu"] == 1
+    return rows["w"][m], rows["stable"][m], sp["w"][(sp["kind"] == "pd") & (sp["branch"] == rows["branch"][m][0])]
+
+
+def test_f0_05_stable_forward_half_order_whirl_between_period_doublings(f05):
+    rows, sp = f05
+    lo, hi = stable_subharmonic_interval(rows, sp)
+    nu2 = (rows["nu"] == 2) & rows["stable"] & (rows["whirl_fwd_half_disc"] > 1e-3)
+    assert hi - lo > 0.04  # a finite speed interval of entrainment
+    assert rows["whirl_fwd_half_disc"][nu2].min() > 0.3  # with a finite +w/2 forward whirl
     # the stable part ends at a fold (the jump) on the high-speed side
-    folds = sp["w"][sp["kind"] == "fold"]
-    assert len(folds) == 1 and w.max() <= folds[0] + 1e-9 and 2.18 < folds[0] < 2.21
-    # and loses stability by a Neimark-Sacker bifurcation on the low-speed side
-    ns = sp["w"][sp["kind"] == "ns"]
-    assert ns.size and abs(ns.max() - w.min()) < 5e-3
+    folds = sp["w"][(sp["kind"] == "fold") & np.isin(sp["branch"], rows["branch"][rows["nu"] == 2])]
+    assert len(folds) == 1 and abs(hi - folds[0]) < 1e-9 and 2.18 < folds[0] < 2.21
+    # bounded by period-doubling points of the harmonic branch, which is unstable in between
+    w1, st1, pd = _harmonic(rows, sp)
+    assert pd.size >= 2 and pd.min() <= lo and hi <= pd.max()
+    inside = (w1 > lo) & (w1 < hi)
+    assert inside.any() and not st1[inside].any()
+    # the harmonic solution has no w/2 component: the paper's zero-amplitude solution
+    assert np.all(rows["whirl_fwd_half_disc"][rows["nu"] == 1] == 0)
+
+
+def test_f0_02_stable_interval_is_narrower(f05, f02):
+    lo5, hi5 = stable_subharmonic_interval(*f05)
+    lo2, hi2 = stable_subharmonic_interval(*f02)
+    assert lo5 < lo2 < hi2 < hi5
 
 
 @pytest.mark.parametrize("w,entrained", [(2.16, True), (2.18, True), (2.21, False)])
-def test_time_integration_confirms_entrainment(diagram, w, entrained):
-    rows, _ = diagram
+def test_time_integration_confirms_entrainment(f05, w, entrained):
+    rows, _ = f05
     model = build_model("bearing_rotor", {"f0": 0.5})
     rng = np.random.default_rng(1)
     _, res = steady_state(model, {"w": w}, x0=1e-3 * rng.normal(size=4), v0=np.zeros(4), transient=1500, record=40)
     assert (res.label == "period-2") == entrained, res.note
     if entrained:
-        hb = np.interp(w, *zip(*sorted((a, b) for a, b, s in zip(rows["w"], rows["whirl_fwd_half_disc"],
-                                                                         rows["stable"]) if s)))
+        m = (rows["nu"] == 2) & rows["stable"]
+        order = np.argsort(rows["w"][m])
+        hb = np.interp(w, rows["w"][m][order], rows["whirl_fwd_half_disc"][m][order])
         assert abs(abs(res.whirl["+w/2"]) - hb) < 2e-3
+
+
+@pytest.mark.parametrize("scene", ["rotor_f0_0", "rotor_c2_5"])
+def test_no_period_doubling_and_no_subharmonic(tmp_path_factory, scene):
+    """f0 = 0 and c2 = 5.0: the harmonic solution is stable, no pd, no nu = 2 branch; time integration agrees."""
+    rows, sp = _run(tmp_path_factory, scene)
+    assert np.all(rows["nu"] == 1) and rows["stable"].all()
+    assert not np.isin(sp["kind"], ["pd", "ns"]).any()
+    params = {"f0": 0.0} if scene == "rotor_f0_0" else {"f0": 0.5, "c2": 5.0}
+    rng = np.random.default_rng(2)
+    _, res = steady_state(build_model("bearing_rotor", params), {"w": 2.17}, x0=1e-3 * rng.normal(size=4),
+                          v0=np.zeros(4), transient=1000, record=20)
+    assert res.label == "period-1", res.note
