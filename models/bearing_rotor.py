@@ -157,8 +157,13 @@ def _homotopy_start(hb, lam0: float):
             raise
         try:
             return homotopy_start(hb, lam0, "kbn", 20.0, guess, at=2.0)
-        except HomotopyFailed:
-            return simulation_start(hb, lam0, transient=800, steps_per_period=2048)
+        except HomotopyFailed as exc:
+            from contin.simulation import SimulationError
+
+            try:
+                return simulation_start(hb, lam0, transient=800, steps_per_period=2048)
+            except (HomotopyFailed, SimulationError) as sim:
+                raise HomotopyFailed(f"{exc}; and from a time simulation: {sim}") from None
 
 
 bearing_rotor = register_model(
