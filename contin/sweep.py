@@ -495,10 +495,12 @@ def stable_intervals(rows: dict, special: dict, parameter: str) -> dict[int, lis
     dict
         ``nu -> [(lo, hi), ...]``: the union over the branches of order ``nu``
         of their runs of consecutive stable rows, sorted and merged. Where a
-        run of stable rows borders an unstable row and a located special point
-        of the same branch lies between the two, the run ends at that point
-        (the located change of stability), else at its last stable row. Empty
-        if stability was not computed.
+        run of stable rows borders an unstable row and the branch has a
+        located special point there (its nearest row, ``index``, is one of
+        the two rows), the run extends to that point, the located change of
+        stability (at a fold it lies beyond both rows); else the run ends at
+        its last stable row. Orders whose branches have no stability data are
+        left out, so the result is empty when stability was not computed.
     """
     if not rows or "stable" not in rows or parameter not in rows or len(rows["branch"]) == 0:
         return {}
@@ -506,25 +508,33 @@ def stable_intervals(rows: dict, special: dict, parameter: str) -> dict[int, lis
     nus = [int(n) for n in rows["nu"]]
     x = [float(v) for v in rows[parameter]]
     stable = _flags(rows["stable"])
-    changes: dict[int, list[float]] = {}
+    changes: dict[int, list[tuple[float, int | None]]] = {}
     if special and len(special.get("branch", [])):
-        for b, k, v in zip(special["branch"], special["kind"], special[parameter]):
+        idx_col = special.get("index")
+        for j, (b, k, v) in enumerate(zip(special["branch"], special["kind"], special[parameter])):
             if k in SPECIAL_KINDS or k == "stability":
-                changes.setdefault(int(b), []).append(float(v))
+                near = None
+                if idx_col is not None and idx_col.dtype.kind == "f" and math.isfinite(idx_col[j]):
+                    near = int(idx_col[j])
+                changes.setdefault(int(b), []).append((float(v), near))
     per_nu: dict[int, list] = {}
     order: dict[int, list[int]] = {}
     for i, b in enumerate(branch):
         order.setdefault(b, []).append(i)
     for b, idx in order.items():
-        nu = nus[idx[0]]
-        per_nu.setdefault(nu, [])
         if all(stable[i] is None for i in idx):
             continue
+        nu = nus[idx[0]]
+        per_nu.setdefault(nu, [])
         located = changes.get(b, [])
 
-        def between(a, c):
-            lo, hi = min(a, c), max(a, c)
-            inside = [v for v in located if lo <= v <= hi]
+        def change(ra, rb):
+            """The located special point between rows ``ra`` and ``rb`` (global row numbers), if any."""
+            lo, hi = min(x[ra], x[rb]), max(x[ra], x[rb])
+            by_row = [v for v, near in located if near in (ra, rb)]
+            inside = [v for v in by_row if lo <= v <= hi] or by_row
+            if not inside:
+                inside = [v for v, near in located if near is None and lo <= v <= hi]
             return inside[0] if inside else None
 
         j = 0
@@ -537,11 +547,11 @@ def stable_intervals(rows: dict, special: dict, parameter: str) -> dict[int, lis
                 k += 1
             xs = [x[i] for i in idx[j:k + 1]]
             if j > 0 and stable[idx[j - 1]] is False:
-                v = between(x[idx[j - 1]], x[idx[j]])
+                v = change(idx[j - 1], idx[j])
                 if v is not None:
                     xs.append(v)
             if k + 1 < len(idx) and stable[idx[k + 1]] is False:
-                v = between(x[idx[k]], x[idx[k + 1]])
+                v = change(idx[k], idx[k + 1])
                 if v is not None:
                     xs.append(v)
             per_nu[nu].append((min(xs), max(xs)))
@@ -895,7 +905,8 @@ def run_sweep(options: SweepOptions, echo=None) -> SweepResult:
     except OSError as exc:
         raise SceneError(str(scene_path), "a readable scene file", None, hint=f" ({exc.strerror})") from None
     source = str(scene_path)
-    parse_scene(text, source, options.overrides)  # the scene itself must be valid: bad input otherwise
+    base = parse_scene(text, source, options.overrides)  # the scene itself must be valid: bad input otherwise
+    _check_grid_keys(base, options.grid)
     points = grid_points(options.grid)
     scenes, refusals = {}, {}
     for p in points:
@@ -972,6 +983,25 @@ def run_sweep(options: SweepOptions, echo=None) -> SweepResult:
         if interrupted:
             raise KeyboardInterrupt
     return SweepResult(records, outdir, counts, interrupted, seconds)
+
+
+def _check_grid_keys(scene, axes) -> None:
+    """A grid over a parameter the built-in model does not have is bad input (before any run)."""
+    from contin.catalog import get_spec
+    from contin.model import suggest
+
+    name = scene.model.get("builtin")
+    if name is None:
+        return
+    try:
+        known = get_spec(name).parameters
+    except ValueError:
+        return  # the runs report the unknown model
+    for a in axes:
+        parts = a.key.split(".")
+        if len(parts) == 3 and parts[:2] == ["model", "parameters"] and parts[2] not in known:
+            raise SceneError(f"--grid {a.key}", f"a parameter of the built-in model '{name}' ({', '.join(known)})",
+                             parts[2], hint=suggest(parts[2], known))
 
 
 def _run_serial(options, todo, tasks, index, echo, total, done, timings, warm):
