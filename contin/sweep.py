@@ -118,6 +118,17 @@ def _yaml_text(value) -> str:
     return text
 
 
+def _plain(v):
+    """numpy scalars as Python ones (so that they spell as YAML)."""
+    if isinstance(v, np.bool_):
+        return bool(v)
+    if isinstance(v, np.integer):
+        return int(v)
+    if isinstance(v, np.floating):
+        return float(v)
+    return v
+
+
 @dataclass(frozen=True)
 class GridAxis:
     """One ``--grid`` axis: a dotted scene key and the values it takes.
@@ -140,6 +151,7 @@ class GridAxis:
             raise SceneError("--grid", "dotted.key=SPEC with a dotted scene key such as model.parameters.F", self.key)
         if not isinstance(self.values, tuple) or not self.values:
             raise SceneError(where, "at least one value", self.values)
+        object.__setattr__(self, "values", tuple(_plain(v) for v in self.values))
         for v in self.values:
             if not isinstance(v, (int, float, str, bool)) or (isinstance(v, float) and not math.isfinite(v)):
                 raise SceneError(where, "finite numbers, true/false or words", v)
@@ -692,17 +704,31 @@ class WarmUp(_WorkerPlugin):
     Registered by the sweep on every worker of the cluster, including workers
     that join later or are restarted after a crash. The warm-up runs in a
     thread, so the worker keeps answering the scheduler meanwhile.
+
+    Parameters
+    ----------
+    scene_text, scene_source, overrides
+        The scene of a grid point, for :func:`warm_up`.
+    ignore_interrupt : bool
+        Make the worker ignore SIGINT: for the embedded cluster, whose
+        workers share the terminal of the command, so that Ctrl-C stops the
+        command (which then closes the cluster) instead of killing every
+        worker with a traceback.
     """
 
     name = "contin-sweep-warm-up"
 
-    def __init__(self, scene_text: str, scene_source: str, overrides=()):
+    def __init__(self, scene_text: str, scene_source: str, overrides=(), ignore_interrupt: bool = False):
         self.scene_text, self.scene_source, self.overrides = scene_text, scene_source, tuple(overrides)
+        self.ignore_interrupt = ignore_interrupt
         self.result = None
 
     async def setup(self, worker):
         import asyncio
+        import signal
 
+        if self.ignore_interrupt and threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
         loop = asyncio.get_running_loop()
         self.result = await loop.run_in_executor(None, warm_up, self.scene_text, self.scene_source, self.overrides)
 
@@ -959,6 +985,12 @@ def run_sweep(options: SweepOptions, echo=None) -> SweepResult:
         except KeyboardInterrupt:
             interrupted = True
         finally:
+            for p in points:  # runs that ended while the sweep was stopping
+                if p.index not in index.records:
+                    rec = _existing(points_dir / p.name, scenes.get(p.index))
+                    if rec is not None:
+                        rec["reused"] = False
+                        index.records[p.index] = rec
             index.write()
         _clean_leftovers(points_dir)
         records = [dict(index.records.get(p.index, {"status": "pending", "message": "not run yet"}),
@@ -1039,8 +1071,12 @@ def _client(options, timings):
             client.close()
         return
     n = options.workers or os.cpu_count() or 1
+    import logging
+
+    # distributed's own warnings (a worker restarted, one slow to stop) are not shown: the sweep reports
+    # every point's outcome itself
     cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-                           env=_worker_env())
+                           env=_worker_env(), silence_logs=logging.ERROR)
     try:
         client = Client(cluster)
         timings["cluster_start"] = time.perf_counter() - t0
@@ -1058,7 +1094,7 @@ def _run_dask(options, todo, tasks, index, echo, total, done, timings, warm):
     t_end = None
     with _client(options, timings) as client:
         t0 = time.perf_counter()
-        client.register_plugin(WarmUp(*warm), name=WarmUp.name)
+        client.register_plugin(WarmUp(*warm, ignore_interrupt=options.scheduler is None), name=WarmUp.name)
         timings["warm_up"] = time.perf_counter() - t0
         t0 = time.perf_counter()
         token = uuid.uuid4().hex[:8]
@@ -1083,5 +1119,8 @@ def _run_dask(options, todo, tasks, index, echo, total, done, timings, warm):
             echo(_progress_line(done, total, p, rec))
             fut.release()
         timings["tasks"] = time.perf_counter() - t0
+        if options.scheduler is not None:  # leave an existing cluster as it was
+            with contextlib.suppress(Exception):
+                client.unregister_worker_plugin(WarmUp.name)
         t_end = time.perf_counter()
     timings["shutdown"] = time.perf_counter() - t_end

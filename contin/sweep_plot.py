@@ -134,7 +134,8 @@ def _two_axes(rows, axes):
     rest = axes[2:]
     first_rest = {a.key: str(a.values[0]) for a in rest}
     sel = [r for r in rows if all(str(r[k]) == v for k, v in first_rest.items())]
-    quantities = [(f"stable_nu{nu}_length", f"length of the stable set, nu = {nu}") for nu in _nus(rows)]
+    parameter = next((r.get("parameter") for r in rows if r.get("parameter")), "the parameter")
+    quantities = [(f"stable_nu{nu}_length", f"length in {parameter} of the stable set, nu = {nu}") for nu in _nus(rows)]
     for kind, title in (("fold", "folds"), ("pd", "period doublings"), ("ns", "Neimark-Sacker points")):
         if any(r.get(f"n_{kind}") for r in rows) or (kind == "fold" and not quantities):
             quantities.append((f"n_{kind}", f"number of {title}"))
@@ -162,7 +163,9 @@ def _two_axes(rows, axes):
             for j in range(n2):
                 for i in range(n1):
                     if np.isfinite(grid[j, i]):
-                        ax.text(i, j, f"{grid[j, i]:.3g}", ha="center", va="center", fontsize=7, color="w")
+                        dark = im.norm(grid[j, i]) < 0.6  # light text on the dark end of viridis
+                        ax.text(i, j, f"{grid[j, i]:.3g}", ha="center", va="center", fontsize=7,
+                                color="w" if dark else "k")
         ax.set_xticks(range(n1), [_short(v) for v in ax1.values], rotation=45 if n1 > 8 else 0, fontsize=7)
         ax.set_yticks(range(n2), [_short(v) for v in ax2.values], fontsize=7)
         ax.set_xlabel(ax1.key)

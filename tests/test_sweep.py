@@ -103,7 +103,7 @@ def test_invalid_values_are_recorded_and_the_other_points_complete(cluster, tmp_
     # F=bad is refused when the model is built (on the worker); harmonics=0 by the scene schema
     grid = (parse_grid("model.parameters.F=0.3,bad"), parse_grid("analysis.harmonics=1,0"))
     opts = SweepOptions(DUFFING, grid, str(tmp_path / "s"), overrides=("output.plots=false",),
-                        scheduler=cluster.scheduler_address, progress=False, map_plot=False)
+                        scheduler=cluster.scheduler_address, progress=False)
     with no_hang(120):
         result = run_sweep(opts)
     by_name = {r["point"]: r for r in result.records}
@@ -117,6 +117,7 @@ def test_invalid_values_are_recorded_and_the_other_points_complete(cluster, tmp_
         assert summary["status"] == "failed" and summary["message"] == by_name[name]["message"]
     index = read_csv(tmp_path / "s" / "sweep.csv")
     assert sorted(index["status"]) == ["complete", "failed", "failed", "failed"]
+    assert (tmp_path / "s" / "sweep_map.png").stat().st_size > 5000  # failed points are shown hatched
 
 
 def points_running(outdir):
@@ -138,7 +139,7 @@ def test_a_worker_killed_in_the_middle_of_a_run_does_not_lose_its_point(cluster,
     with no_hang(240):
         with Client(cluster) as client:
             opts = SweepOptions(DUFFING, grid, str(outdir), overrides=SLOW, scheduler=cluster.scheduler_address,
-                                progress=False, map_plot=False)
+                                progress=False)
             box = {}
             sweep = threading.Thread(target=lambda: box.setdefault("result", run_sweep(opts)))
             sweep.start()
@@ -162,6 +163,7 @@ def test_a_worker_killed_in_the_middle_of_a_run_does_not_lose_its_point(cluster,
     record = json.loads((outdir / "points" / name / "point.json").read_text())
     assert record["status"] == "complete" and int(record["worker"].rsplit(":", 1)[1]) != pid  # run again elsewhere
     assert not list((outdir / "points").glob(".*"))  # the killed run's temporary directory is gone
+    assert (outdir / "sweep_map.png").stat().st_size > 5000  # one axis: stable intervals and folds over F
     # the point run again is the same as a run in one go
     F = dict(next(p.values for p in grid_points(grid) if p.name == name))["model.parameters.F"]
     ref = tmp_path / "ref"
