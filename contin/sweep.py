@@ -946,7 +946,11 @@ def run_sweep(options: SweepOptions, echo=None) -> SweepResult:
                          hint=f"; every point is refused, for example {first.label}: {refusals[first.index]}")
     outdir = Path(options.outdir)
     points_dir = outdir / "points"
-    points_dir.mkdir(parents=True, exist_ok=True)
+    try:
+        points_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise SceneError("-o/--outdir", "a directory that can be created and written", str(outdir),
+                         hint=f" ({exc.strerror or exc})") from None
     with _file_lock(outdir / ".sweep.lock", blocking=False) as locked:
         if not locked:
             raise SceneError("-o/--outdir", "a sweep directory no other sweep is writing", str(outdir),
@@ -984,6 +988,10 @@ def run_sweep(options: SweepOptions, echo=None) -> SweepResult:
                        warm=(text, source, tasks[first.index].overrides))
         except KeyboardInterrupt:
             interrupted = True
+        except BaseException as exc:
+            write_json_atomic(outdir / "sweep.json", {**meta, "status": "error", "message": str(exc),
+                                                      "finished_at": _now()})
+            raise
         finally:
             for p in points:  # runs that ended while the sweep was stopping
                 if p.index not in index.records:
@@ -1055,7 +1063,11 @@ def _worker_env() -> dict:
 @contextlib.contextmanager
 def _client(options, timings):
     """A ``distributed.Client`` on the given scheduler, or on an embedded ``LocalCluster`` it starts and stops."""
-    from distributed import Client, LocalCluster
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise SceneError("contin sweep", "the dask.distributed package (pip install \"dask[distributed]\"); "
+                         "--serial runs without it", None) from None
 
     t0 = time.perf_counter()
     if options.scheduler is not None:
