@@ -1,4 +1,10 @@
-"""The ``contin`` command: ``run``, ``check``, ``models``, ``absorber`` and ``plot``."""
+"""The ``contin`` command: ``run``, ``sweep``, ``check``, ``models``, ``absorber`` and ``plot``.
+
+Exit status: 0 on success, 1 when a run failed for numerical reasons (for
+``sweep``: when at least one grid point failed; the sweep still runs every
+other point and lists the failures in ``sweep.csv``), 2 on bad input, 130 when
+interrupted.
+"""
 
 from __future__ import annotations
 
@@ -26,6 +32,29 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("-q", "--quiet", action="store_true", help="no progress display")
     r.add_argument("--resume", action="store_true",
                    help="continue an interrupted run in OUTDIR from its last stored point")
+    sw = sub.add_parser("sweep", help="run a scene at every point of a grid of values, on Dask",
+                        description="Run SCENE once per point of the outer product of the --grid axes, each "
+                        "point in OUTDIR/points/<name>, indexed in OUTDIR/sweep.csv. Points already complete "
+                        "in OUTDIR (same scene) are not run again. Exit status 0 when every point is "
+                        "complete, 1 when some failed (recorded with their messages), 2 on bad input, "
+                        "130 when interrupted.")
+    sw.add_argument("scene", help="scene file (YAML)")
+    sw.add_argument("--grid", action="append", required=True, metavar="dotted.key=SPEC",
+                    help="a grid axis: a list v1,v2,... or a range start:stop:count (inclusive); "
+                    "several --grid give the outer product")
+    sw.add_argument("-o", "--outdir", default=None, help="sweep directory (default: results/<scene name>-sweep)")
+    sw.add_argument("--set", dest="overrides", action="append", default=[], metavar="dotted.key=value",
+                    help="override a scene value at every point (repeatable)")
+    sw.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                    help="run on an existing Dask cluster (tcp://HOST:PORT of its scheduler) instead of an "
+                    "embedded local cluster")
+    sw.add_argument("--workers", type=int, default=None, metavar="N",
+                    help="worker processes of the embedded local cluster (default: one per core)")
+    sw.add_argument("--serial", action="store_true", help="run the points one after another in this process")
+    sw.add_argument("--retries", type=int, default=2, metavar="N",
+                    help="times a task that raised an unexpected error is run again (default 2)")
+    sw.add_argument("--no-map", dest="map_plot", action="store_false", help="do not draw sweep_map.png")
+    sw.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     c = sub.add_parser("check", help="validate a scene and print what would run")
     c.add_argument("scene")
     c.add_argument("--set", dest="overrides", action="append", default=[], metavar="dotted.key=value")
@@ -144,6 +173,26 @@ def cmd_absorber(args) -> int:
     return EXIT_OK
 
 
+def cmd_sweep(args) -> int:
+    from pathlib import Path
+
+    from contin.sweep import SweepOptions, parse_grid, run_sweep
+
+    opts = SweepOptions(scene=args.scene, grid=tuple(parse_grid(g) for g in args.grid),
+                        outdir=args.outdir or str(Path("results") / (Path(args.scene).stem + "-sweep")),
+                        overrides=tuple(args.overrides), scheduler=args.scheduler, workers=args.workers,
+                        serial=args.serial, retries=args.retries, map_plot=args.map_plot, progress=not args.quiet)
+    result = run_sweep(opts)
+    c = result.counts
+    print(f"sweep: {len(result.records)} points, {c.get('complete', 0)} complete ({c.get('reused', 0)} from "
+          f"before), {len(result.failed)} failed; index in {Path(opts.outdir) / 'sweep.csv'} "
+          f"({result.seconds:.1f} s)")
+    for r in result.failed:
+        msg = " ".join(str(r.get("message", "")).split())
+        print(f"  failed {r['point']}: {msg}")
+    return EXIT_FAILED if result.failed else EXIT_OK
+
+
 def main(argv=None) -> int:
     from contin.runner import RunError
     from contin.scene import SceneError
@@ -164,6 +213,8 @@ def main(argv=None) -> int:
 
             print(plot_point(args.outdir, args.point))
             return EXIT_OK
+        if args.command == "sweep":
+            return cmd_sweep(args)
         return cmd_run(args)
     except SceneError as exc:
         return _fail(str(exc))
