@@ -580,7 +580,12 @@ class _Engine:
         self.x_start = x.copy()
         self.t_start = t.copy()
         self.max_dist = 0.0
-        self.info = self._point_info(self.u, self.lam, t, lu, Ju, Jlam, 0.0, self._monitor(self.u, self.lam, Ju, Jlam))
+        try:
+            data = self._monitor(self.u, self.lam, Ju, Jlam)
+        except NUMERICAL_ERRORS as exc:
+            raise _Failure(BranchStatus.START_FAILED,
+                           f"a monitor failed at the start {self.fmt(self.lam)} ({type(exc).__name__}: {exc})")
+        self.info = self._point_info(self.u, self.lam, t, lu, Ju, Jlam, 0.0, data)
         res_norm = float(np.max(np.abs(R), initial=0.0))
         self._store(self.info, iterations, 0.0, res_norm)
         self.g = self._tests(self.info)

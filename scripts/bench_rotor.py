@@ -75,8 +75,8 @@ def main(argv=None) -> int:
     overrides = []
     hs = [int(h) for h in args.harmonics.split(",")]
     if args.quick:
-        overrides = ["analysis.range=[2.12, 2.2]", "analysis.harmonics=12", "analysis.samples=256",
-                     "analysis.stability_options.steps_per_period=512", "analysis.starts=[]"]
+        overrides = ["analysis.range=[2.12, 2.2]", "analysis.start=2.12", "analysis.harmonics=12", "analysis.samples=256",
+                     "analysis.stability_options.steps_per_period=2048", "analysis.starts=[]"]
         args.speeds, args.transient, args.record, hs = 2, 50, 8, [12, 16]
     tmp = Path(tempfile.mkdtemp(prefix="bench_rotor_"))
 

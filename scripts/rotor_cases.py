@@ -15,8 +15,9 @@ f0 = 0 and for c2 = 5).
 
 ``--from DIR`` reuses the result directories ``DIR/<case>`` of earlier
 ``contin run`` calls instead of running the scenes. ``--quick`` (the CI
-smoke run) narrows the speed range and the harmonics: the numbers it prints
-are not converged.
+smoke run) narrows the speed range and the harmonics, drops the nu = 2 starts
+(a stiff-contact subharmonic needs H = 80) and runs only f0 = 0.5 and c2 = 5:
+the numbers it prints are not converged.
 """
 
 from __future__ import annotations
@@ -30,11 +31,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 CASES = [("rotor_f0_05", "f0 = 0.5 (Fig. 4)"), ("rotor_f0_02", "f0 = 0.2 (Fig. 6)"),
          ("rotor_f0_0", "f0 = 0"), ("rotor_c2_5", "c2 = 5.0 (Fig. 8)")]
-QUICK = ["analysis.range=[2.12, 2.2]", "analysis.harmonics=12", "analysis.samples=256",
-         "analysis.stability_options.steps_per_period=512", "analysis.continuation.ds_max=0.02"]
-QUICK_NU2 = [{"harmonics": 24, "samples": 512, "start_simulation": {"transient": 200, "steps_per_period": 1024},
-              "stability_options": {"steps_per_period": 1024}, "continuation": {"ds": 0.01, "ds_max": 0.02,
-                                                                              "newton_tol": 1e-6}}]
+QUICK = ["analysis.range=[2.12, 2.2]", "analysis.start=2.12", "analysis.harmonics=12", "analysis.samples=256",
+         "analysis.stability_options.steps_per_period=2048", "analysis.continuation.ds_max=0.02", "analysis.starts=[]"]
 
 
 def run_case(name: str, outdir: Path, quick: bool) -> Path:
@@ -43,11 +41,6 @@ def run_case(name: str, outdir: Path, quick: bool) -> Path:
 
     overrides = list(QUICK) if quick else []
     scene = load_scene(ROOT / "scenes" / f"{name}.yaml", overrides)
-    if quick:
-        starts = scene.analysis["starts"]
-        for st, q in zip(starts, QUICK_NU2 * len(starts)):
-            st.update(q)
-            st["start"] = min(max(st.get("start", 2.16), 2.12), 2.2)
     out = outdir / name
     run_scene(scene, out, progress=False)
     return out
@@ -75,7 +68,9 @@ def main(argv=None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     fig, axes = plt.subplots(2, 2, figsize=(10, 7), sharex=True, constrained_layout=True)
     print(f"{'case':22s} {'pd of the harmonic branch':34s} stable nu=2 interval")
-    for ax, (name, label) in zip(axes.flat, CASES):
+    # the quick smoke run skips f0 = 0.2 and f0 = 0, whose starts need a long simulation from w = 1.6
+    cases = [c for c in CASES if not args.quick or c[0] in ("rotor_f0_05", "rotor_c2_5")]
+    for ax, (name, label) in zip(axes.flat, cases):
         d = Path(args.source) / name if args.source else run_case(name, out, args.quick)
         rows, sp = read_csv(d / "branches.csv"), read_csv(d / "special_points.csv")
         for b in np.unique(rows["branch"]):
