@@ -343,7 +343,8 @@ def _default_factory(problem, factor: int):
 
 def switch_at(problem, branch: Branch, point: SpecialPoint, *, options: ContinuationOptions | None = None,
               eps: float | None = None, sides: Sequence[int] | None = None,
-              problem_factory: Callable | None = None, pd_direction: str = "svd") -> list[BranchStart]:
+              problem_factory: Callable | None = None, pd_direction: str = "svd",
+              failures: list | None = None) -> list[BranchStart]:
     """First points of the new branches at a ``pd`` or ``bp`` special point.
 
     Parameters
@@ -368,12 +369,15 @@ def switch_at(problem, branch: Branch, point: SpecialPoint, *, options: Continua
     pd_direction : {'svd', 'hill'}
         Null vector of the odd block, or Hill's critical eigenvector mapped
         by :func:`hill_vector_to_doubled`.
+    failures : list, optional
+        Receives a dict (``kind``, ``parameter``, ``side``, ``message``) for
+        each side whose first point could not be found.
 
     Returns
     -------
     list of BranchStart
         Empty if the point is of another kind; sides whose Newton failed are
-        left out.
+        left out of it and reported in ``failures``.
     """
     options = ContinuationOptions() if options is None else options
     kind = point.kind
@@ -400,8 +404,7 @@ def switch_at(problem, branch: Branch, point: SpecialPoint, *, options: Continua
         e0 = options.ds * su if eps is None else float(eps)
         for side in (1,) if sides is None else sides:
             st = first_point(hb2, u2, lam_star, phi, side * e0, kind=SpecialKind.PD, tol=options.newton_tol)
-            if st is not None:
-                starts.append(st)
+            _keep(starts, st, failures, "pd", lam_star, side, e0)
     elif kind is SpecialKind.BP:
         t0 = point.tangent
         if t0 is None:
@@ -411,9 +414,17 @@ def switch_at(problem, branch: Branch, point: SpecialPoint, *, options: Continua
         for side in (1, -1) if sides is None else sides:
             st = first_point(problem, u_star, lam_star, t1, side * e0, kind=SpecialKind.BP, su=su, sl=sl,
                              tol=options.newton_tol)
-            if st is not None:
-                starts.append(st)
+            _keep(starts, st, failures, "bp", lam_star, side, e0)
     return starts
+
+
+def _keep(starts: list, st, failures, kind: str, lam: float, side: int, eps: float) -> None:
+    if st is not None:
+        starts.append(st)
+    elif failures is not None:
+        failures.append({"kind": kind, "parameter": lam, "side": side,
+                         "message": f"no first point of the new branch: Newton failed for offsets {eps:.3g} "
+                                    "down to 1/8 of it along the bifurcating direction"})
 
 
 def _run(start: BranchStart, lam_range, options: ContinuationOptions, stability: StabilityOptions,
@@ -523,6 +534,9 @@ class BifurcationDiagram:
     origins : list of SpecialPoint or None
         The parent's special point each branch starts from.
     monitors : list of StabilityMonitor or None
+    failed_switches : list of dict
+        Sides of a switch whose first point could not be found: ``parent``,
+        ``kind``, ``parameter``, ``side`` and ``message``.
     """
 
     branches: list = dataclasses.field(default_factory=list)
@@ -530,6 +544,7 @@ class BifurcationDiagram:
     parents: list = dataclasses.field(default_factory=list)
     origins: list = dataclasses.field(default_factory=list)
     monitors: list = dataclasses.field(default_factory=list)
+    failed_switches: list = dataclasses.field(default_factory=list)
 
     def __len__(self) -> int:
         return len(self.branches)
@@ -697,8 +712,11 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
         for sp in _switch_candidates(br, kinds, origin_lam, options.locate_tol):
             if sp.kind is SpecialKind.PD and not hasattr(prob, "with_options") and problem_factory is None:
                 continue
-            for st in switch_at(prob, br, sp, options=options, eps=eps, problem_factory=problem_factory,
-                                pd_direction=pd_direction):
+            failed: list = []
+            found = switch_at(prob, br, sp, options=options, eps=eps, problem_factory=problem_factory,
+                              pd_direction=pd_direction, failures=failed)
+            diagram.failed_switches.extend({"parent": i, **f} for f in failed)
+            for st in found:
                 if len(diagram) >= max_branches:
                     return diagram
                 if not lam_range[0] <= st.lam <= lam_range[1]:

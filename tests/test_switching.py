@@ -231,3 +231,18 @@ def test_follow_depth_and_validation():
         follow(hb, np.zeros(hb.size), 0.0, (0.0, 0.5), switch=("ns",))
     with pytest.raises(ValueError, match="unknown option 'tolerence'.*did you mean 'tolerance'"):
         follow(hb, np.zeros(hb.size), 0.0, (0.0, 0.5), stability={"tolerence": 1e-6})
+
+
+def test_a_side_without_a_first_point_is_reported(diagram):
+    """An offset far beyond Newton's basin: the side is reported with its reason, not dropped silently."""
+    from contin.switching import switch_at
+
+    root, hb = diagram[0], diagram.problems[0]
+    pd = root.points_of_kind("pd")[0]
+    failures = []
+    starts = switch_at(hb, root, pd, eps=1e9, failures=failures)
+    assert starts == [] and len(failures) == 1
+    f = failures[0]
+    assert f["kind"] == "pd" and f["side"] == 1 and abs(f["parameter"] - pd.parameter) < 1e-12
+    assert "Newton failed" in f["message"]
+    assert diagram.failed_switches == []  # every side of the normal switches found its first point

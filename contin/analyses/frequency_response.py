@@ -67,6 +67,7 @@ class BranchRecorder:
     """
 
     def __init__(self, outdir, dof_names, parameter, harmonic_columns, H, append=False, model=None):
+        self.failed_switches: list = []  # sides of a switch with no first point
         self.dof_names = list(dof_names)
         self.parameter = parameter
         self.harmonic_columns = harmonic_columns
@@ -297,6 +298,7 @@ def run(ctx) -> dict:
         "branches": branches_info,
         "rows": rec.n_rows,
         "special_points": len(rec.special_list),
+        "failed_switches": rec.failed_switches,
     }
 
 

@@ -63,6 +63,7 @@ def stability_setup(analysis: dict, hb):
                                      max_depth=1 if switch else 0, parameter_name=hb.parameter,
                                      max_branches=analysis["max_branches"], callback_factory=shifted, previous=prev)
             pairs += list(zip(diagram.branches, diagram.problems))
+            rec.failed_switches.extend({**f, "parent": f["parent"] + offset} for f in diagram.failed_switches)
             offset += len(diagram.branches)
             if any(b.status.value == "interrupted" for b in diagram.branches):
                 break
