@@ -173,8 +173,11 @@ class Switching:
 
     Function ``i`` is positive where law ``i`` of the element is active (in
     contact) and non-positive where it is not; its zero set is a switching
-    surface ``h_i(x, x') = 0`` of the state space. Surfaces are autonomous
-    (no explicit dependence on ``tau``).
+    surface ``h_i(x, x') = 0`` of the state space. The element's
+    :meth:`ForceElement.evaluate` must apply law ``i`` exactly where
+    ``h_i > 0`` (with the same floating-point arithmetic), so that the
+    monodromy can tell which law was evaluated at a state on the surface.
+    Surfaces are autonomous (no explicit dependence on ``tau``).
 
     Attributes
     ----------

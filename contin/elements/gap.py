@@ -27,7 +27,7 @@ def _gap_kernel(x, xd, d, g, k, c, side, clip, f, dfdx, dfdxd, dp):
         else:
             continue
         F = k * pen + c * vj
-        if clip and s * F < 0.0:
+        if clip and s * F <= 0.0:
             continue  # no adhesion: the contact only pushes
         if dp == 0:
             f[j, d] += F
@@ -159,15 +159,15 @@ def _radial_kernel(x, xd, ix, iy, delta, k, c, clip, f, dfdx, dfdxd, dp):
         X = x[j, ix]
         Y = x[j, iy]
         r = np.sqrt(X * X + Y * Y)
-        if r < delta or r == 0.0:
-            continue
+        if r <= delta or r == 0.0:
+            continue  # the law applies where r - delta > 0 (its switching function)
         ex = X / r
         ey = Y / r
         vx = xd[j, ix]
         vy = xd[j, iy]
         vn = vx * ex + vy * ey
         Fn = k * (r - delta) + c * vn
-        if clip and Fn < 0.0:
+        if clip and Fn <= 0.0:
             continue
         if dp == 1:
             f[j, ix] += -k * ex
