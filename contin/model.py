@@ -186,15 +186,22 @@ class Switching:
     grad_x, grad_xd : ndarray, shape (N, m, n)
         ``dh_i/dx`` and ``dh_i/dx'`` (of the branch of ``h_i`` that is
         attained where ``h_i`` is a minimum of several expressions).
-    jump : ndarray, shape (N, m, n)
+    difference : ndarray, shape (N, m, n)
         The element's force with law ``i`` active minus the force with it
-        inactive, both at the same state: the jump of ``f_nl`` across the
-        surface (zero where the law is continuous there).
+        inactive, both at the given state (used to evaluate a law beyond its
+        surface).
+    jump : ndarray, shape (N, m, n)
+        The same difference taken on the surface: the part of the active law
+        that vanishes there (proportional to ``h_i``) is left out, so that the
+        jump of ``f_nl`` is exact at a located crossing and exactly zero where
+        the law is continuous across the surface (a clipped force reaching
+        zero).
     """
 
     value: np.ndarray
     grad_x: np.ndarray
     grad_xd: np.ndarray
+    difference: np.ndarray
     jump: np.ndarray
 
 

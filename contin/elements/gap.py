@@ -42,7 +42,7 @@ def _gap_kernel(x, xd, d, g, k, c, side, clip, f, dfdx, dfdxd, dp):
 
 
 @nb.njit(cache=True)
-def _gap_switching_kernel(x, xd, d, g, k, c, side, clip, val, gx, gxd, jump):
+def _gap_switching_kernel(x, xd, d, g, k, c, side, clip, val, gx, gxd, diff, jump):
     # two functions: 0 = side + (x - g), 1 = side - (-x - g); -1 for an absent side.
     # With clip: min(penetration, (signed force)/k), the law being active iff both are positive.
     N = x.shape[0]
@@ -62,7 +62,9 @@ def _gap_switching_kernel(x, xd, d, g, k, c, side, clip, val, gx, gxd, jump):
             if clip and s * F / kref < pen:
                 val[j, i] = s * F / kref
                 gxd[j, i, d] = s * c / kref
-            jump[j, i, d] = F
+            diff[j, i, d] = F
+            # on the surface: c v where x = +-g, zero where the clipped force vanishes
+            jump[j, i, d] = F - s * k * val[j, i]
 
 
 class _ContactForce(ForceElement):
@@ -79,16 +81,17 @@ class _ContactForce(ForceElement):
     #: number of switching functions
     n_switch = 1
 
-    def _switch_kernel(self, x, xd, values, val, gx, gxd, jump):
+    def _switch_kernel(self, x, xd, values, val, gx, gxd, diff, jump):
         raise NotImplementedError
 
     def switching_functions(self, x, xd, tau, p):
         """The contact surfaces (see :class:`contin.model.Switching`); jumps of the damping term included."""
         N, n = x.shape
         m = self.n_switch
-        out = Switching(np.zeros((N, m)), np.zeros((N, m, n)), np.zeros((N, m, n)), np.zeros((N, m, n)))
+        out = Switching(np.zeros((N, m)), np.zeros((N, m, n)), np.zeros((N, m, n)), np.zeros((N, m, n)),
+                        np.zeros((N, m, n)))
         self._switch_kernel(np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(xd, dtype=float),
-                            self._values(p), out.value, out.grad_x, out.grad_xd, out.jump)
+                            self._values(p), out.value, out.grad_x, out.grad_xd, out.difference, out.jump)
         return out
 
     def evaluate(self, x, xd, tau, p, f, dfdx, dfdxd):
@@ -142,9 +145,9 @@ class GapForce(_ContactForce):
         g, k, c = values
         _gap_kernel(x, xd, self.dof, g, k, c, self.side, self.clip, f, dfdx, dfdxd, which)
 
-    def _switch_kernel(self, x, xd, values, val, gx, gxd, jump):
+    def _switch_kernel(self, x, xd, values, val, gx, gxd, diff, jump):
         g, k, c = values
-        _gap_switching_kernel(x, xd, self.dof, g, k, c, self.side, self.clip, val, gx, gxd, jump)
+        _gap_switching_kernel(x, xd, self.dof, g, k, c, self.side, self.clip, val, gx, gxd, diff, jump)
 
     def describe(self, dof_names, param_names):
         return (f"{self.label}: contact on {dof_names[self.dof]} beyond clearance (sides {self.sides}), "
@@ -203,7 +206,7 @@ def _radial_kernel(x, xd, ix, iy, delta, k, c, clip, f, dfdx, dfdxd, dp):
 
 
 @nb.njit(cache=True)
-def _radial_switching_kernel(x, xd, ix, iy, delta, k, c, clip, val, gx, gxd, jump):
+def _radial_switching_kernel(x, xd, ix, iy, delta, k, c, clip, val, gx, gxd, diff, jump):
     # h = r - delta; with clip: min(r - delta, Fn/k), the law being active iff both are positive
     N = x.shape[0]
     kref = k if k > 0.0 else 1.0
@@ -232,8 +235,12 @@ def _radial_switching_kernel(x, xd, ix, iy, delta, k, c, clip, val, gx, gxd, jum
             gx[j, 0, iy] = (k * ey + c * dvndy) / kref
             gxd[j, 0, ix] = c * ex / kref
             gxd[j, 0, iy] = c * ey / kref
-        jump[j, 0, ix] = Fn * ex
-        jump[j, 0, iy] = Fn * ey
+        diff[j, 0, ix] = Fn * ex
+        diff[j, 0, iy] = Fn * ey
+        # on the surface: c vn e where r = delta, zero where the clipped Fn vanishes
+        Fs = Fn - k * val[j, 0]
+        jump[j, 0, ix] = Fs * ex
+        jump[j, 0, iy] = Fs * ey
 
 
 @register_force("radial_gap")
@@ -266,9 +273,9 @@ class RadialGapForce(_ContactForce):
         d, k, c = values
         _radial_kernel(x, xd, self.ix, self.iy, d, k, c, self.clip, f, dfdx, dfdxd, which)
 
-    def _switch_kernel(self, x, xd, values, val, gx, gxd, jump):
+    def _switch_kernel(self, x, xd, values, val, gx, gxd, diff, jump):
         d, k, c = values
-        _radial_switching_kernel(x, xd, self.ix, self.iy, d, k, c, self.clip, val, gx, gxd, jump)
+        _radial_switching_kernel(x, xd, self.ix, self.iy, d, k, c, self.clip, val, gx, gxd, diff, jump)
 
     def describe(self, dof_names, param_names):
         return (f"{self.label}: radial contact of ({dof_names[self.ix]}, {dof_names[self.iy]}) beyond a clearance, "
