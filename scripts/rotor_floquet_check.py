@@ -1,4 +1,4 @@
-"""Floquet checks on the bearing rotor: saltation against the flow map, Hill against the monodromy, HB against simulation.
+"""Floquet checks on the bearing rotor: saltation, Hill against the monodromy, HB against simulation.
 
 Prints, measured in this run:
 
@@ -26,6 +26,7 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
+from contin.models.polynomial import polynomial_model
 
 from contin.blas import limit_blas_threads
 from contin.catalog import build_model
@@ -33,11 +34,16 @@ from contin.continuation import ContinuationOptions
 from contin.elements import GapForce
 from contin.harmonic_balance import HarmonicBalance, HBOptions
 from contin.model import Monomial
-from contin.models.polynomial import polynomial_model
 from contin.newton import solve_at_parameter
 from contin.simulation import simulate
+from contin.stability import (
+    hill_spectrum,
+    monodromy_reference,
+    monodromy_rk4,
+    multiplier_distance,
+    orbit_state,
+)
 from contin.start import simulation_start
-from contin.stability import hill_spectrum, monodromy_reference, monodromy_rk4, multiplier_distance, orbit_state
 
 
 def resize(u, n, H):

@@ -63,7 +63,12 @@ from contin.branch import SpecialKind
 from contin.events import Event, PointInfo
 from contin.model import suggest
 from contin.stability.hill import hill_spectrum
-from contin.stability.monodromy import _switching_elements, monodromy_reference, monodromy_rk4, switching_events
+from contin.stability.monodromy import (
+    _switching_elements,
+    monodromy_reference,
+    monodromy_rk4,
+    switching_events,
+)
 
 __all__ = [
     "StabilityMethod",

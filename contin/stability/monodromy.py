@@ -381,7 +381,7 @@ def _check_rk4_step(A, h, T, lam):
     if rate * h > RK4_STABILITY:
         need = int(np.ceil(rate * T / RK4_STABILITY))
         raise ArithmeticError(
-            f"monodromy at lambda = {lam:.10g}: the RK4 step T/{int(round(T / h))} is too large for the stiffest "
+            f"monodromy at lambda = {lam:.10g}: the RK4 step T/{round(T / h)} is too large for the stiffest "
             f"mode along the orbit (|eigenvalue| {rate:.4g}, h |eigenvalue| = {rate * h:.3g} > {RK4_STABILITY}); "
             f"use steps_per_period >= {need}")
 
@@ -605,7 +605,8 @@ def _modes(hb, u, lam, p, t, z=None):
     if z is None:
         z = orbit_state(hb, u, lam, np.asarray(t, dtype=float))
     tau = float(p[hb.kw]) * np.asarray(t, dtype=float)
-    cols = [el.switching_functions(z[:, :n], z[:, n:], tau, p).value > 0.0 for _, el, _ in _switching_elements(hb.model)]
+    cols = [el.switching_functions(z[:, :n], z[:, n:], tau, p).value > 0.0
+            for _, el, _ in _switching_elements(hb.model)]
     return np.concatenate(cols, axis=1) if cols else np.zeros((len(t), 0), dtype=bool)
 
 
@@ -623,7 +624,7 @@ def _piecewise_nodes(hb, u, lam, p, events, T, steps):
     k = 0
     for s, (a, b) in enumerate(segs):
         L = b - a
-        m = 0 if L <= 0.0 else max(1, int(round(steps * L / T)))
+        m = 0 if L <= 0.0 else max(1, round(steps * L / T))
         starts.append(k)
         nsteps.append(m)
         hs.append(L / m if m else 0.0)
@@ -801,7 +802,7 @@ def monodromy_orbit_ivp(hb, u: np.ndarray, lam: float, rtol: float = 1e-11, atol
     p = hb.params_at(lam)
     Omega = _frequency(hb, lam)
     T = 2.0 * np.pi / Omega
-    M, C, K, Minv, forces, _ = _pointwise(hb, p)
+    _, C, K, Minv, forces, _ = _pointwise(hb, p)
     d = 2 * n
     events = [] if switches == "ignore" else switching_events(hb, u, lam, samples, saltation=switches == "saltation")
     segs = _segments(events, T)
@@ -866,7 +867,7 @@ def monodromy_reference(hb, u: np.ndarray, lam: float, rtol: float = 1e-11, atol
     p = hb.params_at(lam)
     Omega = _frequency(hb, lam)
     T = 2.0 * np.pi / Omega
-    M, C, K, Minv, forces, excitation = _pointwise(hb, p)
+    _, C, K, Minv, forces, excitation = _pointwise(hb, p)
     d = 2 * n
     z0 = orbit_state(hb, u, lam, 0.0)
     sw = [] if switches == "ignore" else _switching_elements(hb.model)
@@ -899,7 +900,7 @@ def _reference_with_switches(hb, p, T, z0, sw, rtol, atol, saltation, max_switch
     n = hb.n
     d = 2 * n
     w = float(p[hb.kw])
-    M, C, K, Minv, forces, excitation = _pointwise(hb, p)
+    _, C, K, Minv, forces, excitation = _pointwise(hb, p)
     funcs = [(e, el, i) for e, el, m in sw for i in range(m)]
 
     def switching(t, z):

@@ -44,7 +44,6 @@ from contin.continuation import ContinuationOptions
 from contin.harmonic_balance import HarmonicBalance, HBOptions
 from contin.newton import solve_at_parameter
 from contin.simulation import simulate
-from contin.start import simulation_start
 from contin.stability import (
     StabilityOptions,
     floquet_multipliers,
@@ -53,6 +52,7 @@ from contin.stability import (
     multiplier_distance,
     orbit_state,
 )
+from contin.start import simulation_start
 
 N_DOF = 4
 
@@ -92,7 +92,7 @@ def compare(hb, u, w, steps):
     return hill, mono
 
 
-# ---------------------------------------------------------------- f0 = 0.5, harmonic branch (scenes/rotor_harmonic.yaml)
+# -------------------------------------------------------- f0 = 0.5, harmonic branch (scenes/rotor_harmonic.yaml)
 @pytest.fixture(scope="module")
 def harmonic():
     """nu = 1, H = 40, 1024 samples; solutions at w = 2.0 (stable), 2.1 and 2.4 (unstable), by homotopy in kbn."""
@@ -102,7 +102,7 @@ def harmonic():
 
 
 def test_hill_and_monodromy_agree_on_the_harmonic_branch(harmonic):
-    model, hb, sols = harmonic
+    _, hb, sols = harmonic
     for w, u in sols.items():
         assert not monodromy_rk4(hb, u, w, 4096).switches  # permanent contact: the smooth RK4 path
         hill, mono = compare(hb, u, w, 4096)
@@ -113,7 +113,7 @@ def test_hill_and_monodromy_agree_on_the_harmonic_branch(harmonic):
         assert mono.n_complex == (0 if w == 2.0 else 2)
 
 
-# ---------------------------------------------------------------- f0 = 0.5, nu = 2 branch (scenes/rotor_subharmonic.yaml)
+# ------------------------------------------------------- f0 = 0.5, nu = 2 branch (scenes/rotor_subharmonic.yaml)
 @pytest.fixture(scope="module")
 def subharmonic():
     """nu = 2, H = 80, 2048 samples: from a time simulation at w = 2.16 (entrained into the +w/2 whirl),
@@ -158,7 +158,7 @@ def impacting():
 
 
 def test_hill_spectrum_holds_the_critical_multipliers_of_an_impacting_orbit(impacting):
-    model, w, hbs, sols = impacting
+    _, w, hbs, sols = impacting
     hb, u = hbs[40], sols[40]
     mono = monodromy_rk4(hb, u, w, 16384)
     assert len(mono.switches) >= 4  # contact lost and regained twice (plus HB ripple)
@@ -182,7 +182,7 @@ def test_permanent_contact_orbits_agree_with_simulation_spectrally(harmonic):
         for H in Hs:
             hb = HarmonicBalance(model, "w", HBOptions(harmonics=H, samples=1024))
             u = sols[w] if H == 40 else solve(hb, resize(sols[w], H), w)
-            err_x, err_v, sim = one_period_error(model, hb, u, w)
+            err_x, _, sim = one_period_error(model, hb, u, w)
             assert sim < 1e-8  # 7e-11 in permanent contact, 4e-9 from the H = 10 start (it loses contact)
             assert err_x <= 30 * np.exp(-0.4 * H) + sim, (w, H, err_x)
             errs[H] = (err_x, sim)

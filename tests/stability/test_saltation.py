@@ -24,14 +24,13 @@ the measured one-period orbit error.
 import numpy as np
 import pytest
 from conftest import fd_jacobian
+from contin.models.polynomial import polynomial_model
 
 from contin.catalog import build_model
 from contin.elements import GapForce, RadialGapForce
 from contin.harmonic_balance import HarmonicBalance, HBOptions
 from contin.model import Monomial
-from contin.models.polynomial import polynomial_model
 from contin.simulation import simulate
-from contin.start import simulation_start
 from contin.stability import (
     StabilityMethod,
     StabilityOptions,
@@ -41,6 +40,7 @@ from contin.stability import (
     orbit_state,
 )
 from contin.stability.monodromy import switching_events
+from contin.start import simulation_start
 
 
 def flow_jacobian(model, w, z0, periods=1, steps=8192, eps=1e-6):
@@ -86,7 +86,7 @@ def test_contact_switching_functions(rng, clip):
                 zz = np.concatenate([x[j], xd[j]])
                 g = np.concatenate([sw.grad_x[j, i], sw.grad_xd[j, i]])
 
-                def h(z, i=i):
+                def h(z, i=i, el=el, n=n):
                     return el.switching_functions(z[None, :n], z[None, n:], np.zeros(1), p).value[0, i:i + 1]
 
                 np.testing.assert_allclose(fd_jacobian(h, zz, eps=1e-8)[0], g, rtol=1e-5, atol=1e-6)
@@ -124,7 +124,7 @@ def gap_orbit(request):
 
 def test_gap_oscillator_monodromy_equals_the_simulated_flow_map(gap_orbit):
     """Saltation matrices make the monodromy the derivative of the flow map; without them it is far off."""
-    clip, model, hb, u, w, Phi = gap_orbit
+    clip, _, hb, u, w, Phi = gap_orbit
     ref = monodromy_reference(hb, u, w)
     assert len(ref.switches) == 4 and {e.direction for e in ref.switches} == {-1, 1}
     assert np.abs(ref.matrix - Phi).max() < 1e-7  # measured 4e-9 (clipped), 8e-9 (unclipped)
@@ -156,7 +156,7 @@ def test_gap_oscillator_monodromy_equals_the_simulated_flow_map(gap_orbit):
         assert np.abs(bare_mu - multipliers(mono.matrix)).max() < 1e-8
 
 
-# ---------------------------------------------------------------- the rotor with c2 = 5 (impacting orbits, paper Fig. 8)
+# ------------------------------------------------------- the rotor with c2 = 5 (impacting orbits, paper Fig. 8)
 def test_impacting_rotor_monodromy_equals_the_simulated_flow_map():
     """The bearing hits its casing twice per revolution at w = 2 (c2 = 5, H = 40; the paper's law).
 
@@ -189,7 +189,7 @@ def test_hill_misses_the_saltation_and_both_reports_the_monodromy(gap_orbit):
     surface): with the clipped law its multipliers are those of the monodromy without saltation, 0.27 off
     the flow map's, whatever its selection quality says. Method 'both' reports the monodromy there and
     'hill' flags the point."""
-    clip, model, hb, u, w, Phi = gap_orbit
+    clip, _, hb, u, w, Phi = gap_orbit
     truth = multipliers(Phi)
     both = floquet_multipliers(hb, u, w, StabilityOptions(method="both", steps_per_period=4096))
     assert both.method is StabilityMethod.FLOQUET and both.confirmed
@@ -206,7 +206,7 @@ def test_hill_misses_the_saltation_and_both_reports_the_monodromy(gap_orbit):
 
 def test_switches_are_located_to_rounding_on_the_hb_orbit(gap_orbit):
     """Brent's method on the trigonometric series: h(t_c) at rounding level, direction as sampled."""
-    clip, model, hb, u, w, _ = gap_orbit
+    _, model, hb, u, w, _ = gap_orbit
     ev = switching_events(hb, u, w, 512)
     el = model.forces[0]
     p = hb.params_at(w)
