@@ -28,6 +28,7 @@ __all__ = [
     "Monomial",
     "ParametricMatrix",
     "ForceElement",
+    "Switching",
     "ExcitationElement",
     "Model",
     "register_force",
@@ -166,11 +167,52 @@ class ParametricMatrix:
         return ParametricMatrix(self.n, self.terms + other.terms)
 
 
+@dataclass(frozen=True, eq=False)
+class Switching:
+    """Switching functions of a non-smooth force element at ``N`` states.
+
+    Function ``i`` is positive where law ``i`` of the element is active (in
+    contact) and non-positive where it is not; its zero set is a switching
+    surface ``h_i(x, x') = 0`` of the state space. The element's
+    :meth:`ForceElement.evaluate` must apply law ``i`` exactly where
+    ``h_i > 0`` (with the same floating-point arithmetic), so that the
+    monodromy can tell which law was evaluated at a state on the surface.
+    Surfaces are autonomous (no explicit dependence on ``tau``).
+
+    Attributes
+    ----------
+    value : ndarray, shape (N, m)
+        ``h_i`` at each state.
+    grad_x, grad_xd : ndarray, shape (N, m, n)
+        ``dh_i/dx`` and ``dh_i/dx'`` (of the branch of ``h_i`` that is
+        attained where ``h_i`` is a minimum of several expressions).
+    difference : ndarray, shape (N, m, n)
+        The element's force with law ``i`` active minus the force with it
+        inactive, both at the given state (used to evaluate a law beyond its
+        surface).
+    jump : ndarray, shape (N, m, n)
+        The same difference taken on the surface: the part of the active law
+        that vanishes there (proportional to ``h_i``) is left out, so that the
+        jump of ``f_nl`` is exact at a located crossing and exactly zero where
+        the law is continuous across the surface (a clipped force reaching
+        zero).
+    """
+
+    value: np.ndarray
+    grad_x: np.ndarray
+    grad_xd: np.ndarray
+    difference: np.ndarray
+    jump: np.ndarray
+
+
 class ForceElement:
     """A time-domain internal force (left-hand side), evaluated on samples.
 
     Subclasses implement :meth:`evaluate` and :meth:`evaluate_dp` by calling a
-    numba kernel; they accumulate into the output arrays.
+    numba kernel; they accumulate into the output arrays. Non-smooth laws also
+    implement :meth:`switching_functions`, through which the monodromy locates
+    the switches and builds saltation matrices
+    (:mod:`contin.stability.monodromy`).
     """
 
     kind: ClassVar[str] = ""
@@ -203,6 +245,21 @@ class ForceElement:
     def tau_orders(self) -> tuple:
         """Multiples of ``tau`` at which the force varies explicitly in time."""
         return ()
+
+    def switching_functions(self, x, xd, tau, p) -> "Switching | None":
+        """Switching surfaces of a piecewise-defined law, or None for a smooth one.
+
+        Parameters
+        ----------
+        x, xd : ndarray, shape (N, n)
+        tau : ndarray, shape (N,)
+        p : ndarray, shape (P,)
+
+        Returns
+        -------
+        Switching or None
+        """
+        return None
 
     def describe(self, dof_names: Sequence[str], param_names: Sequence[str]) -> str:
         return self.kind

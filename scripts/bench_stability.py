@@ -8,7 +8,8 @@ Two periodic solutions:
   2T-periodic (1/2 subharmonic) branch born at the period doubling of x = 0;
 - (full run only) a clearance oscillator x'' + 0.05 x' + x + 4 (|x| - 0.5)_+ sign x
   = 0.3 cos(w t) at w = 1.33: the Jacobian jumps at contact, Hill converges
-  algebraically in H and RK4 is first order in the step.
+  algebraically in H; RK4 with the contact switches located is fourth order
+  in the step (first order straight across them, ``switches='ignore'``).
 
 For each number of harmonics H the solution is recomputed (Newton at fixed
 parameter) and the script prints the time per point of Hill's method (Hill

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from contin.model import ForceElement, Monomial, register_force
+from contin.model import ForceElement, Monomial, Switching, register_force
 
 __all__ = ["GapForce", "RadialGapForce"]
 
@@ -27,7 +27,7 @@ def _gap_kernel(x, xd, d, g, k, c, side, clip, f, dfdx, dfdxd, dp):
         else:
             continue
         F = k * pen + c * vj
-        if clip and s * F < 0.0:
+        if clip and s * F <= 0.0:
             continue  # no adhesion: the contact only pushes
         if dp == 0:
             f[j, d] += F
@@ -41,6 +41,32 @@ def _gap_kernel(x, xd, d, g, k, c, side, clip, f, dfdx, dfdxd, dp):
             f[j, d] += vj
 
 
+@nb.njit(cache=True)
+def _gap_switching_kernel(x, xd, d, g, k, c, side, clip, val, gx, gxd, diff, jump):
+    # two functions: 0 = side + (x - g), 1 = side - (-x - g); -1 for an absent side.
+    # With clip: min(penetration, (signed force)/k), the law being active iff both are positive.
+    N = x.shape[0]
+    kref = k if k > 0.0 else 1.0
+    for j in range(N):
+        xj = x[j, d]
+        vj = xd[j, d]
+        for i in range(2):
+            s = 1.0 if i == 0 else -1.0
+            if (i == 0 and side < 0) or (i == 1 and side > 0):
+                val[j, i] = -1.0
+                continue
+            pen = s * xj - g
+            F = k * (xj - s * g) + c * vj  # the force of the active law
+            val[j, i] = pen
+            gx[j, i, d] = s
+            if clip and s * F / kref < pen:
+                val[j, i] = s * F / kref
+                gxd[j, i, d] = s * c / kref
+            diff[j, i, d] = F
+            # on the surface: c v where x = +-g, zero where the clipped force vanishes
+            jump[j, i, d] = F - s * k * val[j, i]
+
+
 class _ContactForce(ForceElement):
     """Shared parameter handling of the contact elements (clearance, stiffness, damping)."""
 
@@ -51,6 +77,22 @@ class _ContactForce(ForceElement):
 
     def _kernel(self, x, xd, values, f, dfdx, dfdxd, which):
         raise NotImplementedError
+
+    #: number of switching functions
+    n_switch = 1
+
+    def _switch_kernel(self, x, xd, values, val, gx, gxd, diff, jump):
+        raise NotImplementedError
+
+    def switching_functions(self, x, xd, tau, p):
+        """The contact surfaces (see :class:`contin.model.Switching`); jumps of the damping term included."""
+        N, n = x.shape
+        m = self.n_switch
+        out = Switching(np.zeros((N, m)), np.zeros((N, m, n)), np.zeros((N, m, n)), np.zeros((N, m, n)),
+                        np.zeros((N, m, n)))
+        self._switch_kernel(np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(xd, dtype=float),
+                            self._values(p), out.value, out.grad_x, out.grad_xd, out.difference, out.jump)
+        return out
 
     def evaluate(self, x, xd, tau, p, f, dfdx, dfdxd):
         self._kernel(x, xd, self._values(p), f, dfdx, dfdxd, 0)
@@ -97,9 +139,15 @@ class GapForce(_ContactForce):
         self.label = label
         self._dummy = np.zeros((1, 1, 1))
 
+    n_switch = 2
+
     def _kernel(self, x, xd, values, f, dfdx, dfdxd, which):
         g, k, c = values
         _gap_kernel(x, xd, self.dof, g, k, c, self.side, self.clip, f, dfdx, dfdxd, which)
+
+    def _switch_kernel(self, x, xd, values, val, gx, gxd, diff, jump):
+        g, k, c = values
+        _gap_switching_kernel(x, xd, self.dof, g, k, c, self.side, self.clip, val, gx, gxd, diff, jump)
 
     def describe(self, dof_names, param_names):
         return (f"{self.label}: contact on {dof_names[self.dof]} beyond clearance (sides {self.sides}), "
@@ -114,15 +162,15 @@ def _radial_kernel(x, xd, ix, iy, delta, k, c, clip, f, dfdx, dfdxd, dp):
         X = x[j, ix]
         Y = x[j, iy]
         r = np.sqrt(X * X + Y * Y)
-        if r < delta or r == 0.0:
-            continue
+        if r <= delta or r == 0.0:
+            continue  # the law applies where r - delta > 0 (its switching function)
         ex = X / r
         ey = Y / r
         vx = xd[j, ix]
         vy = xd[j, iy]
         vn = vx * ex + vy * ey
         Fn = k * (r - delta) + c * vn
-        if clip and Fn < 0.0:
+        if clip and Fn <= 0.0:
             continue
         if dp == 1:
             f[j, ix] += -k * ex
@@ -157,6 +205,44 @@ def _radial_kernel(x, xd, ix, iy, delta, k, c, clip, f, dfdx, dfdxd, dp):
         dfdxd[j, iy, iy] += c * ey * ey
 
 
+@nb.njit(cache=True)
+def _radial_switching_kernel(x, xd, ix, iy, delta, k, c, clip, val, gx, gxd, diff, jump):
+    # h = r - delta; with clip: min(r - delta, Fn/k), the law being active iff both are positive
+    N = x.shape[0]
+    kref = k if k > 0.0 else 1.0
+    for j in range(N):
+        X = x[j, ix]
+        Y = x[j, iy]
+        r = np.sqrt(X * X + Y * Y)
+        if r == 0.0:
+            val[j, 0] = -delta  # at the centre, away from the surface
+            continue
+        ex = X / r
+        ey = Y / r
+        vx = xd[j, ix]
+        vy = xd[j, iy]
+        vn = vx * ex + vy * ey
+        Fn = k * (r - delta) + c * vn
+        val[j, 0] = r - delta
+        gx[j, 0, ix] = ex
+        gx[j, 0, iy] = ey
+        if clip and Fn / kref < r - delta:
+            val[j, 0] = Fn / kref
+            # d vn / d(X, Y): the radial direction turns with the position
+            dvndx = (vx * ey * ey - vy * ex * ey) / r
+            dvndy = (vy * ex * ex - vx * ex * ey) / r
+            gx[j, 0, ix] = (k * ex + c * dvndx) / kref
+            gx[j, 0, iy] = (k * ey + c * dvndy) / kref
+            gxd[j, 0, ix] = c * ex / kref
+            gxd[j, 0, iy] = c * ey / kref
+        diff[j, 0, ix] = Fn * ex
+        diff[j, 0, iy] = Fn * ey
+        # on the surface: c vn e where r = delta, zero where the clipped Fn vanishes
+        Fs = Fn - k * val[j, 0]
+        jump[j, 0, ix] = Fs * ex
+        jump[j, 0, iy] = Fs * ey
+
+
 @register_force("radial_gap")
 class RadialGapForce(_ContactForce):
     """Radial contact in the plane of two dofs (a bearing in a clearance).
@@ -186,6 +272,10 @@ class RadialGapForce(_ContactForce):
     def _kernel(self, x, xd, values, f, dfdx, dfdxd, which):
         d, k, c = values
         _radial_kernel(x, xd, self.ix, self.iy, d, k, c, self.clip, f, dfdx, dfdxd, which)
+
+    def _switch_kernel(self, x, xd, values, val, gx, gxd, diff, jump):
+        d, k, c = values
+        _radial_switching_kernel(x, xd, self.ix, self.iy, d, k, c, self.clip, val, gx, gxd, diff, jump)
 
     def describe(self, dof_names, param_names):
         return (f"{self.label}: radial contact of ({dof_names[self.ix]}, {dof_names[self.iy]}) beyond a clearance, "

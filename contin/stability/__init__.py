@@ -22,10 +22,12 @@ from contin.stability.floquet import (
 from contin.stability.hill import HillSpectrum, hill_spectrum
 from contin.stability.monodromy import (
     Monodromy,
+    SwitchEvent,
     monodromy_orbit_ivp,
     monodromy_reference,
     monodromy_rk4,
     orbit_state,
+    switching_events,
 )
 
 __all__ = [
@@ -37,6 +39,7 @@ __all__ = [
     "StabilityMethod",
     "StabilityMonitor",
     "StabilityOptions",
+    "SwitchEvent",
     "classify_multipliers",
     "describe_crossing",
     "floquet_multipliers",
@@ -47,4 +50,5 @@ __all__ = [
     "multiplier_distance",
     "orbit_state",
     "stability_events",
+    "switching_events",
 ]

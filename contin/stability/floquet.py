@@ -63,7 +63,12 @@ from contin.branch import SpecialKind
 from contin.events import Event, PointInfo
 from contin.model import suggest
 from contin.stability.hill import hill_spectrum
-from contin.stability.monodromy import monodromy_reference, monodromy_rk4
+from contin.stability.monodromy import (
+    _switching_elements,
+    monodromy_reference,
+    monodromy_rk4,
+    switching_events,
+)
 
 __all__ = [
     "StabilityMethod",
@@ -91,7 +96,11 @@ class StabilityMethod(str, enum.Enum):
         Hill everywhere; the monodromy confirms every point where Hill's
         verdict changes from the previous point, the first point, and every
         point where Hill's selection is ambiguous. On disagreement the
-        monodromy verdict is used and the result is flagged.
+        monodromy verdict is used and the result is flagged. Where the orbit
+        crosses a switching surface at which the force law jumps (an impact
+        with contact damping), Hill's matrices, built from the sampled
+        Jacobian, miss the jump (the saltation), so the monodromy's
+        multipliers are reported there.
     NONE
         No stability computation.
     """
@@ -407,6 +416,24 @@ def _monodromy(hb, u, lam, options):
     return monodromy_rk4(hb, u, lam, max(options.steps_per_period, hb.H + 1))
 
 
+def _force_jumps(hb, u, lam, options) -> bool:
+    """Whether the HB orbit crosses a switching surface where the force law jumps.
+
+    Hill's matrices come from the Jacobian sampled on the orbit, which cannot
+    hold the contribution of a jump (a delta function at the surface, which the
+    saltation matrix carries in the monodromy): at such orbits Hill's
+    multipliers are wrong whatever ``H`` (e.g. 0.27 off for a clipped
+    clearance oscillator, ``tests/stability/test_saltation.py``).
+    """
+    if not _switching_elements(hb.model):
+        return False
+    try:
+        events = switching_events(hb, u, lam, 2 * max(options.steps_per_period, hb.H + 1))
+    except ArithmeticError:
+        return True  # a grazing switch with a jump
+    return any(np.abs(e.saltation - np.eye(e.saltation.shape[0])).max() > 0.0 for e in events)
+
+
 def floquet_multipliers(hb, u: np.ndarray, lam: float, options: StabilityOptions | None = None, *, previous=None) -> FloquetResult:
     """Floquet multipliers and stability of an HB solution.
 
@@ -421,6 +448,11 @@ def floquet_multipliers(hb, u: np.ndarray, lam: float, options: StabilityOptions
 
     The monodromy needs an invertible mass matrix; Hill's method accepts a
     singular one (massless dofs) and then returns ``2 rank(M)`` multipliers.
+
+    Where the orbit crosses a switching surface at which the force jumps,
+    Hill's multipliers miss the saltation: method BOTH then reports the
+    monodromy's (``disagreement`` when the counts differ), and method HILL
+    flags the result ``ambiguous`` with a ``RuntimeWarning``.
 
     Parameters
     ----------
@@ -455,24 +487,31 @@ def floquet_multipliers(hb, u: np.ndarray, lam: float, options: StabilityOptions
         ambiguous=ambiguous, quality=spec.quality, hill_multipliers=spec.multipliers.copy(),
         eigenvectors=spec.vectors,
     )
+    jumps = _force_jumps(hb, u, lam, options)
     if method is StabilityMethod.HILL:
+        if jumps:
+            warnings.warn(
+                f"at {hb.parameter}={lam:.10g} the orbit crosses a contact surface where the force jumps: Hill's "
+                "multipliers miss the saltation there (use stability 'both' or 'floquet')", RuntimeWarning,
+                stacklevel=2)
+            return dataclasses.replace(hill, ambiguous=True)
         return hill
     prev = previous.counts if isinstance(previous, FloquetResult) else previous
-    if not (ambiguous or prev is None or tuple(prev) != hill.counts):
+    if not (jumps or ambiguous or prev is None or tuple(prev) != hill.counts):
         return hill
     mono = _monodromy(hb, u, lam, options)
     mu = np.linalg.eigvals(mono.matrix)
     counts = classify_multipliers(mu, options.tolerance, options.real_angle_tol)
-    if counts == hill.counts:
+    if counts == hill.counts and not jumps:
         return dataclasses.replace(hill, confirmed=True, monodromy_multipliers=mu.copy())
-    # Hill and the monodromy disagree: the time integration is trusted
+    # Hill and the monodromy disagree, or Hill misses a force jump: the time integration is trusted
     gap = multiplier_distance(spec.multipliers, mu)
     near = np.abs(np.abs(np.concatenate([spec.multipliers, mu])) - 1.0 - options.tolerance)
     ex = _log_exponents(mu, mono.period)
     return _result(
         mu, ex, StabilityMethod.FLOQUET, mono.period, options, ambiguous=ambiguous, quality=spec.quality,
-        confirmed=True, disagreement=True,
-        marginal=bool(gap <= _MARGINAL_GAP and near.min() <= 2.0 * gap + options.tolerance),
+        confirmed=True, disagreement=counts != hill.counts,
+        marginal=bool(counts != hill.counts and gap <= _MARGINAL_GAP and near.min() <= 2.0 * gap + options.tolerance),
         hill_multipliers=spec.multipliers.copy(), monodromy_multipliers=mu.copy(),
     )
 

@@ -80,13 +80,16 @@ def test_orbit_samples_match_the_hb_synthesis(duffing_points):
     np.testing.assert_allclose(A[:, 1, 1], -0.1)
 
 
-def test_clearance_oscillator_rk4_is_first_order():
-    """Piecewise-linear gap: the Jacobian jumps at contact, RK4 on fixed steps is first order.
+def test_clearance_oscillator_rk4_order_with_and_without_located_switches():
+    """Piecewise-linear gap: the Jacobian jumps at contact, the force does not.
 
     x'' + 0.05 x' + x + 4 (x -+ 0.5)_+- = 0.3 cos(w t) (contact beyond |x| = 0.5).
-    The force is continuous, so no saltation matrix is needed; the error at each
-    contact switch is O(h) and the global error behaves like C h with C ~ 2 here
-    (its phase-dependent fluctuations come from where the switch falls inside a step).
+    The force is continuous, so every saltation matrix is the identity. Fixed
+    steps straight across the switches (``switches='ignore'``) are first order:
+    the error at each switch is O(h) and the global error behaves like C h with
+    C ~ 2 here (its phase-dependent fluctuations come from where the switch falls
+    inside a step). With the switches located (the default) the steps end on
+    them and RK4 is fourth order again (measured 3.9-4.0 per halving).
     """
     model = polynomial_model(["x"], {"c": 0.05, "F": 0.3, "w": 1.0}, mass=[[1.0]], damping=[["c"]],
                              stiffness=[[1.0]], forcing=[{"dof": "x", "amplitude": "F"}])
@@ -96,14 +99,21 @@ def test_clearance_oscillator_rk4_is_first_order():
     u, w = br.point(int(np.argmin(np.abs(br.parameter - 1.33))))
     assert np.abs(u).max() > 0.6  # the orbit is in contact
     ref = monodromy_orbit_ivp(hb, u, w, rtol=1e-12, atol=1e-13)
+    assert len(ref.switches) == 4 and all(np.array_equal(e.saltation, np.eye(2)) for e in ref.switches)
+    # the adaptive integration straight across the switches agrees, at a higher cost
+    across = monodromy_orbit_ivp(hb, u, w, rtol=1e-12, atol=1e-13, switches="ignore")
+    assert np.abs(across.matrix - ref.matrix).max() < 1e-8
     T = ref.period
-    errs = {}
+    errs, located = {}, {}
     for S in (200, 400, 800, 1600, 3200):
-        errs[S] = np.abs(monodromy_rk4(hb, u, w, S).matrix - ref.matrix).max()
+        errs[S] = np.abs(monodromy_rk4(hb, u, w, S, switches="ignore").matrix - ref.matrix).max()
         assert errs[S] <= 5.0 * T / S, (S, errs[S])
+        located[S] = np.abs(monodromy_rk4(hb, u, w, S).matrix - ref.matrix).max()
     assert errs[3200] < errs[200] / 8  # 16x smaller step: at least first order overall
-    # a smooth problem at the same step count is far more accurate (fourth order)
-    assert errs[3200] > 1e-5
+    assert errs[3200] > 1e-5  # but not better
+    orders = np.log2([located[S] / located[2 * S] for S in (200, 400, 800, 1600)])
+    assert np.all(orders > 3.7), (located, orders)
+    assert located[3200] < 1e-10
 
 
 @pytest.mark.parametrize("eps, rmax, hi", [(0.2, 2, 1.3), (0.5, 3, 2.45)])
