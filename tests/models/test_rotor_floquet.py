@@ -113,7 +113,7 @@ def test_hill_and_monodromy_agree_on_the_harmonic_branch(harmonic):
         assert mono.n_complex == (0 if w == 2.0 else 2)
 
 
-# ------------------------------------------------------- f0 = 0.5, nu = 2 branch (scenes/rotor_subharmonic.yaml)
+# ------------------------------------------------------- f0 = 0.5, nu = 2 branch (scenes/rotor_f0_05.yaml, its second start)
 @pytest.fixture(scope="module")
 def subharmonic():
     """nu = 2, H = 80, 2048 samples: from a time simulation at w = 2.16 (entrained into the +w/2 whirl),
