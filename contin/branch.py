@@ -50,6 +50,14 @@ class SpecialKind(str, enum.Enum):
     NS = "ns"
     #: generic, unclassified stability change
     STABILITY = "stability"
+    #: codimension two, on a fold curve: two folds merge (Kuznetsov 2004, sec. 8.2)
+    CUSP = "cusp"
+    #: codimension two: multipliers +1 and -1 at once (a fold curve meets a period-doubling curve)
+    FOLD_FLIP = "fold_flip"
+    #: a two-parameter curve turns in one of its parameters (not a bifurcation)
+    EXTREMUM = "extremum"
+    #: a curve crosses a switching surface of a non-smooth force, where the discretised condition jumps
+    NONSMOOTH = "nonsmooth"
     END = "end"
     START = "start"
     USER = "user"
