@@ -852,7 +852,8 @@ def _assemble(problem, hb, kind, names, runs, ends, left, curve_options) -> Bifu
         specials.append(CurvePoint(SpecialKind.START, float(Z[n_back, m]), float(L[n_back]), Z[n_back, :m].copy(),
                                    n_back, message="start point"))
     # start and end points sit on their row, the others between their row and the next
-    specials.sort(key=lambda p: p.index + (0.0 if p.kind in (SpecialKind.START, SpecialKind.END) else 0.5))
+    rank = {SpecialKind.START: 0.0, SpecialKind.END: 0.1}
+    specials.sort(key=lambda p: p.index + rank.get(p.kind, 0.5))
     return BifurcationCurve(
         kind=kind, parameters=tuple(names), nu=hb.nu, harmonics=hb.H, p1=Z[:, m].copy(), p2=L,
         unknowns=Z[:, :m].copy(), special_points=specials, ends=ends, start_index=n_back, problem=problem,

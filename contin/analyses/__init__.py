@@ -22,6 +22,7 @@ ANALYSIS_SCHEMAS: dict[str, dict] = {}
 ANALYSIS_MODULES = (
     "contin.analyses.frequency_response",
     "contin.analyses.simulate",
+    "contin.analyses.bifurcation_curve",
 )
 
 
