@@ -146,16 +146,12 @@ class CurveOptions:
     land_on_bounds : bool
         When the curve leaves the range of ``p1``, solve for the point exactly
         on the bound (otherwise the first point beyond it ends the curve).
-    max_gaps : int
-        Most gaps of a non-smooth force crossed per direction (see
-        :func:`_step_across`); 0 ends the curve at the first one.
     """
 
     both_ways: bool = True
     detect: tuple = CODIM2_KINDS
     fd_step: float = 1e-6
     land_on_bounds: bool = True
-    max_gaps: int = 20
 
     def __post_init__(self):
         if not isinstance(self.both_ways, (bool, np.bool_)):
@@ -170,9 +166,7 @@ class CurveOptions:
         object.__setattr__(self, "fd_step", float(f))
         if not isinstance(self.land_on_bounds, (bool, np.bool_)):
             raise ValueError(f"CurveOptions.land_on_bounds must be a bool, got {self.land_on_bounds!r}")
-        g = self.max_gaps
-        if isinstance(g, bool) or not isinstance(g, (int, np.integer)) or g < 0:
-            raise ValueError(f"CurveOptions.max_gaps must be an integer >= 0, got {g!r}")
+
 
     @classmethod
     def from_dict(cls, d: dict) -> "CurveOptions":
@@ -409,6 +403,11 @@ class BifurcationCurve:
         For :meth:`crossings`.
     branches : list of Branch
         The engine's branches (diagnostics).
+    tangents : ndarray, shape (P, m+2)
+        Unit tangents in the engine's scaled coordinates ``(u/su, p1/s1, p2/s2)``,
+        oriented along the curve.
+    scales : tuple
+        ``(su, s2)``: scales of ``z = (u, p1)`` (shape (m+1,)) and of ``p2``.
     """
 
     kind: CurveKind
@@ -423,6 +422,8 @@ class BifurcationCurve:
     start_index: int
     problem: Any = None
     branches: list = dataclasses.field(default_factory=list)
+    tangents: np.ndarray | None = None
+    scales: tuple = (None, 1.0)
 
     def __len__(self) -> int:
         return int(self.p1.size)
@@ -441,21 +442,28 @@ class BifurcationCurve:
         kind = SpecialKind(kind)
         return [p for p in self.special_points if p.kind is kind]
 
-    def crossings(self, p2_value: float, tol: float = 1e-11) -> list[tuple[float, np.ndarray]]:
+    def crossings(self, p2_value: float, options: ContinuationOptions | None = None) -> list[tuple[float, np.ndarray]]:
         """Points of the curve at ``p2 = p2_value``, solved exactly (not interpolated).
 
-        Every segment of the stored curve whose ends bracket ``p2_value`` is
-        solved by Newton on the augmented system at fixed ``p2``, from the
-        linear interpolation.
+        From the first point of every stored segment whose ends bracket
+        ``p2_value``, the curve is continued with the engine (same scaling,
+        oriented along the curve) until it lands exactly on ``p2_value``.
+
+        Parameters
+        ----------
+        p2_value : float
+        options : ContinuationOptions, optional
+            Step control (default: steps of at most the segment's length).
 
         Returns
         -------
         list of (p1, u)
-            ``u`` of shape (m,); segments where Newton fails are left out.
+            ``u`` of shape (m,); segments whose solve fails are left out.
         """
         out = []
         p2 = self.p2
         m = self.problem.m
+        su, sl = self.scales
         for i in range(len(self) - 1):
             a, b = p2[i] - p2_value, p2[i + 1] - p2_value
             if a == 0.0:
@@ -463,13 +471,19 @@ class BifurcationCurve:
                 continue
             if a * b >= 0:
                 continue
-            t = a / (a - b)
-            z0 = np.concatenate([(1 - t) * self.unknowns[i] + t * self.unknowns[i + 1],
-                                 [(1 - t) * self.p1[i] + t * self.p1[i + 1]]])
-            self.problem.initialize_borders(z0, p2_value)
-            res = newton(lambda z: self.problem.linearize(z, p2_value)[:2], z0, tol, 20)
-            if res.converged:
-                out.append((float(res.x[m]), res.x[:m].copy()))
+            z0 = np.concatenate([self.unknowns[i], [self.p1[i]]])
+            x0 = np.concatenate([z0 / su, [p2[i] / sl]])
+            x1 = np.concatenate([self.unknowns[i + 1] / su[:m], [self.p1[i + 1] / su[m], p2[i + 1] / sl]])
+            h = float(np.linalg.norm(x1 - x0))
+            opts = options or ContinuationOptions(ds=max(0.25 * h, 1e-6), ds_max=max(0.5 * h, 1e-6), max_points=200)
+            opts = opts.replace(detect_folds=False, detect_branch_points=False, parameter_scale=sl,
+                                direction=1 if p2_value > p2[i] else -1)
+            self.problem.initialize_borders(z0, float(p2[i]))
+            br = continuation(self.problem, z0, float(p2[i]), sorted((float(p2[i]), p2_value)), opts,
+                              tangent=self.tangents[i], solve_start=False,
+                              callback=lambda b, j: self.problem.update_borders(b.unknowns[j], b.parameter[j]))
+            if len(br) > 1 and br.parameter[-1] == p2_value:
+                out.append((float(br.unknowns[-1][m]), br.unknowns[-1][:m].copy()))
         if len(self) and p2[-1] == p2_value:
             out.append((float(self.p1[-1]), self.unknowns[-1].copy()))
         return out
@@ -532,17 +546,39 @@ class FlipTestEvent(Event):
         return self.value(point.u, point.lam)
 
 
+class _CurveEvent(FunctionEvent):
+    """A continuous test on a curve, located by the Illinois method and then checked.
+
+    A test that only *jumps* through zero (the discretised problem of a
+    non-smooth force is discontinuous where a time sample crosses a switching
+    surface) narrows its bracket to rounding level without a small value:
+    such a location is reported as not located, with the reason, instead of
+    as a cusp or a turning point.
+    """
+
+    def locate(self, component, point_at, h, a, b, ga, gb, *, tol=1e-10, max_iter=60):
+        out = super().locate(component, point_at, h, a, b, ga, gb, tol=tol, max_iter=max_iter)
+        for loc in out:
+            scale = max(abs(ga), abs(gb))
+            if loc.located and abs(loc.value) > 1e-3 * scale:
+                loc.located = False
+                loc.message = (f"the test jumps through zero here (|test| = {abs(loc.value):.1e} against "
+                               f"{scale:.1e} at the bracketing points): a discontinuity of the discretised "
+                               f"problem, not a {self.kind.value}")
+        return out
+
+
 def _events(problem: SingularityProblem, detect) -> list:
     m = problem.m
     names = problem.p1, problem.p2
     evs = []
     if "extremum" in detect:
-        evs.append(FunctionEvent(lambda pt: float(pt.tangent[-1]), name=f"extremum in {names[1]}",
-                                 kind=SpecialKind.EXTREMUM, describe=lambda pt: {"parameter": names[1]}))
-        evs.append(FunctionEvent(lambda pt: float(pt.tangent[m]), name=f"extremum in {names[0]}",
-                                 kind=SpecialKind.EXTREMUM, describe=lambda pt: {"parameter": names[0]}))
+        evs.append(_CurveEvent(lambda pt: float(pt.tangent[-1]), name=f"extremum in {names[1]}",
+                               kind=SpecialKind.EXTREMUM, describe=lambda pt: {"parameter": names[1]}))
+        evs.append(_CurveEvent(lambda pt: float(pt.tangent[m]), name=f"extremum in {names[0]}",
+                               kind=SpecialKind.EXTREMUM, describe=lambda pt: {"parameter": names[0]}))
     if "cusp" in detect and problem.kind is CurveKind.FOLD:
-        evs.append(FunctionEvent(lambda pt: float(pt.data["cusp_test"]), name="cusp", kind=SpecialKind.CUSP))
+        evs.append(_CurveEvent(lambda pt: float(pt.data["cusp_test"]), name="cusp", kind=SpecialKind.CUSP))
     if "fold_flip" in detect:
         evs.append(FunctionEvent(lambda pt: float(pt.data["fold_flip_test"]), name="fold-flip",
                                  kind=SpecialKind.FOLD_FLIP, integer_valued=True))
@@ -632,7 +668,7 @@ def continue_curve(hb: HarmonicBalance, kind: CurveKind | str, p1: str, p2: str,
         return continuation(problem, z, lam, (lo2, hi2), opts.replace(direction=d), parameter_name=p2,
                             events=events, monitors=[problem.monitor], callback=make_callback(d), **kw)
 
-    runs = []  # (direction, [segments], [gaps])
+    runs = []  # (direction, branch)
     ends = []
     directions = (1, -1) if curve_options.both_ways else (options.direction,)
     start_solved = None
@@ -644,18 +680,6 @@ def continue_curve(hb: HarmonicBalance, kind: CurveKind | str, p1: str, p2: str,
                 start_solved = (br.unknowns[0].copy(), float(br.parameter[0]))
         else:
             br = run(d, start_solved[0], start_solved[1], solve_start=False)
-        segments, gaps = [br], []
-        while (br.status in (BranchStatus.STEP_TOO_SMALL, BranchStatus.NEWTON_FAILED) and len(br)
-               and len(gaps) < curve_options.max_gaps):
-            jump = _step_across(problem, br, opts)
-            if jump is None:
-                break
-            z, lam, tangent, gap = jump
-            br = run(d, z, lam, tangent=tangent, solve_start=False)
-            if not len(br):
-                break
-            segments.append(br)
-            gaps.append(gap)
         status, message = br.status.value, br.message
         if br.status in (BranchStatus.STEP_TOO_SMALL, BranchStatus.NEWTON_FAILED) and len(br):
             jump = _jump_ahead(problem, br)
@@ -667,10 +691,9 @@ def continue_curve(hb: HarmonicBalance, kind: CurveKind | str, p1: str, p2: str,
         if d in left:
             status = BranchStatus.RANGE_END.value
             message = f"reached the end of the {p1} range at {p1}={left[d]:.10g}"
-        runs.append((d, segments, gaps))
-        ends.append({"side": "forward" if d > 0 else "backward", "status": status, "message": message,
-                     "gaps": len(gaps)})
-        if not len(segments[0]) or br.status is BranchStatus.CLOSED_LOOP or (
+        runs.append((d, br))
+        ends.append({"side": "forward" if d > 0 else "backward", "status": status, "message": message})
+        if not len(br) or br.status is BranchStatus.CLOSED_LOOP or (
                 br.status is BranchStatus.INTERRUPTED and d not in left):
             break
     return _assemble(problem, hb, kind, (p1, p2), runs, ends, left, curve_options)
@@ -700,68 +723,6 @@ def _jump_ahead(problem: SingularityProblem, br: Branch):
     return None
 
 
-def _step_across(problem: SingularityProblem, br: Branch, opts: ContinuationOptions):
-    """Continue past a point where the engine's step collapsed (a jump of a non-smooth force).
-
-    Where a sample of the AFT grid reaches a switching surface of a
-    piecewise force whose value jumps there (contact onset with contact
-    damping), ``R`` and ``g`` are discontinuous and the curve of the
-    discretised problem has a small gap: the engine's steps shrink towards
-    the surface without crossing it. Here pseudo-arclength steps of growing
-    length from the last point are tried; one is accepted when Newton
-    converges beyond the surface and the tangent there keeps the direction
-    (within ``2 * max_angle_deg``).
-
-    Returns
-    -------
-    (z, p2, tangent, gap) or None
-        The first point beyond, the unit tangent in the engine's scaled
-        coordinates, and a dict describing the gap.
-    """
-    m1 = problem.m + 1
-    su = np.broadcast_to(np.asarray(br.info.get("unknown_scale", 1.0), float), (m1,))
-    sl = float(br.info.get("parameter_scale", 1.0))
-    z_a, l_a = br.unknowns[-1].copy(), float(br.parameter[-1])
-    t = br.tangents[-1].copy()
-    x_a = np.concatenate([z_a / su, [l_a / sl]])
-    problem.update_borders(z_a, l_a)
-    lo_step = max(10 * opts.ds_min, 1e-6)
-    for ds in (lo_step, 1e-5, 1e-4, 1e-3, 1e-2, opts.ds):
-        if ds < lo_step or ds > max(opts.ds, lo_step):
-            continue
-        xp = x_a + ds * t
-
-        def fun(x):
-            F, Jz, Jl = problem.linearize(x[:m1] * su, x[m1] * sl)
-            A = np.empty((m1 + 1, m1 + 1))
-            A[:m1, :m1] = Jz * su
-            A[:m1, m1] = Jl * sl
-            A[m1] = t
-            return np.concatenate([F, [t @ (x - xp)]]), A
-
-        res = newton(fun, xp, opts.newton_tol, opts.newton_max_iter, factor_final=True)
-        if not res.converged or res.lu is None:
-            continue
-        e = np.zeros(m1 + 1)
-        e[-1] = 1.0
-        tn = res.lu.solve(e)
-        nt = float(np.linalg.norm(tn))
-        if not (math.isfinite(nt) and nt > 0):
-            continue
-        tn /= nt
-        if float(tn @ t) < 0:
-            tn = -tn
-        if math.degrees(math.acos(min(1.0, float(tn @ t)))) > 2 * opts.max_angle_deg:
-            continue
-        if float(t @ (res.x - x_a)) <= 0:
-            continue
-        z = res.x[:m1] * su
-        lam = float(res.x[m1] * sl)
-        gap = {"from": (float(z_a[-1]), l_a), "to": (float(z[-1]), lam), "step": ds}
-        return z, lam, tn, gap
-    return None
-
-
 def _land(problem: SingularityProblem, za, la, zb, lb, bound: float, tol: float):
     """Solve ``(R, g) = 0`` with ``p1 = bound`` fixed and ``(u, p2)`` free, from the chord."""
     m = problem.m
@@ -783,31 +744,15 @@ def _land(problem: SingularityProblem, za, la, zb, lb, bound: float, tol: float)
 
 
 def _halves(problem, runs, ends, left, curve_options):
-    """Per traced direction: its segments joined (landed on a p1 bound if asked), with special points."""
+    """Per traced direction: its points (landed on a p1 bound if asked) and special points."""
     out = []
     m1 = problem.m + 1
-    for j, (d, segments, gaps) in enumerate(runs):
-        Zs, Ls, sps = [], [], []
-        offset = 0
-        for q, br in enumerate(segments):
-            P = len(br)
-            if q > 0:
-                gap = gaps[q - 1]
-                z = br.unknowns[0]
-                sps.append(SpecialPoint(SpecialKind.NONSMOOTH, float(br.parameter[0]), z.copy(),
-                                        (gap["from"][1], gap["to"][1]), offset - 1, 0.0,
-                                        message=(f"jump of the discretised condition (a non-smooth force): "
-                                                 f"gap from ({gap['from'][0]:.10g}, {gap['from'][1]:.10g})"),
-                                        event="nonsmooth"))
-            Zs.append(np.array(br.unknowns).reshape(P, m1))
-            Ls.append(np.array(br.parameter, dtype=float))
-            for sp in br.special_points:
-                if sp.kind is not SpecialKind.START:
-                    sps.append(dataclasses.replace(sp, index=sp.index + offset))
-            offset += P
-        Z = np.concatenate(Zs) if Zs else np.zeros((0, m1))
-        L = np.concatenate(Ls) if Ls else np.zeros(0)
-        P = len(L)
+    for j, (d, br) in enumerate(runs):
+        P = len(br)
+        Z = np.array(br.unknowns).reshape(P, m1)
+        L = np.array(br.parameter, dtype=float)
+        T = np.array(br.tangents).reshape(P, m1 + 1) * (1.0 if d > 0 else -1.0)  # along the curve's order
+        sps = [sp for sp in br.special_points if sp.kind is not SpecialKind.START]
         if d in left and P >= 2:
             landed = None
             if curve_options.land_on_bounds:
@@ -820,7 +765,12 @@ def _halves(problem, runs, ends, left, curve_options):
                 ends[j]["message"] += " (first point beyond the bound)"
             sps.append(SpecialPoint(SpecialKind.END, float(L[-1]), Z[-1].copy(), (L[-1], L[-1]), P - 1, 0.0,
                                     message=ends[j]["message"], event="end"))
-        out.append((Z, L, sps))
+        elif P and not any(sp.kind is SpecialKind.END for sp in sps):
+            # a direction that stopped early: its last point, with the reason
+            sps.append(SpecialPoint(SpecialKind.END, float(L[-1]), Z[-1].copy(), (L[-1], L[-1]), P - 1, 0.0,
+                                    located=False, message=f"{ends[j]['status']}: {ends[j]['message']}",
+                                    event="end"))
+        out.append((Z, L, T, sps))
     return out
 
 
@@ -828,11 +778,16 @@ def _assemble(problem, hb, kind, names, runs, ends, left, curve_options) -> Bifu
     """Join the backward half (reversed) and the forward half into one curve."""
     m = problem.m
     halves = _halves(problem, runs, ends, left, curve_options)
-    Zf, Lf, spf = halves[0]
-    Zb, Lb, spb = halves[1] if len(halves) > 1 and len(halves[1][1]) else (np.zeros((1, m + 1)), np.zeros(1), [])
+    Zf, Lf, Tf, spf = halves[0]
+    Zb, Lb, Tb, spb = (halves[1] if len(halves) > 1 and len(halves[1][1])
+                       else (np.zeros((1, m + 1)), np.zeros(1), np.zeros((1, m + 2)), []))
     n_back = len(Lb) - 1
     Z = np.concatenate([Zb[:0:-1], Zf]) if len(Lf) else np.zeros((0, m + 1))
     L = np.concatenate([Lb[:0:-1], Lf]) if len(Lf) else np.zeros(0)
+    T = np.concatenate([Tb[:0:-1], Tf]) if len(Lf) else np.zeros((0, m + 2))
+    info = runs[0][1].info if runs else {}
+    su = np.broadcast_to(np.asarray(info.get("unknown_scale", 1.0), float), (m + 1,)).copy()
+    scales = (su, float(info.get("parameter_scale", 1.0)))
     specials: list[CurvePoint] = []
     for sps, forward in ((spf, True), (spb, False)):
         P = len(Lf) if forward else len(Lb)
@@ -857,7 +812,7 @@ def _assemble(problem, hb, kind, names, runs, ends, left, curve_options) -> Bifu
     return BifurcationCurve(
         kind=kind, parameters=tuple(names), nu=hb.nu, harmonics=hb.H, p1=Z[:, m].copy(), p2=L,
         unknowns=Z[:, :m].copy(), special_points=specials, ends=ends, start_index=n_back, problem=problem,
-        branches=[br for _, segs, _ in runs for br in segs],
+        branches=[br for _, br in runs], tangents=T, scales=scales,
     )
 
 

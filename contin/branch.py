@@ -56,8 +56,6 @@ class SpecialKind(str, enum.Enum):
     FOLD_FLIP = "fold_flip"
     #: a two-parameter curve turns in one of its parameters (not a bifurcation)
     EXTREMUM = "extremum"
-    #: a curve crosses a switching surface of a non-smooth force, where the discretised condition jumps
-    NONSMOOTH = "nonsmooth"
     END = "end"
     START = "start"
     USER = "user"

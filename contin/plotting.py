@@ -92,7 +92,7 @@ def bifurcation_diagram(branches, special, parameter: str, measure: str, path: P
 CURVE_STYLE = {"fold": ("tab:red", "fold curve (jump region)"),
                "pd": ("tab:purple", "period-doubling curve (2nu-subharmonic region)")}
 CODIM2_MARKERS = {"cusp": ("^", "k", 8), "fold_flip": ("*", "tab:green", 11), "extremum": ("o", "0.4", 4),
-                  "nonsmooth": ("x", "tab:brown", 6)}
+                  "stop": ("X", "tab:brown", 8)}
 
 
 def two_parameter_diagram(curves, codim2, points, p1: str, p2: str, path: Path, *, lines=(), xlim=None, ylim=None,
@@ -111,7 +111,8 @@ def two_parameter_diagram(curves, codim2, points, p1: str, p2: str, path: Path, 
     curves : list of dict
         ``kind`` ('fold' or 'pd'), ``x`` (P,) = p1, ``y`` (P,) = p2, ``label``.
     codim2 : list of dict
-        ``kind`` (cusp, fold_flip, extremum, nonsmooth), ``x``, ``y``.
+        ``kind`` (cusp, fold_flip, extremum, or ``stop``: a curve that ended
+        before its range, see its message), ``x``, ``y``.
     points : list of dict
         One-parameter special points: ``kind`` ('fold' or 'pd'), ``x``, ``y``.
     p1, p2 : str
@@ -137,7 +138,8 @@ def two_parameter_diagram(curves, codim2, points, p1: str, p2: str, path: Path, 
         if q["kind"] not in CODIM2_MARKERS:
             continue
         m, color, ms = CODIM2_MARKERS[q["kind"]]
-        ax.plot(q["x"], q["y"], m, color=color, ms=ms, label=q["kind"] if q["kind"] not in done else None, zorder=6)
+        text = "curve stops early" if q["kind"] == "stop" else q["kind"]
+        ax.plot(q["x"], q["y"], m, color=color, ms=ms, label=text if q["kind"] not in done else None, zorder=6)
         if q["kind"] in ("cusp", "fold_flip"):
             ax.annotate(q["kind"], (q["x"], q["y"]), textcoords="offset points", xytext=(5, -10), fontsize=8)
         done.add(q["kind"])

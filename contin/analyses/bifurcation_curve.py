@@ -17,7 +17,7 @@
 Result files: ``curves.csv`` (one row per curve point: ``curve``, ``kind``,
 ``nu``, both parameters, and the measures of the solution there),
 ``curve_points.csv`` (cusps, fold-flip points, turning points ``extremum``,
-``nonsmooth`` gaps, starts and ends, with both parameters),
+starts and ends, with both parameters, and why each end was reached),
 ``one_parameter_points.csv`` (every fold and period doubling of the
 one-parameter runs, with both parameters, the curve it belongs to and its
 distance to it), ``branches.csv`` and ``special_points.csv`` of the
@@ -43,6 +43,7 @@ from contin.continuation import ContinuationOptions, continuation
 from contin.harmonic_balance import HarmonicBalance
 from contin.measures import measure_names, point_measures
 from contin.results import CsvStream
+from contin.runner import RunError
 from contin.schema import Key, SceneError, integer, is_int, is_number, listing, mapping, number, string
 
 __all__ = ["BIFURCATION_CURVE", "run"]
@@ -80,7 +81,7 @@ BIFURCATION_CURVE = {
                  lambda v: v is None or (isinstance(v, list) and all(is_number(x) for x in v)), None),
 }
 
-CURVE_POINT_KINDS = ("cusp", "fold_flip", "extremum", "nonsmooth", "start", "end")
+CURVE_POINT_KINDS = ("cusp", "fold_flip", "extremum", "start", "end")
 
 
 def _options(scene, key: str, cls):
@@ -182,12 +183,32 @@ def run(ctx) -> dict:
     runs_info: list[dict] = []
     kinds = tuple(a["curves"])
 
+    first: dict = {}
+
+    def start_at(problem, value: float):
+        """A start at ``p2 = value``: the first run's start followed in ``p2``, else the model's own start."""
+        if "u" in first:
+            hb2 = HarmonicBalance(model, p2, hb.options, {p1: lam0})
+            step = opts.replace(direction=1 if value > p2_value else -1, detect_branch_points=False)
+            br = continuation(hb2, first["u"], p2_value, sorted((p2_value, value)), step, parameter_name=p2,
+                              solve_start=False)
+            if len(br) and br.parameter[-1] == value:
+                return br.unknowns[-1].copy()
+        return _start(scene, model, problem, lam0)
+
     def one_parameter(index: int, value: float):
         problem = hb if value == p2_value else HarmonicBalance(model, p1, hb.options, {p2: value})
         if index == 0 and a["guess"] is not None:
             u0 = np.array(a["guess"], dtype=float)
-        else:
+        elif index == 0:
             u0 = _start(scene, model, problem, lam0)
+        else:
+            try:
+                u0 = start_at(problem, value)
+            except RunError as exc:
+                runs_info.append({"branch": index, p2: value, "points": 0, "status": "start_failed",
+                                  "message": str(exc)})
+                return problem, None
         events, monitors = setup(problem)
 
         def cb(branch, i):
@@ -198,6 +219,8 @@ def run(ctx) -> dict:
 
         br = continuation(problem, u0, lam0, (lo, hi), opts, parameter_name=p1, events=events, monitors=monitors,
                           callback=cb)
+        if index == 0 and len(br):
+            first["u"] = br.unknowns[0].copy()
         rec.special_points(index, br)
         runs_info.append({"branch": index, p2: value, "points": len(br), "status": br.status.value,
                           "message": br.message,
@@ -241,7 +264,8 @@ def run(ctx) -> dict:
             if ctx.stop_requested:
                 break
             problem, br = one_parameter(j, float(value))
-            overlay.append((j, float(value), br))
+            if br is not None:
+                overlay.append((j, float(value), br))
         ctx.timings["overlay"] = time.perf_counter() - t2
     finally:
         rec.close()
@@ -267,7 +291,7 @@ def run(ctx) -> dict:
 def _curve_summary(cid, cur, p1, p2) -> dict:
     out = {"curve": cid, "kind": cur.kind.value, "nu": cur.nu, "points": len(cur), "closed": cur.closed,
            "ends": cur.ends,
-           "special_points": {k: len(cur.points_of_kind(k)) for k in ("cusp", "fold_flip", "extremum", "nonsmooth")}}
+           "special_points": {k: len(cur.points_of_kind(k)) for k in ("cusp", "fold_flip", "extremum")}}
     if len(cur):
         out[f"{p1}_range"] = [float(cur.p1.min()), float(cur.p1.max())]
         out[f"{p2}_range"] = [float(cur.p2.min()), float(cur.p2.max())]
@@ -338,8 +362,9 @@ def _plot(ctx, curves, checks, p1, p2, range1, range2, lines) -> list:
     two_parameter_diagram(
         [{"kind": c.kind.value, "x": c.p1, "y": c.p2, "closed": c.closed,
           "label": _label(i, c)} for i, c in enumerate(curves)],
-        [{"kind": sp.kind.value, "x": sp.p1, "y": sp.p2} for c in curves for sp in c.special_points
-         if sp.kind.value in CURVE_POINT_KINDS[:4]],
+        [{"kind": sp.kind.value if sp.kind.value != "end" else "stop", "x": sp.p1, "y": sp.p2}
+         for c in curves for sp in c.special_points
+         if (sp.kind.value in CURVE_POINT_KINDS[:3] and sp.located) or (sp.kind.value == "end" and not sp.located)],
         [{"kind": c["kind"], "x": c[p1], "y": c[p2]} for c in checks],
         p1, p2, path, lines=sorted(set(lines)), xlim=range1, ylim=range2,
         units=out["units"], labels=out["labels"],
