@@ -124,6 +124,13 @@ class CurveKind(str, enum.Enum):
         return self.value
 
 
+def _curve_kind(kind) -> CurveKind:
+    try:
+        return CurveKind(kind)
+    except ValueError:
+        raise ValueError(f"curve kind must be 'fold' or 'pd', got {kind!r}") from None
+
+
 _MATRIX = {CurveKind.FOLD: MatrixKind.JACOBIAN, CurveKind.PD: MatrixKind.FLIP}
 CODIM2_KINDS = ("cusp", "fold_flip", "extremum")
 
@@ -196,7 +203,7 @@ class SingularityProblem:
 
     def __init__(self, hb: HarmonicBalance, kind: CurveKind | str, p1: str, p2: str, fd_step: float = 1e-6):
         self.hb = hb
-        self.kind = CurveKind(kind)
+        self.kind = _curve_kind(kind)
         self.matrix_kind = _MATRIX[self.kind]
         model = hb.model
         if p1 == p2:
@@ -630,7 +637,7 @@ def continue_curve(hb: HarmonicBalance, kind: CurveKind | str, p1: str, p2: str,
         curve_options = CurveOptions()
     elif isinstance(curve_options, dict):
         curve_options = CurveOptions.from_dict(curve_options)
-    kind = CurveKind(kind)
+    kind = _curve_kind(kind)
     lo2, hi2 = (float(v) for v in p2_range)
     lo1, hi1 = (float(v) for v in p1_range)
     if not lo1 < hi1:
