@@ -10,9 +10,10 @@
    :func:`contin.bifurcation_curves.curve_from_point`; a point that already
    lies on a traced curve (the other fold of the same jump region, the other
    period doubling of the same tongue) starts no new curve.
-3. One-parameter runs at the ``overlay`` values of ``p2`` locate their folds
-   and period doublings independently; their distance to the curves is
-   written and they are drawn on the two-parameter diagram.
+3. One-parameter runs at the ``overlay`` values of ``p2`` (inside or outside
+   ``second_range``) locate their folds and period doublings independently;
+   their distance to the curves is written and they are drawn on the
+   two-parameter diagram.
 
 Result files: ``curves.csv`` (one row per curve point: ``curve``, ``kind``,
 ``nu``, both parameters, and the measures of the solution there),
@@ -142,10 +143,8 @@ def _on_curve(curves, kind: str, p1: float, p2: float, scale: float):
     return best
 
 
-@register_analysis("bifurcation_curve", BIFURCATION_CURVE)
-def run(ctx) -> dict:
-    """Run a ``bifurcation_curve`` scene; returns its part of ``summary.json``."""
-    scene, model = ctx.scene, ctx.model
+def _checked(scene, model):
+    """Validate the section against the model; the problem, ranges and start values."""
     a = scene.analysis
     hb = build_problem(scene, model)
     p1 = hb.parameter
@@ -163,20 +162,46 @@ def run(ctx) -> dict:
     if not lo2 <= p2_value <= hi2:
         raise scene.error("analysis.second_range", f"a range containing the model's {p2} = {p2_value:g}",
                           a["second_range"])
-    for v in a["overlay"]:
-        if not lo2 <= v <= hi2:
-            raise scene.error("analysis.overlay", f"values of {p2} inside second_range [{lo2:g}, {hi2:g}]", v)
     lam_a, lam_b = float(a["range"][0]), float(a["range"][1])
     lam0 = float(a["start"]) if a["start"] is not None else lam_a
     lo, hi = min(lam_a, lam_b), max(lam_a, lam_b)
     if not lo <= lam0 <= hi:
         raise scene.error("analysis.start", f"a value inside range [{lo:g}, {hi:g}]", lam0)
-    opts = continuation_options(scene, lam0, lam_b if lam0 != lam_b else lam_a)
+    if a["guess"] is not None and len(a["guess"]) != hb.size:
+        raise scene.error("analysis.guess", f"{hb.size} numbers (n*(2H+1) coefficients)", f"{len(a['guess'])} numbers")
+    for key, cls in (("continuation", ContinuationOptions), ("curve_continuation", ContinuationOptions),
+                     ("curve_options", CurveOptions)):
+        _options(scene, key, cls)
+    _one_parameter_setup(scene, hb)
+    return hb, (lo, hi), lam0, (lo2, hi2), p2_value
+
+
+def describe(scene, model) -> str:
+    """What ``contin check`` prints for this analysis (after validating it)."""
+    hb, (lo, hi), lam0, (lo2, hi2), p2_value = _checked(scene, model)
+    a = scene.analysis
+    p1, p2 = hb.parameter, a["second_parameter"]
+    lines = [f"  one-parameter run in {p1} over [{lo:g}, {hi:g}] at {p2}={p2_value:g}, harmonics H={hb.H}, "
+             f"subharmonic nu={hb.nu}, samples N={hb.N}",
+             f"  unknowns: {hb.size} = {hb.n} dof x (2H+1); curve systems: {hb.size + 1} (coefficients and {p1})",
+             f"  curves: {', '.join(a['curves'])} in ({p1}, {p2}), {p2} over [{lo2:g}, {hi2:g}]"
+             + (f"; period doublings located by the {'flip test' if a['pd_test'] == 'flip' else 'multipliers'}"
+                if "pd" in a["curves"] else ""),
+             f"  overlaid one-parameter runs at {p2} = {', '.join(f'{v:g}' for v in a['overlay']) or 'none'}"]
+    return "\n".join(lines)
+
+
+@register_analysis("bifurcation_curve", BIFURCATION_CURVE)
+def run(ctx) -> dict:
+    """Run a ``bifurcation_curve`` scene; returns its part of ``summary.json``."""
+    scene, model = ctx.scene, ctx.model
+    a = scene.analysis
+    hb, (lo, hi), lam0, (lo2, hi2), p2_value = _checked(scene, model)
+    p1, p2 = hb.parameter, a["second_parameter"]
+    opts = continuation_options(scene, lam0, float(a["range"][1]) if lam0 != a["range"][1] else float(a["range"][0]))
     curve_opts = _options(scene, "curve_continuation", ContinuationOptions)
     cur_opts = _options(scene, "curve_options", CurveOptions)
     setup = _one_parameter_setup(scene, hb)
-    if a["guess"] is not None and len(a["guess"]) != hb.size:
-        raise scene.error("analysis.guess", f"{hb.size} numbers (n*(2H+1) coefficients)", f"{len(a['guess'])} numbers")
 
     rec = BranchRecorder(ctx.outdir, model.dof_names, p1, scene.output["harmonic_columns"], hb.H, model=model)
     ctx.recorder = rec
@@ -366,7 +391,7 @@ def _plot(ctx, curves, checks, p1, p2, range1, range2, lines) -> list:
          for c in curves for sp in c.special_points
          if (sp.kind.value in CURVE_POINT_KINDS[:3] and sp.located) or (sp.kind.value == "end" and not sp.located)],
         [{"kind": c["kind"], "x": c[p1], "y": c[p2]} for c in checks],
-        p1, p2, path, lines=sorted(set(lines)), xlim=range1, ylim=range2,
+        p1, p2, path, lines=sorted(set(lines)), xlim=range1, ylim=(min([range2[0]] + lines), max([range2[1]] + lines)),
         units=out["units"], labels=out["labels"],
         title=out["title"] or f"{ctx.model.name}: bifurcation curves in ({p1}, {p2})",
     )
