@@ -199,9 +199,15 @@ class SingularityProblem:
         Names of the two parameters (``p1`` is an unknown).
     fd_step : float
         See :class:`CurveOptions`.
+    detect : tuple of str
+        Test functions evaluated by :meth:`monitor` (see :class:`CurveOptions`).
+    u_scale, p1_scale : float, optional
+        Typical magnitudes of the coefficients and of ``p1`` for the engine's
+        scaling (:meth:`unknown_scale`); None leaves the scaling to the engine.
     """
 
-    def __init__(self, hb: HarmonicBalance, kind: CurveKind | str, p1: str, p2: str, fd_step: float = 1e-6):
+    def __init__(self, hb: HarmonicBalance, kind: CurveKind | str, p1: str, p2: str, fd_step: float = 1e-6,
+                 detect: tuple = CODIM2_KINDS, u_scale: float | None = None, p1_scale: float = 1.0):
         self.hb = hb
         self.kind = _curve_kind(kind)
         self.matrix_kind = _MATRIX[self.kind]
@@ -217,7 +223,9 @@ class SingularityProblem:
         self._cache_key = None
         self._cache: dict = {}
         self.evaluations = 0
-        self.p1_scale = 1.0
+        self.detect = tuple(detect)
+        self.u_scale = u_scale
+        self.p1_scale = float(p1_scale)
 
     # ------------------------------------------------------------ helpers
     def params(self, p1: float, p2: float) -> np.ndarray:
@@ -323,10 +331,10 @@ class SingularityProblem:
         return F, Jz, Jl
 
     def unknown_scale(self):
-        """The scale of ``u`` (its largest coefficient) and of ``p1`` (set by :func:`continue_curve`)."""
-        return None if self._u_scale is None else np.concatenate([np.full(self.m, self._u_scale), [self.p1_scale]])
-
-    _u_scale = None
+        """Scales of ``z = (u, p1)``, shape (m+1,), or None (then the engine scales by ``|z|``)."""
+        if self.u_scale is None:
+            return None
+        return np.concatenate([np.full(self.m, self.u_scale), [self.p1_scale]])
 
     # ------------------------------------------------------------ test functions
     def cusp_test(self, z: np.ndarray, p2: float) -> float:
@@ -346,13 +354,11 @@ class SingularityProblem:
         """Engine monitor: the test function values and the smallest singular value estimate."""
         d = self._evaluate(np.asarray(z, float), float(p2))
         out = {"g": d["g"]}
-        if "cusp" in self._detect and self.kind is CurveKind.FOLD:
+        if "cusp" in self.detect and self.kind is CurveKind.FOLD:
             out["cusp_test"] = self.cusp_test(z, p2)
-        if "fold_flip" in self._detect:
+        if "fold_flip" in self.detect:
             out["fold_flip_test"] = self.fold_flip_test(z, p2)
         return out
-
-    _detect: tuple = ()
 
 
 @dataclasses.dataclass
@@ -644,17 +650,15 @@ def continue_curve(hb: HarmonicBalance, kind: CurveKind | str, p1: str, p2: str,
         raise ValueError(f"p1_range must satisfy lo < hi, got ({lo1}, {hi1})")
     if not lo1 <= p1_0 <= hi1:
         raise ValueError(f"the start {p1}={p1_0} is outside its range ({lo1}, {hi1})")
-    problem = SingularityProblem(hb, kind, p1, p2, curve_options.fd_step)
-    problem._detect = curve_options.detect
     u0 = np.asarray(u0, dtype=float)
     if u0.shape != (hb.size,):
         raise ValueError(f"u0 must have shape ({hb.size},), got {u0.shape}")
+    umax = float(np.max(np.abs(u0))) if u0.size else 0.0
+    problem = SingularityProblem(hb, kind, p1, p2, curve_options.fd_step, curve_options.detect, u_scale=umax,
+                                 p1_scale=(hi1 - lo1) if math.isfinite(hi1 - lo1) else max(abs(p1_0), 1.0))
     z0 = np.concatenate([u0, [float(p1_0)]])
     problem.initialize_borders(z0, p2_0)
     b0, c0 = problem.b.copy(), problem.c.copy()
-    umax = float(np.max(np.abs(u0))) if u0.size else 0.0
-    problem._u_scale = umax if umax > 0 else 0.0
-    problem.p1_scale = (hi1 - lo1) if math.isfinite(hi1 - lo1) else max(abs(p1_0), 1.0)
     opts = options.replace(detect_folds=False, detect_branch_points=False)
     events = _events(problem, curve_options.detect)
     left: dict = {}

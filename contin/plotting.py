@@ -99,12 +99,12 @@ def two_parameter_diagram(curves, codim2, points, p1: str, p2: str, path: Path, 
                           units=None, labels=None, title: str | None = None):
     """Fold and period-doubling curves in the plane of two parameters.
 
-    Each curve is drawn with the region it bounds shaded (the polygon of the
-    curve closed by the chord between its ends: the jump region between two
-    folds, or the region where the period-doubled solution exists
-    supercritically). The points located by one-parameter runs are drawn on
-    top, with the lines ``p2 = const`` along which those runs went, so that
-    one sees them fall on the curves.
+    A curve that turns in ``p2`` (a tongue or a wedge with a tip or a cusp:
+    the jump region between two folds, the region of a period-doubled
+    solution) is drawn with the region inside it shaded (the polygon of the
+    curve closed by the chord between its ends). The points located by
+    one-parameter runs are drawn on top, with the lines ``p2 = const`` along
+    which those runs went, so that one sees them fall on the curves.
 
     Parameters
     ----------
@@ -121,14 +121,16 @@ def two_parameter_diagram(curves, codim2, points, p1: str, p2: str, path: Path, 
     lines : sequence of float
         Values of ``p2`` of the one-parameter runs.
     xlim, ylim : (float, float), optional
+        Axis limits. A non-negative ``p2`` spanning more than 50 times its
+        smallest positive value is drawn on a symmetric-log axis.
     """
     fig, ax = plt.subplots(figsize=(7.2, 5.0), constrained_layout=True)
     seen = set()
     for c in curves:
         x, y = np.asarray(c["x"]), np.asarray(c["y"])
         color, text = CURVE_STYLE.get(c["kind"], ("k", c["kind"]))
-        if x.size >= 3:
-            ax.fill(x, y, color=color, alpha=0.12, lw=0)
+        if x.size >= 3 and (0 < int(np.argmin(y)) < y.size - 1 or 0 < int(np.argmax(y)) < y.size - 1):
+            ax.fill(x, y, color=color, alpha=0.12, lw=0)  # a tongue or wedge: the region inside its tip
         ax.plot(x, y, "-", color=color, lw=1.6, label=c.get("label") or (text if c["kind"] not in seen else None))
         seen.add(c["kind"])
     for v in lines:
@@ -151,7 +153,13 @@ def two_parameter_diagram(curves, codim2, points, p1: str, p2: str, path: Path, 
         done.add(key)
     if xlim is not None:
         ax.set_xlim(*xlim)
-    if ylim is not None:
+    ys = np.concatenate([np.asarray(c["y"], float).ravel() for c in curves] + [np.asarray(lines, float).ravel()])
+    positive = ys[ys > 0]
+    if ylim is not None and ylim[0] >= 0 and positive.size and ylim[1] > 50 * positive.min():
+        # a second parameter over decades (a damping from 0.005 to 5): logarithmic above the smallest value
+        ax.set_yscale("symlog", linthresh=max(float(positive.min()), 1e-3 * ylim[1]), linscale=0.3)
+        ax.set_ylim(ylim[0], ylim[1] * 1.2)
+    elif ylim is not None:
         pad = 0.02 * (ylim[1] - ylim[0])
         ax.set_ylim(ylim[0] - pad, ylim[1] + pad)
     ax.set_xlabel(axis_label(p1, units, labels))

@@ -166,7 +166,7 @@ def test_rotor_augmented_jacobian_matches_finite_differences(rng):
     pr = SingularityProblem(hb, "pd", "w", "c2")
     z = np.concatenate([u, [2.15]])
     pr.initialize_borders(z, 0.05)
-    F, Jz, Jl = pr.linearize(z, 0.05)
+    _, Jz, Jl = pr.linearize(z, 0.05)
     fd_z = fd_jacobian(lambda zz: pr.residual(zz, 0.05), z, eps=1e-7)
     fd_l = fd_jacobian(lambda ll: pr.residual(z, ll[0]), np.array([0.05]), eps=1e-7)[:, 0]
     # the contact Jacobian is piecewise: compare away from samples on the switching surface

@@ -31,14 +31,12 @@ keeps the curves traced so far. ``--resume`` reruns the analysis.
 
 from __future__ import annotations
 
-import math
 import time
 
 import numpy as np
 
 from contin.analyses import register_analysis
 from contin.analyses.frequency_response import BranchRecorder, _start, build_problem, continuation_options
-from contin.branch import SpecialKind
 from contin.bifurcation_curves import CurveOptions, FlipTestEvent, curve_from_point, special_point_kind
 from contin.continuation import ContinuationOptions, continuation
 from contin.harmonic_balance import HarmonicBalance
@@ -130,7 +128,7 @@ def _located_points(branch, kinds) -> list:
     return out
 
 
-def _on_curve(curves, kind: str, p1: float, p2: float, scale: float):
+def _on_curve(curves, kind: str, p1: float, p2: float):
     """``(curve id, p1 on the curve, distance)`` of the nearest curve of ``kind`` crossing ``p2``, or None."""
     best = None
     for cid, cur in enumerate(curves):
@@ -178,7 +176,7 @@ def _checked(scene, model):
 
 def describe(scene, model) -> str:
     """What ``contin check`` prints for this analysis (after validating it)."""
-    hb, (lo, hi), lam0, (lo2, hi2), p2_value = _checked(scene, model)
+    hb, (lo, hi), _, (lo2, hi2), p2_value = _checked(scene, model)
     a = scene.analysis
     p1, p2 = hb.parameter, a["second_parameter"]
     lines = [f"  one-parameter run in {p1} over [{lo:g}, {hi:g}] at {p2}={p2_value:g}, harmonics H={hb.H}, "
@@ -265,7 +263,7 @@ def run(ctx) -> dict:
             if ctx.stop_requested:
                 break
             kind = special_point_kind(sp).value
-            near = _on_curve(curves, kind, float(sp.parameter), p2_value, scale1)
+            near = _on_curve(curves, kind, float(sp.parameter), p2_value)
             if near is not None and near[2] <= 1e-6 * scale1:
                 skipped.append({"kind": kind, p1: float(sp.parameter), "on_curve": near[0]})
                 continue
@@ -288,13 +286,13 @@ def run(ctx) -> dict:
         for j, value in enumerate(a["overlay"], start=1):
             if ctx.stop_requested:
                 break
-            problem, br = one_parameter(j, float(value))
+            _, br = one_parameter(j, float(value))
             if br is not None:
                 overlay.append((j, float(value), br))
         ctx.timings["overlay"] = time.perf_counter() - t2
     finally:
         rec.close()
-    checks = _write_one_parameter_points(ctx, [(0, p2_value, branch0)] + overlay, curves, kinds, p1, p2, hi - lo)
+    checks = _write_one_parameter_points(ctx, [(0, p2_value, branch0)] + overlay, curves, kinds, p1, p2)
     ctx.interrupted = ctx.interrupted or ctx.stop_requested
     ctx.plot = lambda: _plot(ctx, curves, checks, p1, p2, (lo, hi), (lo2, hi2), [v for _, v, _ in overlay] + [p2_value])
     return {
@@ -349,7 +347,7 @@ def _write_curves(ctx, curves, p1, p2, model) -> None:
         pts.close()
 
 
-def _write_one_parameter_points(ctx, runs, curves, kinds, p1, p2, scale1) -> list:
+def _write_one_parameter_points(ctx, runs, curves, kinds, p1, p2) -> list:
     cols = ["branch", p2, "kind", p1, "located", "interval_lo", "interval_hi", "curve", f"curve_{p1}", "distance"]
     out = CsvStream(ctx.outdir / "one_parameter_points.csv", cols)
     checks = []
@@ -359,7 +357,7 @@ def _write_one_parameter_points(ctx, runs, curves, kinds, p1, p2, scale1) -> lis
                 kind = special_point_kind(sp).value
                 if kind not in ("fold", "pd"):
                     continue
-                near = _on_curve(curves, kind, float(sp.parameter), value, scale1) if kind in kinds else None
+                near = _on_curve(curves, kind, float(sp.parameter), value) if kind in kinds else None
                 row = {"branch": j, p2: value, "kind": kind, p1: float(sp.parameter), "located": bool(sp.located),
                        "interval_lo": float(sp.interval[0]), "interval_hi": float(sp.interval[1]),
                        "curve": None if near is None else near[0], f"curve_{p1}": None if near is None else near[1],
