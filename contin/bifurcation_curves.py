@@ -688,9 +688,11 @@ def continue_curve(hb: HarmonicBalance, kind: CurveKind | str, p1: str, p2: str,
         if start_solved is None:
             br = run(d, z0, p2_0)
             if len(br):
-                start_solved = (br.unknowns[0].copy(), float(br.parameter[0]))
+                start_solved = (br.unknowns[0].copy(), float(br.parameter[0]), br.tangents[0].copy())
         else:
-            br = run(d, start_solved[0], start_solved[1], solve_start=False)
+            # the other way: the reversed start tangent (the sign of dp2 alone is ambiguous where the curve
+            # is tangent to p2 = const at the start)
+            br = run(d, start_solved[0], start_solved[1], solve_start=False, tangent=-start_solved[2])
         status, message = br.status.value, br.message
         if br.status in (BranchStatus.STEP_TOO_SMALL, BranchStatus.NEWTON_FAILED) and len(br):
             jump = _jump_ahead(problem, br)
