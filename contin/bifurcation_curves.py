@@ -227,7 +227,7 @@ class SingularityProblem:
         self.u_scale = u_scale
         self.p1_scale = float(p1_scale)
 
-    # ------------------------------------------------------------ helpers
+    # ------------------------------------------------------------ parameters and borders
     def params(self, p1: float, p2: float) -> np.ndarray:
         """Full parameter vector with ``p1`` and ``p2`` set, shape (P,)."""
         p = self.p_base.copy()
