@@ -33,6 +33,8 @@ __all__ = [
     "multiplication_matrix",
     "assemble_jacobian",
     "matvec_samples",
+    "odd_multiplication_matrix",
+    "odd_jacobian",
 ]
 
 
@@ -186,6 +188,91 @@ def assemble_jacobian(dfdx, dfdxd, Omega, H, J):
                 cb = 2 * l * n + b
                 J[r, ca] -= s * Tv[r, cb]
                 J[r, cb] += s * Tv[r, ca]
+
+
+@nb.njit(cache=True)
+def odd_multiplication_matrix(G, H, T, scale):
+    """Odd-harmonic block of "multiply by G" in the doubled representation.
+
+    ``G(theta)`` is a ``2 pi``-periodic matrix field sampled at the ``N``
+    phases ``theta_j`` of an order-``nu`` solution. Seen in the order-``2 nu``
+    representation (base phase ``theta' = theta/2``, ``2H`` harmonics,
+    ``2N`` samples) it has only even harmonics of ``theta'``, so
+    multiplication by it maps odd harmonics of ``theta'`` to odd harmonics.
+    This is that odd-to-odd block, computed from the ``N`` samples alone:
+    the averages over the ``2N`` doubled samples of ``G cos(m theta')`` are
+    ``C(m/2)`` (``N``-sample averages in ``theta``) for even ``m`` and vanish
+    for odd ``m``, so the block equals the odd rows and columns of the
+    order-``2 nu`` Jacobian exactly (aliasing included).
+
+    Parameters
+    ----------
+    G : ndarray, shape (N, n, n)
+    H : int
+        Harmonics of the order-``nu`` problem; the block has the ``H`` odd
+        harmonics ``1, 3, ..., 2H-1`` of ``theta'``.
+    T : ndarray, shape (2nH, 2nH)
+        Accumulated in place; rows and columns ordered
+        ``[a_1; b_1; a_3; b_3; ...]`` (each block the ``n`` dofs), the order of
+        :func:`contin.switching.odd_indices` on the ``2H`` harmonics.
+    scale : float
+    """
+    N = G.shape[0]
+    n = G.shape[1]
+    for a in range(n):
+        for b in range(n):
+            g = np.ascontiguousarray(G[:, a, b])
+            if np.max(np.abs(g)) == 0.0:
+                continue
+            Ghat = np.fft.rfft(g)
+            for i in range(H):
+                k = 2 * i + 1
+                rc = 2 * i * n + a
+                rs = (2 * i + 1) * n + a
+                for j in range(H):
+                    l = 2 * j + 1
+                    cc = 2 * j * n + b
+                    cs = (2 * j + 1) * n + b
+                    Cm, Sm = _cs(Ghat, (k - l) // 2, N)
+                    Cp, Sp = _cs(Ghat, (k + l) // 2, N)
+                    T[rc, cc] += scale * (Cm + Cp)
+                    T[rc, cs] += scale * (Sp - Sm)
+                    T[rs, cc] += scale * (Sp + Sm)
+                    T[rs, cs] += scale * (Cm - Cp)
+
+
+@nb.njit(cache=True)
+def odd_jacobian(dfdx, dfdxd, Omega2, H, B):
+    """Accumulate the odd-harmonic block of the order-``2 nu`` force Jacobian.
+
+    The counterpart of :func:`assemble_jacobian` for
+    :func:`odd_multiplication_matrix`: the velocity part acts through
+    ``Omega2 d/dtheta'`` on odd harmonic ``l``.
+
+    Parameters
+    ----------
+    dfdx, dfdxd : ndarray, shape (N, n, n)
+        Sampled on the order-``nu`` grid.
+    Omega2 : float
+        Base frequency of the doubled representation, ``w / (2 nu)``.
+    H : int
+    B : ndarray, shape (2nH, 2nH), accumulated in place.
+    """
+    n = dfdx.shape[1]
+    m = 2 * n * H
+    odd_multiplication_matrix(dfdx, H, B, 1.0)
+    if np.max(np.abs(dfdxd)) == 0.0:
+        return
+    Tv = np.zeros((m, m))
+    odd_multiplication_matrix(dfdxd, H, Tv, 1.0)
+    for r in range(m):
+        for j in range(H):
+            s = Omega2 * (2 * j + 1)
+            for b in range(n):
+                ca = 2 * j * n + b
+                cb = (2 * j + 1) * n + b
+                B[r, ca] -= s * Tv[r, cb]
+                B[r, cb] += s * Tv[r, ca]
 
 
 @nb.njit(cache=True)

@@ -52,6 +52,12 @@ class SpecialKind(str, enum.Enum):
     STABILITY = "stability"
     #: a corner of the branch: the tangent jumps (non-smooth problems, e.g. contact onset/grazing)
     KINK = "kink"
+    #: codimension two, on a fold curve: two folds merge (Kuznetsov 2004, sec. 8.2)
+    CUSP = "cusp"
+    #: codimension two: multipliers +1 and -1 at once (a fold curve meets a period-doubling curve)
+    FOLD_FLIP = "fold_flip"
+    #: a two-parameter curve turns in one of its parameters (not a bifurcation)
+    EXTREMUM = "extremum"
     END = "end"
     START = "start"
     USER = "user"

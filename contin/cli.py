@@ -126,6 +126,10 @@ def cmd_check(args) -> int:
     elif a["type"] == "frf":
         print(f"  impedance-matrix FRF over {a['range']} ({a['points']} points, {a['spacing']}), force: "
               + ("the model's excitation" if a["force"] is None else str(a["force"])))
+    elif a["type"] == "bifurcation_curve":
+        from contin.analyses.bifurcation_curve import describe
+
+        print(describe(scene, model))
     return EXIT_OK
 
 
@@ -141,6 +145,11 @@ def cmd_run(args) -> int:
     a = summary.get("analysis", {})
     for b in a.get("branches", []):
         print(f"branch {b['branch']} (nu={b['nu']}): {b['points']} points, {b['status']}: {b['message']}")
+    for c in a.get("curves", []):
+        ends = "; ".join(f"{e['side']} {e['status']}" for e in c["ends"])
+        found = ", ".join(f"{n} {k}" for k, n in c["special_points"].items() if n)
+        print(f"curve {c['curve']} ({c['kind']}, nu={c['nu']}): {c['points']} points, {ends}"
+              + (f"; {found}" if found else ""))
     print(f"results in {outdir} ({summary['timings']['total']:.2f} s)")
     return EXIT_INTERRUPTED if summary["status"] == "interrupted" else EXIT_OK
 

@@ -1,4 +1,5 @@
-"""Figures: the bifurcation diagram (stable solid, unstable dashed, special points labelled)."""
+"""Figures: the bifurcation diagram (stable solid, unstable dashed, special points labelled) and the
+two-parameter diagram of fold and period-doubling curves."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-__all__ = ["bifurcation_diagram", "axis_label"]
+__all__ = ["bifurcation_diagram", "axis_label", "two_parameter_diagram"]
 
 MARKERS = {"fold": ("o", "tab:red"), "pd": ("s", "tab:purple"), "ns": ("D", "tab:green"), "kink": ("v", "tab:gray"),
            "bp": ("^", "tab:orange"), "stability": ("x", "k")}
@@ -82,6 +83,90 @@ def bifurcation_diagram(branches, special, parameter: str, measure: str, path: P
     if any(br.get("stable") is not None for br in branches):
         ax.plot([], [], "k-", label="stable")
         ax.plot([], [], "k--", label="unstable")
+    ax.legend(fontsize=8, loc="best")
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    return path
+
+
+CURVE_STYLE = {"fold": ("tab:red", "fold curve (jump region)"),
+               "pd": ("tab:purple", "period-doubling curve (2nu-subharmonic region)")}
+CODIM2_MARKERS = {"cusp": ("^", "k", 8), "fold_flip": ("*", "tab:green", 11), "extremum": ("o", "0.4", 4),
+                  "stop": ("X", "tab:brown", 8)}
+
+
+def two_parameter_diagram(curves, codim2, points, p1: str, p2: str, path: Path, *, lines=(), xlim=None, ylim=None,
+                          units=None, labels=None, title: str | None = None):
+    """Fold and period-doubling curves in the plane of two parameters.
+
+    A curve that turns in ``p2`` (a tongue or a wedge with a tip or a cusp:
+    the jump region between two folds, the region of a period-doubled
+    solution) is drawn with the region inside it shaded (the polygon of the
+    curve closed by the chord between its ends). The points located by
+    one-parameter runs are drawn on top, with the lines ``p2 = const`` along
+    which those runs went, so that one sees them fall on the curves.
+
+    Parameters
+    ----------
+    curves : list of dict
+        ``kind`` ('fold' or 'pd'), ``x`` (P,) = p1, ``y`` (P,) = p2, ``label``.
+    codim2 : list of dict
+        ``kind`` (cusp, fold_flip, extremum, or ``stop``: a curve that ended
+        before its range, see its message), ``x``, ``y``.
+    points : list of dict
+        One-parameter special points: ``kind`` ('fold' or 'pd'), ``x``, ``y``.
+    p1, p2 : str
+        Axis names.
+    path : Path
+    lines : sequence of float
+        Values of ``p2`` of the one-parameter runs.
+    xlim, ylim : (float, float), optional
+        Axis limits. A non-negative ``p2`` spanning more than 50 times its
+        smallest positive value is drawn on a symmetric-log axis.
+    """
+    fig, ax = plt.subplots(figsize=(7.2, 5.0), constrained_layout=True)
+    seen = set()
+    for c in curves:
+        x, y = np.asarray(c["x"]), np.asarray(c["y"])
+        color, text = CURVE_STYLE.get(c["kind"], ("k", c["kind"]))
+        if x.size >= 3 and (0 < int(np.argmin(y)) < y.size - 1 or 0 < int(np.argmax(y)) < y.size - 1):
+            ax.fill(x, y, color=color, alpha=0.12, lw=0)  # a tongue or wedge: the region inside its tip
+        ax.plot(x, y, "-", color=color, lw=1.6, label=c.get("label") or (text if c["kind"] not in seen else None))
+        seen.add(c["kind"])
+    for v in lines:
+        ax.axhline(v, color="0.6", lw=0.8, ls=":", zorder=0)
+    done = set()
+    for q in codim2:
+        if q["kind"] not in CODIM2_MARKERS:
+            continue
+        m, color, ms = CODIM2_MARKERS[q["kind"]]
+        text = "curve stops early" if q["kind"] == "stop" else q["kind"]
+        ax.plot(q["x"], q["y"], m, color=color, ms=ms, label=text if q["kind"] not in done else None, zorder=6)
+        if q["kind"] in ("cusp", "fold_flip"):
+            ax.annotate(q["kind"], (q["x"], q["y"]), textcoords="offset points", xytext=(5, -10), fontsize=8)
+        done.add(q["kind"])
+    for q in points:
+        m, color = MARKERS.get(q["kind"], ("x", "k"))
+        key = "one-parameter " + q["kind"]
+        ax.plot(q["x"], q["y"], m, color=color, mfc="none", ms=7, mew=1.3, label=key if key not in done else None,
+                zorder=7)
+        done.add(key)
+    if xlim is not None:
+        ax.set_xlim(*xlim)
+    ys = np.concatenate([np.asarray(c["y"], float).ravel() for c in curves] + [np.asarray(lines, float).ravel()])
+    positive = ys[ys > 0]
+    if ylim is not None and ylim[0] >= 0 and positive.size and ylim[1] > 50 * positive.min():
+        # a second parameter over decades (a damping from 0.005 to 5): logarithmic above the smallest value
+        ax.set_yscale("symlog", linthresh=max(float(positive.min()), 1e-3 * ylim[1]), linscale=0.3)
+        ax.set_ylim(ylim[0], ylim[1] * 1.2)
+    elif ylim is not None:
+        pad = 0.02 * (ylim[1] - ylim[0])
+        ax.set_ylim(ylim[0] - pad, ylim[1] + pad)
+    ax.set_xlabel(axis_label(p1, units, labels))
+    ax.set_ylabel(axis_label(p2, units, labels))
+    if title:
+        ax.set_title(title)
+    ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8, loc="best")
     fig.savefig(path, dpi=130)
     plt.close(fig)

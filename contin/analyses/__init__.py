@@ -24,6 +24,7 @@ ANALYSIS_MODULES = (
     "contin.analyses.simulate",
     "contin.analyses.modes",
     "contin.analyses.frf",
+    "contin.analyses.bifurcation_curve",
 )
 
 

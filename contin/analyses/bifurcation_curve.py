@@ -1,0 +1,396 @@
+"""``bifurcation_curve``: fold and period-doubling curves in the plane of two parameters.
+
+1. A one-parameter run in ``parameter`` (``p1``) over ``range`` at the scene's
+   value of ``second_parameter`` (``p2``) locates folds (the engine's fold
+   test) and period doublings (the flip test of
+   :class:`contin.bifurcation_curves.FlipTestEvent`, or the multiplier
+   events of ``stability`` with ``pd_test: stability``).
+2. Each located point of the kinds in ``curves`` is continued in ``(p1, p2)``
+   over ``second_range`` (and within ``range``) by
+   :func:`contin.bifurcation_curves.curve_from_point`; a point that already
+   lies on a traced curve (the other fold of the same jump region, the other
+   period doubling of the same tongue) starts no new curve.
+3. One-parameter runs at the ``overlay`` values of ``p2`` (inside or outside
+   ``second_range``) locate their folds and period doublings independently;
+   their distance to the curves is written and they are drawn on the
+   two-parameter diagram.
+
+Result files: ``curves.csv`` (one row per curve point: ``curve``, ``kind``,
+``nu``, both parameters, and the measures of the solution there),
+``curve_points.csv`` (cusps, fold-flip points, turning points ``extremum``,
+starts and ends, with both parameters, and why each end was reached),
+``one_parameter_points.csv`` (every fold and period doubling of the
+one-parameter runs, with both parameters, the curve it belongs to and its
+distance to it), ``branches.csv`` and ``special_points.csv`` of the
+one-parameter runs (branch ``i`` is the run at ``p2 = values[i]``, listed in
+``summary.json``), and the figure ``bifurcation_curves.png``.
+
+The files are written when each stage finishes; an interrupted run (Ctrl-C)
+keeps the curves traced so far. ``--resume`` reruns the analysis.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from contin.analyses import register_analysis
+from contin.analyses.frequency_response import BranchRecorder, _start, build_problem, continuation_options
+from contin.bifurcation_curves import CurveOptions, FlipTestEvent, curve_from_point, special_point_kind
+from contin.continuation import ContinuationOptions, continuation
+from contin.harmonic_balance import HarmonicBalance
+from contin.measures import measure_names, point_measures
+from contin.results import CsvStream
+from contin.runner import RunError
+from contin.schema import Key, SceneError, integer, is_int, is_number, listing, mapping, number, string
+
+__all__ = ["BIFURCATION_CURVE", "run"]
+
+
+def _pair(v) -> bool:
+    return isinstance(v, list) and len(v) == 2 and all(is_number(x) for x in v) and v[0] != v[1]
+
+
+#: scene schema of ``analysis`` for ``type: bifurcation_curve``
+BIFURCATION_CURVE = {
+    "type": string(required=True),
+    "parameter": string(),
+    "range": Key("a list of two different numbers [start, end]", _pair, required=True),
+    "start": number(),
+    "frequency": string(),
+    "second_parameter": string(required=True),
+    "second_range": Key("a list of two different numbers [low, high]", _pair, required=True),
+    "curves": listing(["fold", "pd"], lambda x: x in ("fold", "pd"), "a list of curve kinds among 'fold', 'pd'"),
+    "harmonics": Key("an integer from 1 to 2000", lambda v: is_int(v) and 1 <= v <= 2000, 5),
+    "subharmonic": Key("an integer from 1 to 64", lambda v: is_int(v) and 1 <= v <= 64, 1),
+    "samples": Key("an integer from 2*harmonics+1 to 2**20, or null",
+                   lambda v: v is None or (is_int(v) and 3 <= v <= 2**20), None),
+    "stability": string("none", ("hill", "floquet", "both", "none")),
+    "stability_options": mapping(),
+    "pd_test": string("flip", ("flip", "stability")),
+    "continuation": mapping(),
+    "curve_continuation": mapping(),
+    "curve_options": mapping(),
+    "overlay": listing([], is_number, "a list of values of the second parameter"),
+    "max_curves": integer(8, 1),
+    "start_from": string("model", ("model", "linear", "simulation")),
+    "start_simulation": mapping(),
+    "guess": Key("a list of numbers (the harmonic coefficients) or null",
+                 lambda v: v is None or (isinstance(v, list) and all(is_number(x) for x in v)), None),
+}
+
+CURVE_POINT_KINDS = ("cusp", "fold_flip", "extremum", "start", "end")
+
+
+def _options(scene, key: str, cls):
+    try:
+        return cls.from_dict(dict(scene.analysis[key]))
+    except (ValueError, TypeError) as exc:
+        raise SceneError(f"analysis.{key}", f"valid {cls.__name__} fields", None, hint=f": {exc}") from None
+
+
+def _one_parameter_setup(scene, hb):
+    """Events and monitors of the one-parameter runs."""
+    from contin.analyses.stability_hooks import stability_options
+    from contin.stability import StabilityMethod, StabilityMonitor, stability_events
+
+    a = scene.analysis
+    stab = stability_options(a)
+    if a["pd_test"] == "stability" and "pd" in a["curves"] and stab.method is StabilityMethod.NONE:
+        raise scene.error("analysis.pd_test", "'flip', or a stability method (analysis.stability) to locate "
+                          "period doublings by their multipliers", "pd_test: stability with stability: none")
+
+    def setup(problem):
+        events, monitors = [], []
+        if stab.method is not StabilityMethod.NONE:
+            mon = StabilityMonitor(problem, stab)
+            events += stability_events(mon, period_doubling=a["pd_test"] == "stability")
+            monitors.append(mon)
+        if a["pd_test"] == "flip" and "pd" in a["curves"]:
+            events.append(FlipTestEvent(problem))
+        return events, monitors
+
+    return setup
+
+
+def _located_points(branch, kinds) -> list:
+    """Located folds / period doublings of a one-parameter branch, one per bifurcation."""
+    out = []
+    for sp in branch.special_points:
+        kind = special_point_kind(sp)
+        if kind.value not in kinds or not sp.located:
+            continue
+        if any(special_point_kind(q) is kind and abs(q.parameter - sp.parameter) <= 1e-7 * max(1.0, abs(sp.parameter))
+               for q in out):
+            continue
+        out.append(sp)
+    return out
+
+
+def _on_curve(curves, kind: str, p1: float, p2: float):
+    """``(curve id, p1 on the curve, distance)`` of the nearest curve of ``kind`` crossing ``p2``, or None."""
+    best = None
+    for cid, cur in enumerate(curves):
+        if cur.kind.value != kind or not len(cur):
+            continue
+        for q1, _ in cur.crossings(p2):
+            dist = abs(q1 - p1)
+            if best is None or dist < best[2]:
+                best = (cid, q1, dist)
+    return best
+
+
+def _checked(scene, model):
+    """Validate the section against the model; the problem, ranges and start values."""
+    a = scene.analysis
+    hb = build_problem(scene, model)
+    p1 = hb.parameter
+    p2 = a["second_parameter"]
+    if p2 not in model.parameters:
+        raise scene.error("analysis.second_parameter", f"a parameter of the model {list(model.parameters)}", p2)
+    if p2 == p1:
+        raise scene.error("analysis.second_parameter", f"a parameter other than analysis.parameter ({p1})", p2)
+    dependent = getattr(model, "dependent_parameters", None) or {}
+    for key, name in (("analysis.parameter", p1), ("analysis.second_parameter", p2)):
+        if name in dependent:
+            raise scene.error(key, f"an independent parameter (one of {list(model.parameters)})", name)
+    lo2, hi2 = sorted(float(v) for v in a["second_range"])
+    p2_value = float(model.parameters[p2])
+    if not lo2 <= p2_value <= hi2:
+        raise scene.error("analysis.second_range", f"a range containing the model's {p2} = {p2_value:g}",
+                          a["second_range"])
+    lam_a, lam_b = float(a["range"][0]), float(a["range"][1])
+    lam0 = float(a["start"]) if a["start"] is not None else lam_a
+    lo, hi = min(lam_a, lam_b), max(lam_a, lam_b)
+    if not lo <= lam0 <= hi:
+        raise scene.error("analysis.start", f"a value inside range [{lo:g}, {hi:g}]", lam0)
+    if a["guess"] is not None and len(a["guess"]) != hb.size:
+        raise scene.error("analysis.guess", f"{hb.size} numbers (n*(2H+1) coefficients)", f"{len(a['guess'])} numbers")
+    for key, cls in (("continuation", ContinuationOptions), ("curve_continuation", ContinuationOptions),
+                     ("curve_options", CurveOptions)):
+        _options(scene, key, cls)
+    _one_parameter_setup(scene, hb)
+    return hb, (lo, hi), lam0, (lo2, hi2), p2_value
+
+
+def describe(scene, model) -> str:
+    """What ``contin check`` prints for this analysis (after validating it)."""
+    hb, (lo, hi), _, (lo2, hi2), p2_value = _checked(scene, model)
+    a = scene.analysis
+    p1, p2 = hb.parameter, a["second_parameter"]
+    lines = [f"  one-parameter run in {p1} over [{lo:g}, {hi:g}] at {p2}={p2_value:g}, harmonics H={hb.H}, "
+             f"subharmonic nu={hb.nu}, samples N={hb.N}",
+             f"  unknowns: {hb.size} = {hb.n} dof x (2H+1); curve systems: {hb.size + 1} (coefficients and {p1})",
+             f"  curves: {', '.join(a['curves'])} in ({p1}, {p2}), {p2} over [{lo2:g}, {hi2:g}]"
+             + (f"; period doublings located by the {'flip test' if a['pd_test'] == 'flip' else 'multipliers'}"
+                if "pd" in a["curves"] else ""),
+             f"  overlaid one-parameter runs at {p2} = {', '.join(f'{v:g}' for v in a['overlay']) or 'none'}"]
+    return "\n".join(lines)
+
+
+@register_analysis("bifurcation_curve", BIFURCATION_CURVE)
+def run(ctx) -> dict:
+    """Run a ``bifurcation_curve`` scene; returns its part of ``summary.json``."""
+    scene, model = ctx.scene, ctx.model
+    a = scene.analysis
+    hb, (lo, hi), lam0, (lo2, hi2), p2_value = _checked(scene, model)
+    p1, p2 = hb.parameter, a["second_parameter"]
+    opts = continuation_options(scene, lam0, float(a["range"][1]) if lam0 != a["range"][1] else float(a["range"][0]))
+    curve_opts = _options(scene, "curve_continuation", ContinuationOptions)
+    cur_opts = _options(scene, "curve_options", CurveOptions)
+    setup = _one_parameter_setup(scene, hb)
+
+    rec = BranchRecorder(ctx.outdir, model.dof_names, p1, scene.output["harmonic_columns"], hb.H, model=model)
+    ctx.recorder = rec
+    runs_info: list[dict] = []
+    kinds = tuple(a["curves"])
+
+    first: dict = {}
+
+    def start_at(problem, value: float):
+        """A start at ``p2 = value``: the first run's start followed in ``p2``, else the model's own start."""
+        if "u" in first:
+            hb2 = HarmonicBalance(model, p2, hb.options, {p1: lam0})
+            step = opts.replace(direction=1 if value > p2_value else -1, detect_branch_points=False)
+            br = continuation(hb2, first["u"], p2_value, sorted((p2_value, value)), step, parameter_name=p2,
+                              solve_start=False)
+            if len(br) and br.parameter[-1] == value:
+                return br.unknowns[-1].copy()
+        return _start(scene, model, problem, lam0)
+
+    def one_parameter(index: int, value: float):
+        problem = hb if value == p2_value else HarmonicBalance(model, p1, hb.options, {p2: value})
+        if index == 0 and a["guess"] is not None:
+            u0 = np.array(a["guess"], dtype=float)
+        elif index == 0:
+            u0 = _start(scene, model, problem, lam0)
+        else:
+            try:
+                u0 = start_at(problem, value)
+            except RunError as exc:
+                runs_info.append({"branch": index, p2: value, "points": 0, "status": "start_failed",
+                                  "message": str(exc)})
+                return problem, None
+        events, monitors = setup(problem)
+
+        def cb(branch, i):
+            rec.point(index, problem.nu, branch, i, problem.H)
+            ctx.progress.update(f"one-parameter run {index} ({p2}={value:.6g})  {p1}={branch.parameter[i]:.6g}"
+                                f"  point {i}")
+            return not ctx.stop_requested
+
+        br = continuation(problem, u0, lam0, (lo, hi), opts, parameter_name=p1, events=events, monitors=monitors,
+                          callback=cb)
+        if index == 0 and len(br):
+            first["u"] = br.unknowns[0].copy()
+        rec.special_points(index, br)
+        runs_info.append({"branch": index, p2: value, "points": len(br), "status": br.status.value,
+                          "message": br.message,
+                          "special_points": {k: sum(1 for s in br.special_points if special_point_kind(s).value == k)
+                                             for k in ("fold", "pd", "bp", "ns")}})
+        return problem, br
+
+    t0 = time.perf_counter()
+    curves: list = []
+    skipped: list = []
+    try:
+        problem0, branch0 = one_parameter(0, p2_value)
+        ctx.timings["one_parameter"] = time.perf_counter() - t0
+        t1 = time.perf_counter()
+        scale1 = hi - lo
+        for sp in _located_points(branch0, kinds):
+            if ctx.stop_requested:
+                break
+            kind = special_point_kind(sp).value
+            near = _on_curve(curves, kind, float(sp.parameter), p2_value)
+            if near is not None and near[2] <= 1e-6 * scale1:
+                skipped.append({"kind": kind, p1: float(sp.parameter), "on_curve": near[0]})
+                continue
+            if len(curves) >= a["max_curves"]:
+                skipped.append({"kind": kind, p1: float(sp.parameter), "reason": "max_curves"})
+                continue
+            cid = len(curves)
+
+            def ccb(branch, i, cid=cid, kind=kind):
+                ctx.progress.update(f"{kind} curve {cid}  {p2}={branch.parameter[i]:.6g}  "
+                                    f"{p1}={branch.unknowns[i][-1]:.6g}  point {i}")
+                return not ctx.stop_requested
+
+            curves.append(curve_from_point(problem0, sp, p2, (lo2, hi2), (lo, hi), curve_opts, cur_opts,
+                                           callback=ccb))
+        ctx.timings["curves"] = time.perf_counter() - t1
+        _write_curves(ctx, curves, p1, p2, model)
+        t2 = time.perf_counter()
+        overlay = []
+        for j, value in enumerate(a["overlay"], start=1):
+            if ctx.stop_requested:
+                break
+            _, br = one_parameter(j, float(value))
+            if br is not None:
+                overlay.append((j, float(value), br))
+        ctx.timings["overlay"] = time.perf_counter() - t2
+    finally:
+        rec.close()
+    checks = _write_one_parameter_points(ctx, [(0, p2_value, branch0)] + overlay, curves, kinds, p1, p2)
+    ctx.interrupted = ctx.interrupted or ctx.stop_requested
+    ctx.plot = lambda: _plot(ctx, curves, checks, p1, p2, (lo, hi), (lo2, hi2), [v for _, v, _ in overlay] + [p2_value])
+    return {
+        "parameters": [p1, p2],
+        "range": [lo, hi],
+        "second_range": [lo2, hi2],
+        "unknowns": hb.size,
+        "harmonics": hb.H,
+        "subharmonic": hb.nu,
+        "samples": hb.N,
+        "one_parameter_runs": runs_info,
+        "curves": [_curve_summary(cid, cur, p1, p2) for cid, cur in enumerate(curves)],
+        "starts_on_earlier_curves": skipped,
+        "one_parameter_points": len(checks),
+        "max_distance_to_curves": max((c["distance"] for c in checks if c["distance"] is not None), default=None),
+    }
+
+
+def _curve_summary(cid, cur, p1, p2) -> dict:
+    out = {"curve": cid, "kind": cur.kind.value, "nu": cur.nu, "points": len(cur), "closed": cur.closed,
+           "ends": cur.ends,
+           "special_points": {k: len(cur.points_of_kind(k)) for k in ("cusp", "fold_flip", "extremum")}}
+    if len(cur):
+        out[f"{p1}_range"] = [float(cur.p1.min()), float(cur.p1.max())]
+        out[f"{p2}_range"] = [float(cur.p2.min()), float(cur.p2.max())]
+        out["start"] = {p1: float(cur.p1[cur.start_index]), p2: float(cur.p2[cur.start_index])}
+    return out
+
+
+def _write_curves(ctx, curves, p1, p2, model) -> None:
+    names = list(model.dof_names)
+    hc = ctx.scene.output["harmonic_columns"]
+    H = max((c.harmonics for c in curves), default=1)
+    obs = list(getattr(model, "observable_names", ()) if getattr(model, "observables", None) else ())
+    cols = ["curve", "kind", "nu", p1, p2] + measure_names(names, hc, H) + obs
+    rows = CsvStream(ctx.outdir / "curves.csv", cols)
+    pts = CsvStream(ctx.outdir / "curve_points.csv", ["curve", "kind", p1, p2, "located", "parameter", "detail"])
+    try:
+        for cid, cur in enumerate(curves):
+            for i in range(len(cur)):
+                u = cur.unknowns[i]
+                row = {"curve": cid, "kind": cur.kind.value, "nu": cur.nu, p1: float(cur.p1[i]), p2: float(cur.p2[i])}
+                row.update(point_measures(u, len(names), names, hc))
+                if obs:
+                    row.update(model.observables(u, len(names), cur.nu))
+                rows.write(row)
+            for sp in cur.special_points:
+                pts.write({"curve": cid, "kind": sp.kind.value, p1: sp.p1, p2: sp.p2, "located": sp.located,
+                           "parameter": sp.data.get("parameter", ""), "detail": sp.message})
+    finally:
+        rows.close()
+        pts.close()
+
+
+def _write_one_parameter_points(ctx, runs, curves, kinds, p1, p2) -> list:
+    cols = ["branch", p2, "kind", p1, "located", "interval_lo", "interval_hi", "curve", f"curve_{p1}", "distance"]
+    out = CsvStream(ctx.outdir / "one_parameter_points.csv", cols)
+    checks = []
+    try:
+        for j, value, br in runs:
+            for sp in br.special_points:
+                kind = special_point_kind(sp).value
+                if kind not in ("fold", "pd"):
+                    continue
+                near = _on_curve(curves, kind, float(sp.parameter), value) if kind in kinds else None
+                row = {"branch": j, p2: value, "kind": kind, p1: float(sp.parameter), "located": bool(sp.located),
+                       "interval_lo": float(sp.interval[0]), "interval_hi": float(sp.interval[1]),
+                       "curve": None if near is None else near[0], f"curve_{p1}": None if near is None else near[1],
+                       "distance": None if near is None else near[2]}
+                out.write(row)
+                checks.append(row)
+    finally:
+        out.close()
+    return checks
+
+
+def _label(i: int, cur) -> str:
+    if cur.kind.value == "fold":
+        what = "fold (jump region)" if cur.nu == 1 else f"fold of the nu={cur.nu} solutions"
+    else:
+        what = f"period doubling (1/{2 * cur.nu}-subharmonic region)"
+    return f"curve {i}: {what}"
+
+
+def _plot(ctx, curves, checks, p1, p2, range1, range2, lines) -> list:
+    from contin.plotting import two_parameter_diagram
+
+    out = ctx.scene.output
+    path = ctx.outdir / "bifurcation_curves.png"
+    two_parameter_diagram(
+        [{"kind": c.kind.value, "x": c.p1, "y": c.p2, "closed": c.closed,
+          "label": _label(i, c)} for i, c in enumerate(curves)],
+        [{"kind": sp.kind.value if sp.kind.value != "end" else "stop", "x": sp.p1, "y": sp.p2}
+         for c in curves for sp in c.special_points
+         if (sp.kind.value in CURVE_POINT_KINDS[:3] and sp.located) or (sp.kind.value == "end" and not sp.located)],
+        [{"kind": c["kind"], "x": c[p1], "y": c[p2]} for c in checks],
+        p1, p2, path, lines=sorted(set(lines)), xlim=range1, ylim=(min([range2[0]] + lines), max([range2[1]] + lines)),
+        units=out["units"], labels=out["labels"],
+        title=out["title"] or f"{ctx.model.name}: bifurcation curves in ({p1}, {p2})",
+    )
+    return [path.name]

@@ -1,0 +1,67 @@
+"""Bearing rotor: the period-doubling curve in (w, f0) against one-parameter runs and the monodromy.
+
+H = 40 harmonics and 1024 samples, as in scenes/rotor_harmonic.yaml: with fewer harmonics the
+truncated orbit dips out of the clearance and the harmonic branch itself is wrong (README), so
+the discretisation is not reduced here; the cost is kept down by a short stretch of the curve
+(f0 from 0.3 to 0.5, one side of the region) and short one-parameter runs.
+"""
+
+import numpy as np
+import pytest
+
+from contin.bifurcation_curves import FlipTestEvent, curve_from_point
+from contin.catalog import build_model
+from contin.continuation import ContinuationOptions, continuation
+from contin.harmonic_balance import HarmonicBalance, HBOptions
+from contin.stability import StabilityMonitor, StabilityOptions, floquet_multipliers, stability_events
+
+OPTIONS = HBOptions(harmonics=40, samples=1024)
+F0S = (0.3, 0.4)
+
+
+@pytest.fixture(scope="module")
+def rotor():
+    model = build_model("bearing_rotor", {"f0": 0.5})
+    hb = HarmonicBalance(model, "w", OPTIONS)
+    u0 = model.start(hb, 2.1)
+    br = continuation(hb, u0, 2.1, (2.1, 2.16), ContinuationOptions(ds=0.02, ds_max=0.05), events=[FlipTestEvent(hb)])
+    (pd,) = br.points_of_kind("pd")
+    curve = curve_from_point(hb, pd, "f0", (0.3, 0.5), (2.0, 2.3), ContinuationOptions(ds=0.02, ds_max=0.1))
+    # starts at the other forces: the f0 = 0.5 solution at w = 2.1 followed in f0
+    hbf = HarmonicBalance(model, "f0", OPTIONS, {"w": 2.1})
+    path = continuation(hbf, u0, 0.5, (0.3, 0.5), ContinuationOptions(ds=0.05, ds_max=0.2, direction=-1),
+                        solve_start=False)
+    starts = {f0: path.unknowns[int(np.argmin(np.abs(path.parameter - f0)))] for f0 in F0S}
+    return model, pd, curve, starts
+
+
+def test_curve_passes_from_f0_0_5_to_0_3(rotor):
+    _, pd, curve, _ = rotor
+    assert curve.kind.value == "pd" and curve.complete
+    assert curve.p2.min() == 0.3 and curve.p2[curve.start_index] == 0.5
+    assert curve.p1[curve.start_index] == pytest.approx(2.1473310, abs=1e-6)
+    # the boundary moves to higher speeds as the static force falls (the region narrows)
+    order = np.argsort(curve.p2)
+    assert np.all(np.diff(curve.p1[order]) < 0)
+
+
+@pytest.mark.parametrize("f0", F0S)
+def test_one_parameter_period_doublings_lie_on_the_curve(rotor, f0):
+    model, _, curve, starts = rotor
+    hb = HarmonicBalance(model, "w", OPTIONS, {"f0": f0})
+    (w_curve, u_curve), = curve.crossings(f0)
+    # (1) independent: the multiplier count of the monodromy (RK4 along the HB orbit) changes at -1;
+    # located to the event tolerance, biased by tolerance / |d|mu|/dw| (see contin.stability.floquet)
+    mon = StabilityMonitor(hb, StabilityOptions(method="floquet", steps_per_period=4096))
+    br = continuation(hb, starts[f0], 2.1, (2.1, w_curve + 0.02), ContinuationOptions(ds=0.02, ds_max=0.05),
+                      events=stability_events(mon), monitors=[mon])
+    (pd,) = [p for p in br.special_points if p.kind.value == "pd"]
+    assert pd.located and abs(pd.parameter - w_curve) < 2e-6
+    # (2) the flip test located on the one-parameter branch: the curve's own condition, to 1e-9
+    br = continuation(hb, starts[f0], 2.1, (2.1, w_curve + 0.02), ContinuationOptions(ds=0.02, ds_max=0.05),
+                      events=[FlipTestEvent(hb)])
+    (pd,) = br.points_of_kind("pd")
+    assert pd.located and abs(pd.parameter - w_curve) < 1e-9
+    # (3) on the curve the monodromy has a multiplier -1 (fourth order: the bearing stays in contact)
+    mu = floquet_multipliers(hb, u_curve, w_curve, StabilityOptions(method="floquet", steps_per_period=4096)).multipliers
+    assert np.min(np.abs(mu + 1)) < 1e-7
