@@ -50,8 +50,9 @@ def diagram_class(rows, w: float) -> str:
         m = rows["branch"] == b
         ws, st, nu = rows["w"][m], np.array([bool(s) for s in rows["stable"][m]]), int(rows["nu"][m][0])
         for i in range(len(ws) - 1):
-            if min(ws[i], ws[i + 1]) <= w <= max(ws[i], ws[i + 1]) and st[i] and st[i + 1]:
-                if nu == 2 and rows["whirl_fwd_half_disc"][m][i] < 1e-3:
+            if min(ws[i], ws[i + 1]) <= w <= max(ws[i], ws[i + 1]):
+                j = i if abs(ws[i] - w) <= abs(ws[i + 1] - w) else i + 1  # the nearer stored point
+                if not st[j] or (nu == 2 and rows["whirl_fwd_half_disc"][m][j] < 1e-3):
                     continue
                 out.append({1: "harmonic", 2: "subharmonic"}[nu])
     return "+".join(sorted(set(out))) or "neither"
@@ -90,7 +91,7 @@ def main(argv=None) -> int:
     model = build_model("bearing_rotor", {"f0": 0.5})
     rng = np.random.default_rng(1)
     speeds = np.linspace(lo, hi, args.speeds + 2)[1:-1]
-    print(f"diagram: {t_diagram:.1f} s for {len(rows)} points at {n_speeds} distinct speeds "
+    print(f"diagram: {t_diagram:.1f} s for {len(rows['w'])} points at {n_speeds} distinct speeds "
           f"({len(summary['analysis']['branches'])} branches)")
     print(f"{'w':>7s} {'brute force':>14s} {'diagram':>22s} {'time s':>7s}")
     t_bf = []

@@ -1,6 +1,6 @@
 """Bearing rotor (seed 001): the paper's four cases, from result files and independent time integration.
 
-Each scene runs over a narrowed speed range (2.05..2.3, or 1.6..2.3 for
+Each scene runs over a narrowed speed range (2.05..2.3, or 2.12..2.3 for
 f0 = 0.2, which hold the harmonic branch's period doublings and the whole
 1/2-subharmonic branch) to keep the suite short; the scenes span 1.6..2.6.
 """
@@ -36,8 +36,8 @@ def f05(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def f02(tmp_path_factory):
-    # from w = 1.6: at 2.05 a time simulation from rest does not settle on the harmonic orbit
-    return _run(tmp_path_factory, "rotor_f0_02", ["--set", "analysis.range=[1.6, 2.3]"])
+    # from w = 2.12: at 2.05 a time simulation from rest does not settle on the harmonic orbit
+    return _run(tmp_path_factory, "rotor_f0_02", ["--set", "analysis.range=[2.12, 2.3]", "--set", "analysis.start=2.12"])
 
 
 def _harmonic(rows, sp):
@@ -67,6 +67,15 @@ def test_f0_02_stable_interval_is_narrower(f05, f02):
     lo5, hi5 = stable_subharmonic_interval(*f05)
     lo2, hi2 = stable_subharmonic_interval(*f02)
     assert lo5 < lo2 < hi2 < hi5
+
+
+def test_f0_02_harmonic_solution_is_stable_at_both_ends(f02):
+    """The paper's Fig. 6: the zero-amplitude solution is unstable only between two period
+    doublings (D-F) and stable beside them (A-D, F-G)."""
+    w1, st1, pd = _harmonic(*f02)
+    assert pd.size == 2 and 2.17 < pd.min() < pd.max() < 2.2
+    assert st1[w1 < pd.min()].all() and st1[w1 > pd.max()].all()
+    assert not st1[(w1 > pd.min()) & (w1 < pd.max())].any()
 
 
 @pytest.mark.parametrize("w,entrained", [(2.16, True), (2.18, True), (2.21, False)])
