@@ -773,15 +773,15 @@ class SweepResult:
     outdir : Path
     counts : dict
         Points per status, and ``reused`` (complete before this sweep started).
-    interrupted : bool
-        The sweep was stopped before every point had run.
     seconds : float
+
+    An interrupted sweep has no result: :func:`run_sweep` raises
+    ``KeyboardInterrupt`` after writing ``sweep.csv``.
     """
 
     records: list
     outdir: Path
     counts: dict = field(default_factory=dict)
-    interrupted: bool = False
     seconds: float = 0.0
 
     @property
@@ -1022,7 +1022,7 @@ def run_sweep(options: SweepOptions, echo=None) -> SweepResult:
                                                   "timings": {"total": seconds, **timings}})
         if interrupted:
             raise KeyboardInterrupt
-    return SweepResult(records, outdir, counts, interrupted, seconds)
+    return SweepResult(records, outdir, counts, seconds)
 
 
 def _check_grid_keys(scene, axes) -> None:

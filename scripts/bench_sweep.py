@@ -75,6 +75,7 @@ def main() -> None:
         overrides = ("analysis.continuation={ds: 0.005, ds_max: 0.01}",)
         workers = args.workers
     npoints = len(grid[0].values) * len(grid[1].values)
+    load_before = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     with tempfile.TemporaryDirectory(prefix="contin-bench-sweep-") as tmp:
         tmp = Path(tmp)
         # one untimed point: this process loads what each worker loads in its warm-up
@@ -106,6 +107,9 @@ def main() -> None:
     print(f"ratio serial / cluster: {t_serial / t_cluster:.2f}   "
           f"(runs only: {t_serial / max(parts.get('tasks', t_cluster), 1e-9):.2f})")
     print(f"same branches in both sweeps: {'yes' if ok else 'NO'}")
+    load_after = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    print(f"load average (1 min) before / after: {load_before:.1f} / {load_after:.1f} on {os.cpu_count()} cores "
+          "(other processes take cores from the workers: the ratio is only meaningful on an idle machine)")
     if not ok:
         raise SystemExit(1)
 
