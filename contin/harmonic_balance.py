@@ -200,9 +200,9 @@ class HarmonicBalance:
 
     def with_options(self, **changes) -> "HarmonicBalance":
         """A new problem with changed :class:`HBOptions` (same model and parameters)."""
-        opts = dataclasses.replace(self.options, **changes)
         if "harmonics" in changes and "samples" not in changes:
-            opts = dataclasses.replace(opts, samples=None)
+            changes = {**changes, "samples": None}  # the default for the new H, not the old count
+        opts = dataclasses.replace(self.options, **changes)
         params = dict(zip(self.model.param_names, self.p0))
         return HarmonicBalance(self.model, self.parameter, opts, params)
 
