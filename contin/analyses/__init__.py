@@ -22,6 +22,8 @@ ANALYSIS_SCHEMAS: dict[str, dict] = {}
 ANALYSIS_MODULES = (
     "contin.analyses.frequency_response",
     "contin.analyses.simulate",
+    "contin.analyses.static",
+    "contin.analyses.backbone",
 )
 
 
