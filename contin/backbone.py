@@ -97,7 +97,8 @@ def static_equilibrium(model: Model, params=None, guess=None, *, tol: float = 1e
     The residual is the harmonic balance with ``H = 0`` of the autonomous
     model. Steps are halved until ``||R||`` decreases (up to 30 times), so
     a start far from the equilibrium (the linear solution of a strongly
-    nonlinear problem) still converges.
+    nonlinear problem) still converges; if it does not, a pseudo-transient
+    continuation from rest looks for a stable equilibrium.
 
     Parameters
     ----------
@@ -144,7 +145,52 @@ def static_equilibrium(model: Model, params=None, guess=None, *, tol: float = 1e
         x, R, J, r = xt, Rt, Jt, rt
     if r <= tol:
         return x
+    if guess is None:
+        x = _pseudo_transient(hb, lam, tol)
+        if x is not None:
+            return x
     raise BackboneError(f"no static equilibrium of '{model.name}' found: Newton stopped at residual {r:.2e}")
+
+
+def _pseudo_transient(hb: HarmonicBalance, lam: float, tol: float, max_iter: int = 300):
+    """A stable equilibrium by pseudo-transient continuation from rest (``x = 0``).
+
+    Steps ``(M/delta + K_t) dx = -R`` with the pseudo time step ``delta``
+    grown as the residual falls (switched evolution relaxation; Kelley & Keyes,
+    SIAM J. Numer. Anal. 35 (1998) 508-523): at first a heavily damped motion
+    towards a stable equilibrium, at the end Newton. Used when Newton from the
+    linear solution fails (a magnet whose negative stiffness makes the linear
+    solution point the wrong way). None if it does not converge.
+    """
+    M0 = hb.model.linear(hb.params_at(lam))[0]
+    # the pseudo-mass sets the path only: the model's M first, then a plain scaled identity
+    for M in (M0, np.eye(hb.size) * np.trace(M0) / hb.size):
+        x = _ptc_path(hb, lam, tol, max_iter, M)
+        if x is not None:
+            return x
+    return None
+
+
+def _ptc_path(hb, lam, tol, max_iter, M):
+    x = np.zeros(hb.size)
+    R, J, _ = hb.linearize(x, lam)
+    r = float(np.abs(R).max())
+    delta = 1e-2
+    for _ in range(max_iter):
+        if r <= tol:
+            return x
+        try:
+            dx = np.linalg.solve(M / delta + J, -R)
+        except np.linalg.LinAlgError:
+            return None
+        x = x + dx
+        R, J, _ = hb.linearize(x, lam)
+        rn = float(np.abs(R).max())
+        if not np.isfinite(rn):
+            return None
+        delta = delta * min(r / rn, 10.0) if rn > 0 else 1e300
+        r = rn
+    return x if r <= tol else None
 
 
 def tangent_stiffness(model: Model, x0: np.ndarray, params=None) -> np.ndarray:
