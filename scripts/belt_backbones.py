@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from contin.backbone import trace_backbone
+from contin.blas import limit_blas_threads
 from contin.catalog import build_model
 
 NO_MAGNET = ["rotor_mass", "stretching"]
@@ -77,6 +78,7 @@ def main(argv=None):
     ap.add_argument("--out", default="results/belt")
     ap.add_argument("--harmonics", type=int, default=5)
     args = ap.parse_args(argv)
+    limit_blas_threads(1)  # small matrices: one BLAS thread is faster (see README)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     A_max = 3.0 if args.quick else 10.0

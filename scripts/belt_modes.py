@@ -25,6 +25,7 @@ import numpy as np
 import scipy.linalg
 
 from contin.backbone import static_equilibrium
+from contin.blas import limit_blas_threads
 from contin.catalog import build_model
 from contin.harmonic_balance import HarmonicBalance, HBOptions
 from contin.models.timing_belt import shape_values, string_mass_frequencies
@@ -51,6 +52,7 @@ def main(argv=None):
     ap.add_argument("--quick", action="store_true", help="fewer beta values")
     ap.add_argument("--out", default="results/belt", help="output directory for the figures")
     args = ap.parse_args(argv)
+    limit_blas_threads(1)  # small matrices: one BLAS thread is faster (see README)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     import matplotlib

@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from contin.blas import limit_blas_threads
 from contin.models.timing_belt import PAPER_MAGNET
 from contin.results import read_csv
 from contin.runner import run_scene
@@ -46,6 +47,7 @@ def main(argv=None):
     ap.add_argument("--quick", action="store_true", help="two magnet strengths only")
     ap.add_argument("--out", default="results/belt", help="output directory")
     args = ap.parse_args(argv)
+    limit_blas_threads(1)  # small matrices: one BLAS thread is faster (see README)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     import matplotlib

@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from contin.blas import limit_blas_threads
 from contin.catalog import build_model
 from contin.results import read_csv
 from contin.runner import run_scene
@@ -84,6 +85,7 @@ def main(argv=None):
     ap.add_argument("--quick", action="store_true", help="narrower ranges")
     ap.add_argument("--out", default="results/belt")
     args = ap.parse_args(argv)
+    limit_blas_threads(1)  # small matrices: one BLAS thread is faster (see README)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     q = args.quick

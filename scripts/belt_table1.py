@@ -27,6 +27,7 @@ import numpy as np
 from numpy.polynomial.legendre import leggauss
 
 from contin.backbone import static_equilibrium
+from contin.blas import limit_blas_threads
 from contin.catalog import build_model
 from contin.models.timing_belt import deflection, load_shape
 
@@ -68,6 +69,7 @@ def main(argv=None):
     ap.add_argument("--quick", action="store_true", help="(the table is fast; same output)")
     ap.add_argument("--terms", type=int, nargs="*", default=[2, 3, 4, 5])
     args = ap.parse_args(argv)
+    limit_blas_threads(1)  # small matrices: one BLAS thread is faster (see README)
     print("Table 1: w(0.6), alpha = 0.005, beta = 0.2, xi1 = 0.4, q = 0")
     print(f"{'n':>3} {'p_s':>5} {'paper':>8} {'contin':>8} {'closed form':>12} {'match':>6}")
     bad = []

@@ -1,7 +1,5 @@
 """Forced and subharmonic responses of the timing belt (Fig. 9, mu = 1/2 and 1/3) against time integration."""
 
-import math
-
 import numpy as np
 import pytest
 

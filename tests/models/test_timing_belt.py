@@ -4,7 +4,6 @@ import math
 
 import numpy as np
 import pytest
-import scipy.linalg
 from numpy.polynomial.legendre import leggauss
 
 from conftest import fd_jacobian
