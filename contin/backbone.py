@@ -605,19 +605,24 @@ def subharmonic_guess(hb: HarmonicBalance, lam0: float, mode: int = 1, *, phases
     v0 = prob.start(A0, opts)
     target = {}
 
+    gap = abs(prob.omega0 - Omega)
+
     def stop_at_frequency(branch, i):
         w = branch.unknowns[i][prob.m]
         if (w - Omega) * (prob.omega0 - Omega) <= 0:
             target["v"] = branch.unknowns[i].copy()
             target["lam"] = float(branch.parameter[i])
             return False
-        return True
+        # the frequency runs away from w/nu (e.g. a hardening mode above it): it will not come back
+        return bool(abs(w - Omega) <= 2.0 * gap + 0.5 * prob.omega0)
 
     br = continuation(prob, v0, lam_a, (lam_a, lam_a + 25.0), opts, parameter_name="amplitude",
                       callback=stop_at_frequency, solve_start=False)
     if "v" not in target:
+        last = br.unknowns[-1][prob.m] if len(br) else prob.omega0
+        why = "" if br.status.value == "interrupted" else f" ({br.message})"
         raise BackboneError(f"the backbone of mode {mode} (linear frequency {prob.omega0:.6g}) does not reach "
-                            f"w/nu = {Omega:.6g} ({br.message})")
+                            f"w/nu = {Omega:.6g}: its frequency runs away to {last:.6g}{why}")
     v, _ = prob.at_frequency(target["v"], target["lam"], Omega)
     u_free = v[: prob.m]
     # forced linear response about the equilibrium, on the harmonics nu*k of the base frequency

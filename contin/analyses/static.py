@@ -171,10 +171,8 @@ def run(ctx) -> dict:
         x0 = static_equilibrium(auto, {param: lam0})
     except BackboneError as exc:
         raise RunError(f"no equilibrium at {param}={lam0:g}: {exc}") from None
-    M = auto.linear(auto.parameter_vector())[0]
-
     def monitor(u, lam, Ju, Jlam):
-        return static_stability(Ju, M)
+        return static_stability(Ju, auto.linear(hb.params_at(lam))[0])  # M may depend on the parameter
 
     lin = dict(getattr(auto, "linear_observables", {}) or {})
     rec = _StaticRecorder(ctx.outdir, auto, param, lin)

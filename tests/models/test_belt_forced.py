@@ -129,3 +129,14 @@ def test_one_half_subharmonic_from_period_doubling_agrees_with_time_integration(
         run = simulate(model, {"w": w}, x0, v0, periods=2, steps_per_period=2048, record_every=64)
         ref = series(u, 5, w / 2 * run.t)
         assert np.abs(run.x - ref).max() < 1e-5 * max(1.0, np.abs(U[1:]).max())
+
+
+def test_subharmonic_start_fails_with_a_reason_where_no_backbone_reaches_w_over_nu():
+    from contin.start import HomotopyFailed
+
+    # hardening modes never come down to w/3 = 2, below the first natural frequency 2.67
+    model = build_model("timing_belt", {"p_d": 2.0}, ["rotor_mass", "stretching", "periodic_load"])
+    hb = HarmonicBalance(model, "w", HBOptions(harmonics=6, subharmonic=3))
+    with pytest.raises(HomotopyFailed, match=r"no subharmonic start: mode 1: the backbone of mode 1 \(linear "
+                                             r"frequency 2.66972\) does not reach w/nu = 2: its frequency runs away"):
+        model.start(hb, 6.0)
