@@ -130,6 +130,13 @@ def cmd_check(args) -> int:
         from contin.analyses.bifurcation_curve import describe
 
         print(describe(scene, model))
+    elif a["type"] == "static":
+        print(f"  equilibria (H = 0) in {a['parameter']} over {a['range']}; unknowns: {model.n_dof} dof")
+    elif a["type"] == "backbone":
+        print(f"  free periodic solutions of mode(s) {a['mode']}, {a['amplitude']} amplitude of "
+              f"{a['dof'] or 'the first observable'} over {a['range']} ({a['spacing']} spacing), harmonics "
+              f"H={a['harmonics']}; unknowns: {model.n_dof * (2 * a['harmonics'] + 1) + 2} = {model.n_dof} dof x "
+              f"(2H+1) + frequency + unfolding parameter")
     return EXIT_OK
 
 

@@ -162,6 +162,7 @@ class HarmonicBalance:
         self.size = self.n * (2 * self.H + 1)
         self.parameter = parameter
         self.k = model.parameter_index(parameter)
+        model.check_variable(parameter, params)
         self.kw = model.parameter_index(model.frequency)
         self.p0 = model.parameter_vector(params)
         self.theta = sample_phases(self.N)

@@ -355,6 +355,14 @@ class Model:
     #: optional ``start(hb, lam0) -> u0`` for models whose linear solution is no
     #: usable start (stiff contact); raises :class:`contin.start.HomotopyFailed`
     start: object = None
+    #: linear observables ``y = c . x`` by name, each ``c`` of shape (n,) (e.g. a
+    #: structure's displacement at a point, from its shape functions); a backbone
+    #: can be traced in the amplitude of one
+    linear_observables: dict = field(default_factory=dict)
+    #: parameters built into the model's structure (a number of terms, a position
+    #: that sets the matrices); they are neither continued nor overridden: a new
+    #: value needs a new model
+    structural: tuple = ()
 
     registry_kind: ClassVar[str] = "model"
 
@@ -369,6 +377,32 @@ class Model:
                 f"model: the excitation frequency parameter '{self.frequency}' is not among the parameters "
                 f"{list(self.parameters)}"
             )
+        for name, c in self.linear_observables.items():
+            if np.shape(c) != (n,):
+                raise ValueError(f"model: linear observable '{name}' needs {n} coefficients, found shape {np.shape(c)}")
+        for name in self.structural:
+            if name not in self.parameters:
+                raise ValueError(f"model: structural parameter '{name}' is not among the parameters")
+
+    def check_variable(self, name: str | None, overrides: Mapping[str, float] | None = None) -> None:
+        """Refuse to vary a structural parameter (as ``name`` or through ``overrides``).
+
+        Raises
+        ------
+        ValueError
+            Naming the parameter and saying that the model must be rebuilt.
+        """
+        if name in self.structural:
+            raise ValueError(
+                f"parameter '{name}' of model '{self.name}' is built into its structure and cannot be continued; "
+                f"build one model per value (structural parameters: {list(self.structural)})"
+            )
+        for k, v in (overrides or {}).items():
+            if k in self.structural and float(v) != float(self.parameters[k]):
+                raise ValueError(
+                    f"parameter '{k}' of model '{self.name}' is built into its structure (value "
+                    f"{self.parameters[k]:g}); build a new model for {k}={float(v):g}"
+                )
 
     @property
     def n_dof(self) -> int:

@@ -952,6 +952,7 @@ def simulate(model: Model, params: Mapping[str, float] | None = None, x0=None, v
         Bad arguments (non-positive frequency, both or neither of ``t_end`` and
         ``periods``, shapes).
     """
+    model.check_variable(None, params)
     cm = compile_model(model)
     n = model.n_dof
     p = model.parameter_vector(params)

@@ -3,6 +3,6 @@
 Importing it registers every model in :data:`contin.catalog.MODELS`.
 """
 
-from contin.models import bearing_rotor, duffing, linear_chain, mathieu, polynomial  # noqa: F401
+from contin.models import bearing_rotor, duffing, linear_chain, mathieu, polynomial, timing_belt  # noqa: F401
 
-__all__ = ["bearing_rotor", "duffing", "linear_chain", "mathieu", "polynomial"]
+__all__ = ["bearing_rotor", "duffing", "linear_chain", "mathieu", "polynomial", "timing_belt"]

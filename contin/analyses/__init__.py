@@ -25,6 +25,8 @@ ANALYSIS_MODULES = (
     "contin.analyses.modes",
     "contin.analyses.frf",
     "contin.analyses.bifurcation_curve",
+    "contin.analyses.static",
+    "contin.analyses.backbone",
 )
 
 

@@ -1,0 +1,248 @@
+"""``backbone``: free conservative periodic solutions, frequency unknown, versus amplitude.
+
+For each requested linear mode about the static equilibrium, the backbone
+problem of :mod:`contin.backbone` (harmonic balance of the autonomous model,
+a phase condition, an unfolding parameter that vanishes on the solutions,
+and the amplitude of the observed dof as the continuation parameter) is
+followed over ``range`` of that amplitude, starting at the linear natural
+frequency.
+
+Scene keys: ``mode`` (an integer or a list: 1 = lowest), ``dof`` (a dof or
+a linear observable of the model, e.g. the belt's ``w``), ``range`` (of the
+amplitude, both positive with ``spacing: log``), ``amplitude`` (``peak``:
+``(max - min)/2`` over a period, which is ``max|x|`` for an oscillation
+symmetric about zero; ``rms``: RMS of the oscillating part), ``spacing``
+(``log``: the points are spaced in ``ln A``), ``harmonics``, ``samples``,
+``continuation``.
+
+Result files: ``branches.csv`` (one row per point: ``branch``, ``nu`` = 1,
+``mode``, ``amplitude``, ``frequency``, ``stable``/``n_unstable``/
+``max_multiplier`` empty (a conservative orbit is neutrally stable),
+``unfolding`` (the unfolding parameter, zero to rounding on a true
+solution), the measures of every dof, the model's own columns,
+``newton_iterations``, ``residual_norm``), ``special_points.csv``
+(``frequency_min`` / ``frequency_max`` where the frequency turns, e.g. from
+softening to hardening; ``fold`` where the amplitude turns; ``bp``; ``end``)
+and ``backbone.png`` (amplitude against frequency, the linear frequencies
+dotted).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from contin.analyses import register_analysis
+from contin.schema import Key, SceneError, is_int, is_number, mapping, string
+
+__all__ = ["BACKBONE", "run"]
+
+
+def _modes_ok(v) -> bool:
+    return (is_int(v) and v >= 1) or (isinstance(v, list) and len(v) > 0 and all(is_int(x) and x >= 1 for x in v)
+                                      and len(set(v)) == len(v))
+
+
+BACKBONE = {
+    "type": string(required=True),
+    "mode": Key("an integer >= 1 or a list of distinct integers >= 1 (linear modes, 1 = lowest)", _modes_ok, 1),
+    "dof": string(),
+    "range": Key("a list of two different numbers [start, end] (amplitudes)",
+                 lambda v: isinstance(v, list) and len(v) == 2 and all(is_number(x) for x in v) and v[0] != v[1],
+                 required=True),
+    "amplitude": string("peak", ("peak", "rms")),
+    "spacing": string("log", ("log", "linear")),
+    "harmonics": Key("an integer from 1 to 200", lambda v: is_int(v) and 1 <= v <= 200, 5),
+    "samples": Key("an integer from 2*harmonics+1 to 2**16, or null",
+                   lambda v: v is None or (is_int(v) and 3 <= v <= 2**16), None),
+    "continuation": mapping(),
+}
+
+EXTRA = ["interval_lo", "interval_hi", "located", "detail"]
+
+
+class _BackboneRecorder:
+    """Streams the rows of ``branches.csv`` and ``special_points.csv``."""
+
+    def __init__(self, outdir, model, H):
+        from contin.measures import measure_names
+        from contin.results import CsvStream
+
+        self.model = model
+        self.observables = getattr(model, "observables", None)
+        self.measures = measure_names(model.dof_names, 5, H) + (
+            list(getattr(model, "observable_names", ())) if self.observables else [])
+        head = ["branch", "nu", "mode", "amplitude", "frequency", "stable", "n_unstable", "max_multiplier", "unfolding"]
+        self.columns = head + self.measures + ["newton_iterations", "residual_norm"]
+        self.special_columns = ["branch", "kind", "mode", "amplitude", "frequency", "index"] + self.measures + EXTRA
+        self.rows = CsvStream(outdir / "branches.csv", self.columns)
+        self.special = CsvStream(outdir / "special_points.csv", self.special_columns)
+        self.n_rows = 0
+        self.curves: dict = {}
+        self.special_list: list = []
+
+    def _measures(self, u):
+        from contin.measures import point_measures
+
+        out = point_measures(u, self.model.n_dof, self.model.dof_names, 5)
+        if self.observables is not None:
+            out.update(self.observables(u, self.model.n_dof, 1))
+        return out
+
+    def point(self, bid, prob, branch, i):
+        u, w, eps = prob.split(branch.unknowns[i])
+        A, _ = prob.amplitude_target(float(branch.parameter[i]))
+        row = {"branch": bid, "nu": 1, "mode": prob.mode, "amplitude": A, "frequency": w, "unfolding": eps,
+               "newton_iterations": int(branch.newton_iterations[i]),
+               "residual_norm": float(branch.residual_norms[i])}
+        row.update(self._measures(u))
+        self.rows.write(row)
+        c = self.curves.setdefault(bid, {"x": [], "y": [], "mode": prob.mode, "omega0": prob.omega0,
+                                         "offset": self.n_rows - i})
+        c["x"].append(w)
+        c["y"].append(A)
+        self.n_rows += 1
+
+    def specials(self, bid, prob, branch):
+        off = self.curves.get(bid, {}).get("offset", 0)
+        for sp in branch.special_points:
+            kind = sp.kind.value
+            if kind == "start":
+                continue
+            u, w, _ = prob.split(sp.unknowns)
+            if kind == "user":
+                t0, t1 = sp.test_values if len(sp.test_values) == 2 else (0.0, 0.0)
+                # the frequency component of the tangent goes from - to + at a minimum
+                kind = "frequency_min" if t0 < 0 < t1 or t0 < 0 <= t1 else "frequency_max"
+            A, _ = prob.amplitude_target(float(sp.parameter))
+            row = {"branch": bid, "kind": kind, "mode": prob.mode, "amplitude": A, "frequency": w,
+                   "index": off + min(max(sp.index, 0), len(branch) - 1),
+                   "interval_lo": prob.amplitude_target(sp.interval[0])[0],
+                   "interval_hi": prob.amplitude_target(sp.interval[1])[0], "located": bool(sp.located),
+                   "detail": sp.message}
+            row.update(self._measures(u))
+            self.special.write(row)
+            self.special_list.append(row)
+
+    def close(self):
+        self.rows.close()
+        self.special.close()
+
+
+@register_analysis("backbone", BACKBONE)
+def run(ctx) -> dict:
+    """Run a ``backbone`` scene; returns its part of ``summary.json``."""
+    from contin.backbone import BackboneError, BackboneProblem, dropped_excitations, frequency_extremum_event
+    from contin.continuation import ContinuationOptions, continuation
+    from contin.runner import RunError
+
+    scene, model = ctx.scene, ctx.model
+    a = scene.analysis
+    modes = a["mode"] if isinstance(a["mode"], list) else [a["mode"]]
+    A0, A1 = float(a["range"][0]), float(a["range"][1])
+    log = a["spacing"] == "log"
+    if log and min(A0, A1) <= 0:
+        raise scene.error("analysis.range", "two positive amplitudes (spacing: log)", a["range"])
+    if not log and min(A0, A1) < 0:
+        raise scene.error("analysis.range", "two non-negative amplitudes", a["range"])
+    if A0 == 0:
+        raise scene.error("analysis.range", "a start amplitude above zero (the branch starts from the linear mode "
+                          "at a small amplitude)", a["range"])
+    try:
+        opts = ContinuationOptions.from_dict({"ds": 0.01, "ds_max": 0.05, **a["continuation"]})
+    except ValueError as exc:
+        raise SceneError("analysis.continuation", "valid continuation options", None, hint=f": {exc}") from None
+    problems = []
+    for mode in modes:
+        try:
+            problems.append(BackboneProblem(model, mode, a["dof"], a["harmonics"], a["samples"], a["amplitude"], log))
+        except BackboneError as exc:
+            key = "analysis.dof" if "neither a dof" in str(exc) or "does not move" in str(exc) else "analysis.mode" \
+                if "mode must" in str(exc) else "model"
+            raise SceneError(key, "a backbone the model can have", None, hint=f": {exc}") from None
+        except ValueError as exc:
+            raise SceneError("analysis", "a discretisation the model can use", None, hint=f": {exc}") from None
+    rec = _BackboneRecorder(ctx.outdir, problems[0].model, problems[0].H)
+    t0 = time.perf_counter()
+    info = []
+    try:
+        for bid, prob in enumerate(problems):
+            lam0, lam1 = prob.parameter_of(A0), prob.parameter_of(A1)
+            try:
+                v0 = prob.start(A0, opts)
+            except BackboneError as exc:
+                raise RunError(f"backbone of mode {prob.mode}: {exc}") from None
+
+            def callback(branch, i, bid=bid, prob=prob):
+                rec.point(bid, prob, branch, i)
+                ctx.progress.update(f"backbone of mode {prob.mode}: amplitude "
+                                    f"{prob.amplitude_target(branch.parameter[i])[0]:.4g}, "
+                                    f"frequency {branch.unknowns[i][prob.m]:.6g}")
+                return not ctx.stop_requested
+
+            o = opts.replace(direction=1 if lam1 > lam0 else -1)
+            br = continuation(prob, v0, lam0, tuple(sorted((lam0, lam1))), o, parameter_name="amplitude",
+                              events=[frequency_extremum_event(prob)], callback=callback, solve_start=False)
+            rec.specials(bid, prob, br)
+            W = br.unknowns[:, prob.m] if len(br) else np.array([])
+            eps = np.abs(br.unknowns[:, prob.m + 1]).max() if len(br) else math.nan
+            info.append({"branch": bid, "nu": 1, "mode": prob.mode, "linear_frequency": prob.omega0,
+                         "points": len(br), "status": br.status.value, "message": br.message,
+                         "frequency_range": [float(W.min()), float(W.max())] if len(br) else None,
+                         "max_abs_unfolding": float(eps),
+                         "frequency_extrema": [float(s.data.get("frequency", math.nan)) for s in br.special_points
+                                               if s.kind.value == "user"]})
+            if ctx.stop_requested:
+                ctx.interrupted = True
+                break
+    finally:
+        rec.close()
+    ctx.timings["continuation"] = time.perf_counter() - t0
+    ctx.plot = lambda: _plot(ctx, rec, problems[0], log)
+    return {
+        "observed": problems[0].observe,
+        "amplitude": a["amplitude"],
+        "harmonics": problems[0].H,
+        "samples": problems[0].hb.N,
+        "unknowns": problems[0].m + 2,
+        "linear_frequencies": [float(w) for w in problems[0].omega_all],
+        "static_equilibrium": [float(v) for v in problems[0].x0],
+        "dropped_excitations": dropped_excitations(model),
+        "branches": info,
+        "rows": rec.n_rows,
+        "special_points": len(rec.special_list),
+    }
+
+
+def _plot(ctx, rec, prob, log):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from contin.plotting import axis_label
+
+    out = ctx.scene.output
+    fig, ax = plt.subplots(figsize=(7.0, 4.6), constrained_layout=True)
+    for bid, c in rec.curves.items():
+        line, = ax.plot(c["x"], c["y"], "-", lw=1.6, label=f"mode {c['mode']}")
+        ax.axvline(c["omega0"], color=line.get_color(), ls=":", lw=0.8)
+    for s in rec.special_list:
+        if s["kind"] in ("frequency_min", "frequency_max", "fold", "bp"):
+            ax.plot(s["frequency"], s["amplitude"], "o", mfc="none", color="tab:red", ms=6)
+            ax.annotate(s["kind"].replace("frequency_", "f "), (s["frequency"], s["amplitude"]),
+                        textcoords="offset points", xytext=(4, 4), fontsize=7, color="tab:red")
+    if log:
+        ax.set_yscale("log")
+    name = f"{'rms' if ctx.scene.analysis['amplitude'] == 'rms' else 'peak'} amplitude of {prob.observe}"
+    ax.set_xlabel(axis_label("frequency", out["units"], out["labels"]))
+    ax.set_ylabel(axis_label("amplitude", out["units"], out["labels"] or {"amplitude": name}))
+    ax.set_title(out["title"] or f"{ctx.model.name}: backbone curves (linear frequencies dotted)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    path = ctx.outdir / "backbone.png"
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    return [path.name]

@@ -1,0 +1,226 @@
+"""``static``: equilibria versus a load parameter (restoring-force curves).
+
+The static residual is the harmonic balance with ``H = 0`` of the model
+without its time-varying excitation (:func:`contin.backbone.autonomous_model`;
+the constant loads stay):
+
+    R(x, lambda) = K x + f_nl(x, 0) - f_const(lambda),     dR/dx = K_t (tangent stiffness),
+
+followed in ``parameter`` over ``range`` by the continuation engine, which
+locates its folds (limit loads, snap-through) and branch points. Each
+equilibrium gets its static stability from the tangent stiffness: the
+eigenvalues of ``M^-1 K_t`` are the squared natural frequencies about it;
+``n_unstable`` counts those that are not real and positive.
+
+Result files: ``branches.csv`` (``branch``, the parameter, ``stable``,
+``n_unstable``, ``lowest_eigenvalue`` (the smallest ``omega^2``), the value of
+every dof and linear observable under its own name, the SPEC measures of the
+dofs (``amp_`` = 0, ``max_`` = ``min_`` = the value), the model's own columns,
+``newton_iterations``, ``residual_norm``), ``special_points.csv`` and the
+restoring-force plot ``static.png`` (the parameter against the chosen
+displacement, as the belt paper's Fig. 4 and 5 draw the load ``p_s`` against
+``w(0.6)``).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from contin.analyses import register_analysis
+from contin.schema import Key, SceneError, flag, is_number, mapping, number, string
+
+__all__ = ["STATIC", "run", "static_stability"]
+
+STATIC = {
+    "type": string(required=True),
+    "parameter": string(required=True),
+    "range": Key("a list of two different numbers [start, end]",
+                 lambda v: isinstance(v, list) and len(v) == 2 and all(is_number(x) for x in v) and v[0] != v[1],
+                 required=True),
+    "start": number(),
+    "both_ways": flag(False),
+    "measure": string(),
+    "continuation": mapping(),
+}
+
+
+def static_stability(Ju: np.ndarray, M: np.ndarray) -> dict:
+    """Stability of an equilibrium from its tangent stiffness.
+
+    Parameters
+    ----------
+    Ju : ndarray, shape (n, n)
+        Tangent stiffness ``K_t``.
+    M : ndarray, shape (n, n)
+
+    Returns
+    -------
+    dict
+        ``stable`` (all ``omega^2`` real and positive), ``n_unstable`` (how many
+        are not), ``lowest_eigenvalue`` (smallest real part of ``omega^2``).
+    """
+    lam = np.linalg.eigvals(np.linalg.solve(M, Ju))
+    scale = max(float(np.abs(lam).max()), 1e-300)
+    bad = (lam.real <= 0) | (np.abs(lam.imag) > 1e-9 * scale)
+    return {"stable": bool(not bad.any()), "n_unstable": int(bad.sum()), "lowest_eigenvalue": float(lam.real.min())}
+
+
+class _StaticRecorder:
+    """Streams ``branches.csv`` and ``special_points.csv`` of a static analysis."""
+
+    def __init__(self, outdir, model, parameter, names_lin):
+        from contin.measures import measure_names
+        from contin.results import CsvStream
+
+        self.model = model
+        self.parameter = parameter
+        self.lin = names_lin
+        self.observables = getattr(model, "observables", None)
+        obs_cols = list(getattr(model, "observable_names", ())) if self.observables else []
+        self.values = list(model.dof_names) + list(names_lin)
+        self.measures = measure_names(model.dof_names, 0, 0) + obs_cols
+        head = ["branch", "nu", parameter, "stable", "n_unstable", "max_multiplier", "lowest_eigenvalue"]
+        self.columns = head + self.values + self.measures + ["newton_iterations", "residual_norm"]
+        self.special_columns = ["branch", "kind", parameter, "index"] + self.values + \
+            ["stable", "n_unstable", "lowest_eigenvalue", "interval_lo", "interval_hi", "located", "detail"]
+        self.rows = CsvStream(outdir / "branches.csv", self.columns)
+        self.special = CsvStream(outdir / "special_points.csv", self.special_columns)
+        self.n_rows = 0
+        self.curves: dict = {}
+        self.special_list: list = []
+
+    def _values(self, x) -> dict:
+        from contin.measures import point_measures
+
+        out = {d: float(v) for d, v in zip(self.model.dof_names, x)}
+        for name, c in self.lin.items():
+            out[name] = float(np.asarray(c) @ x)
+        out.update(point_measures(x, self.model.n_dof, self.model.dof_names, 0))
+        if self.observables is not None:
+            out.update(self.observables(x, self.model.n_dof, 1))
+        return out
+
+    def point(self, bid, branch, i) -> None:
+        x = branch.unknowns[i]
+        pd = branch.point_data
+        row = {"branch": bid, "nu": 0, self.parameter: float(branch.parameter[i]), "stable": bool(pd["stable"][i]),
+               "n_unstable": int(pd["n_unstable"][i]), "lowest_eigenvalue": float(pd["lowest_eigenvalue"][i]),
+               "newton_iterations": int(branch.newton_iterations[i]),
+               "residual_norm": float(branch.residual_norms[i])}
+        row.update(self._values(x))
+        self.rows.write(row)
+        c = self.curves.setdefault(bid, {"rows": [], "offset": self.n_rows - i})
+        c["rows"].append(row)
+        self.n_rows += 1
+
+    def specials(self, bid, branch) -> None:
+        off = self.curves.get(bid, {}).get("offset", 0)
+        for sp in branch.special_points:
+            if sp.kind.value == "start":
+                continue
+            row = {"branch": bid, "kind": sp.kind.value, self.parameter: float(sp.parameter),
+                   "index": off + min(max(sp.index, 0), len(branch) - 1), "interval_lo": float(sp.interval[0]),
+                   "interval_hi": float(sp.interval[1]), "located": bool(sp.located), "detail": sp.message}
+            row.update({k: v for k, v in self._values(sp.unknowns).items() if k in self.values})
+            d = sp.point_data or {}
+            for k in ("stable", "n_unstable", "lowest_eigenvalue"):
+                if k in d:
+                    v = np.asarray(d[k]).item()
+                    row[k] = bool(v) if k == "stable" else (int(v) if k == "n_unstable" else float(v))
+            self.special.write(row)
+            self.special_list.append(row)
+
+    def close(self) -> None:
+        self.rows.close()
+        self.special.close()
+
+
+@register_analysis("static", STATIC)
+def run(ctx) -> dict:
+    """Run a ``static`` scene; returns its part of ``summary.json``."""
+    from contin.backbone import BackboneError, autonomous_model, dropped_excitations, static_equilibrium
+    from contin.continuation import ContinuationOptions, continuation
+    from contin.harmonic_balance import HarmonicBalance, HBOptions
+    from contin.runner import RunError
+
+    scene, model = ctx.scene, ctx.model
+    a = scene.analysis
+    param = a["parameter"]
+    if param not in model.parameters:
+        raise scene.error("analysis.parameter", f"a parameter of the model {list(model.parameters)}", param)
+    lam_a, lam_b = float(a["range"][0]), float(a["range"][1])
+    lo, hi = min(lam_a, lam_b), max(lam_a, lam_b)
+    lam0 = float(a["start"]) if a["start"] is not None else lam_a
+    if not lo <= lam0 <= hi:
+        raise scene.error("analysis.start", f"a value inside range [{lo:g}, {hi:g}]", lam0)
+    try:
+        auto = autonomous_model(model)
+        hb = HarmonicBalance(auto, param, HBOptions(harmonics=0))
+    except (BackboneError, ValueError) as exc:
+        raise SceneError("analysis", "a model with a static problem", None, hint=f": {exc}") from None
+    d = dict(a["continuation"])
+    d.setdefault("direction", 1 if (lam_b if lam0 != lam_b else lam_a) > lam0 else -1)
+    try:
+        opts = ContinuationOptions.from_dict(d)
+    except ValueError as exc:
+        raise SceneError("analysis.continuation", "valid continuation options", None, hint=f": {exc}") from None
+    t0 = time.perf_counter()
+    try:
+        x0 = static_equilibrium(auto, {param: lam0})
+    except BackboneError as exc:
+        raise RunError(f"no equilibrium at {param}={lam0:g}: {exc}") from None
+    def monitor(u, lam, Ju, Jlam):
+        return static_stability(Ju, auto.linear(hb.params_at(lam))[0])  # M may depend on the parameter
+
+    lin = dict(getattr(auto, "linear_observables", {}) or {})
+    rec = _StaticRecorder(ctx.outdir, auto, param, lin)
+    runs = [opts] + ([opts.replace(direction=-opts.direction)] if a["both_ways"] and lo < lam0 < hi else [])
+    branches = []
+    try:
+        for bid, o in enumerate(runs):
+            def callback(branch, i, bid=bid):
+                rec.point(bid, branch, i)
+                ctx.progress.update(f"static branch {bid}: {param}={branch.parameter[i]:.6g}, point {i}")
+                return not ctx.stop_requested
+
+            br = continuation(hb, x0, lam0, (lo, hi), o, parameter_name=param, monitors=[monitor], callback=callback)
+            rec.specials(bid, br)
+            branches.append(br)
+    finally:
+        rec.close()
+    ctx.timings["continuation"] = time.perf_counter() - t0
+    ctx.interrupted = ctx.interrupted or any(b.status.value == "interrupted" for b in branches)
+    measure = a["measure"] or (next(iter(lin)) if lin else model.dof_names[0])
+    if measure not in rec.values:
+        raise scene.error("analysis.measure", "a dof or linear observable among " + ", ".join(rec.values), measure)
+    ctx.plot = lambda: _plot(ctx, rec, param, measure)
+    return {
+        "parameter": param,
+        "measure": measure,
+        "dropped_excitations": dropped_excitations(model),
+        "equilibrium_at_start": {"parameter": lam0, "x": [float(v) for v in x0]},
+        "branches": [{"branch": i, "nu": 0, "points": len(b), "status": b.status.value, "message": b.message,
+                      "special_points": {k: sum(1 for s in b.special_points if s.kind.value == k)
+                                         for k in ("fold", "bp")}}
+                     for i, b in enumerate(branches)],
+        "rows": rec.n_rows,
+        "special_points": len(rec.special_list),
+    }
+
+
+def _plot(ctx, rec, param, measure):
+    from contin.plotting import bifurcation_diagram
+
+    out = ctx.scene.output
+    curves = []
+    for bid, c in rec.curves.items():
+        rows = c["rows"]
+        curves.append({"x": [r[measure] for r in rows], "y": [r[param] for r in rows],
+                       "stable": np.array([r["stable"] for r in rows], bool), "label": f"branch {bid}"})
+    special = [{"x": s[measure], "y": s[param], "kind": s["kind"]} for s in rec.special_list]
+    path = ctx.outdir / "static.png"
+    bifurcation_diagram(curves, special, measure, param, path, units=out["units"], labels=out["labels"],
+                        title=out["title"] or f"{ctx.model.name}: equilibria, {param} against {measure}")
+    return [path.name]
