@@ -47,6 +47,7 @@ import numpy as np
 import scipy.linalg
 
 from contin import aft
+from contin.measures import extremum_angle
 from contin.continuation import ContinuationOptions, continuation
 from contin.events import FunctionEvent
 from contin.harmonic_balance import HarmonicBalance, HBOptions
@@ -276,21 +277,7 @@ def _extremum(Y: np.ndarray, maximum: bool, samples: int) -> tuple[float, float]
     H = (Y.shape[0] - 1) // 2
     y, _ = aft.synthesize(np.ascontiguousarray(Y.reshape(-1, 1)), samples)
     j = int(np.argmax(y[:, 0]) if maximum else np.argmin(y[:, 0]))
-    th = 2 * np.pi * j / samples
-    a, b, k = Y[1::2], Y[2::2], np.arange(1, H + 1)
-    th0 = th
-    for _ in range(8):
-        c, s = np.cos(k * th), np.sin(k * th)
-        d1 = np.sum(k * (b * c - a * s))
-        d2 = -np.sum(k * k * (a * c + b * s))
-        if d2 == 0.0:
-            break
-        step = d1 / d2
-        th -= step
-        if abs(step) < 1e-15:
-            break
-    if abs(th - th0) > np.pi / max(H, 1):
-        th = th0
+    th = extremum_angle(Y[1::2], Y[2::2], np.arange(1, H + 1), 2 * np.pi * j / samples)
     return float(_basis(th, H) @ Y), th
 
 

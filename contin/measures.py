@@ -25,15 +25,13 @@ def measure_names(dof_names, harmonic_columns: int, H: int) -> list[str]:
     return names
 
 
-def _polish_extremum(a0, a, b, k, theta, sampled, maximum):
-    """Extremum of the Fourier series near ``theta`` by Newton on ``x'(theta) = 0``.
+def extremum_angle(a, b, k, theta: float) -> float:
+    """Angle of the extremum of ``sum a_k cos k th + b_k sin k th`` near ``theta``.
 
-    The sampled extremum is off by ``O((pi/N)^2)``; a few Newton steps on the
-    series make ``max``/``min``/``amp`` exact to rounding. Falls back to the
-    sampled value if Newton wanders.
+    Newton on ``x'(theta) = 0`` from a sampled extremum, which is off by
+    ``O((pi/N)^2)``; ``theta`` itself if Newton wanders farther than
+    ``pi / max(k)``.
     """
-    if k.size == 0:
-        return sampled
     th = theta
     for _ in range(8):
         c, s = np.cos(k * th), np.sin(k * th)
@@ -43,10 +41,19 @@ def _polish_extremum(a0, a, b, k, theta, sampled, maximum):
             break
         step = d1 / d2
         th -= step
-        if abs(step) < 1e-14:
+        if abs(step) < 1e-15:
             break
+    return th if abs(th - theta) <= np.pi / max(k.size, 1) else theta
+
+
+def _polish_extremum(a0, a, b, k, theta, sampled, maximum):
+    """Extremum of the Fourier series near ``theta`` (see :func:`extremum_angle`):
+    ``max``/``min``/``amp`` exact to rounding, the sampled value if Newton wanders."""
+    if k.size == 0:
+        return sampled
+    th = extremum_angle(a, b, k, theta)
     value = a0 + np.sum(a * np.cos(k * th) + b * np.sin(k * th))
-    if abs(th - theta) > np.pi / k.size or not np.isfinite(value):
+    if th == theta or not np.isfinite(value):
         return sampled
     # Newton converges to the nearby extremum; never report less than the samples show
     return max(value, sampled) if maximum else min(value, sampled)

@@ -230,6 +230,10 @@ def parse_scene(text: str, source: str = "<string>", overrides=()) -> Scene:
         raise SceneError("analysis.type", "one of " + ", ".join(repr(a) for a in schemas), atype,
                          lines.get("analysis.type"), hint=suggest(atype, schemas) if isinstance(atype, str) else "")
     analysis = check_section(analysis, schemas[atype], "analysis", lines)
+    if atype == "frequency_response":
+        start_schema = {k: FREQUENCY_RESPONSE[k] for k in START_KEYS}
+        for i, extra in enumerate(analysis["starts"]):
+            check_section(extra, start_schema, f"analysis.starts[{i}]", lines)
     output = data.get("output") or {}
     if not isinstance(output, dict):
         raise SceneError("output", "a mapping", output, lines.get("output"))

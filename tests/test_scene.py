@@ -86,3 +86,15 @@ def test_exponent_without_a_dot_is_a_number():
                         overrides=["analysis.continuation.ds=5E-3"])
     assert scene.model["parameters"]["F"] == 0.2
     assert scene.analysis["continuation"] == {"newton_tol": 1e-9, "ds": 5e-3}
+
+
+def test_further_starts_are_checked_with_the_scene():
+    base = "model: {builtin: duffing}\nanalysis: {type: frequency_response, range: [0.5, 2], starts: %s}\n"
+    scene = parse_scene(base % "[{start: 1.2, subharmonic: 2, harmonics: 6}]")
+    assert scene.analysis["starts"] == [{"start": 1.2, "subharmonic": 2, "harmonics": 6}]
+    with pytest.raises(SceneError, match=r"analysis.starts\[0\].strat.*did you mean 'start'"):
+        parse_scene(base % "[{strat: 1.2}]")
+    with pytest.raises(SceneError, match=r"analysis.starts\[1\].subharmonic.*expected an integer from 1 to 64, found 0"):
+        parse_scene(base % "[{start: 1.0}, {subharmonic: 0}]")
+    with pytest.raises(SceneError, match=r"analysis.starts.*expected a list of mappings"):
+        parse_scene(base % "[1.2]")

@@ -220,14 +220,13 @@ def _detail(sp) -> str:
 
 def _starts(scene):
     """The scene itself, then one scene per entry of ``analysis.starts`` (its keys override)."""
-    from contin.scene import START_KEYS, Scene, check_section, FREQUENCY_RESPONSE
+    from contin.scene import Scene
 
     yield "analysis", scene
     for i, extra in enumerate(scene.analysis["starts"]):
         key = f"analysis.starts[{i}]"
-        schema = {k: FREQUENCY_RESPONSE[k] for k in START_KEYS}
-        merged = dict(scene.analysis)
-        merged.update({k: v for k, v in check_section(extra, schema, key, scene.lines).items() if k in extra})
+        merged = dict(scene.analysis)  # the entry was checked with the scene (START_KEYS)
+        merged.update(extra)
         merged["starts"] = []
         yield key, Scene({**scene.data, "analysis": merged}, scene.source, scene.lines)
 

@@ -214,6 +214,28 @@ def _matmul_into(A, B, out):
 
 
 @nb.njit(cache=True)
+def _rk4_step(A0, A1, A2, Phi, h, k1, k2, k3, k4, tmp):
+    """One classical RK4 step of ``Phi' = A(t) Phi`` in place (``A1`` at the half step)."""
+    d = Phi.shape[0]
+    _matmul_into(A0, Phi, k1)
+    for i in range(d):
+        for j in range(d):
+            tmp[i, j] = Phi[i, j] + 0.5 * h * k1[i, j]
+    _matmul_into(A1, tmp, k2)
+    for i in range(d):
+        for j in range(d):
+            tmp[i, j] = Phi[i, j] + 0.5 * h * k2[i, j]
+    _matmul_into(A1, tmp, k3)
+    for i in range(d):
+        for j in range(d):
+            tmp[i, j] = Phi[i, j] + h * k3[i, j]
+    _matmul_into(A2, tmp, k4)
+    for i in range(d):
+        for j in range(d):
+            Phi[i, j] += h / 6.0 * (k1[i, j] + 2.0 * k2[i, j] + 2.0 * k3[i, j] + k4[i, j])
+
+
+@nb.njit(cache=True)
 def rk4_propagate(A, h):
     """Classical RK4 for ``Phi' = A(t) Phi``, ``Phi(0) = I``, over one period.
 
@@ -232,31 +254,9 @@ def rk4_propagate(A, h):
     S = A.shape[0] // 2
     d = A.shape[1]
     Phi = np.eye(d)
-    k1 = np.empty((d, d))
-    k2 = np.empty((d, d))
-    k3 = np.empty((d, d))
-    k4 = np.empty((d, d))
-    tmp = np.empty((d, d))
+    k1, k2, k3, k4, tmp = np.empty((d, d)), np.empty((d, d)), np.empty((d, d)), np.empty((d, d)), np.empty((d, d))
     for step in range(S):
-        A0 = A[2 * step]
-        A1 = A[2 * step + 1]
-        A2 = A[(2 * step + 2) % (2 * S)]
-        _matmul_into(A0, Phi, k1)
-        for i in range(d):
-            for j in range(d):
-                tmp[i, j] = Phi[i, j] + 0.5 * h * k1[i, j]
-        _matmul_into(A1, tmp, k2)
-        for i in range(d):
-            for j in range(d):
-                tmp[i, j] = Phi[i, j] + 0.5 * h * k2[i, j]
-        _matmul_into(A1, tmp, k3)
-        for i in range(d):
-            for j in range(d):
-                tmp[i, j] = Phi[i, j] + h * k3[i, j]
-        _matmul_into(A2, tmp, k4)
-        for i in range(d):
-            for j in range(d):
-                Phi[i, j] += h / 6.0 * (k1[i, j] + 2.0 * k2[i, j] + 2.0 * k3[i, j] + k4[i, j])
+        _rk4_step(A[2 * step], A[2 * step + 1], A[(2 * step + 2) % (2 * S)], Phi, h, k1, k2, k3, k4, tmp)
     return Phi
 
 
@@ -282,34 +282,11 @@ def rk4_segments(A, starts, steps, h, jumps):
     """
     d = A.shape[1]
     Phi = np.eye(d)
-    k1 = np.empty((d, d))
-    k2 = np.empty((d, d))
-    k3 = np.empty((d, d))
-    k4 = np.empty((d, d))
-    tmp = np.empty((d, d))
+    k1, k2, k3, k4, tmp = np.empty((d, d)), np.empty((d, d)), np.empty((d, d)), np.empty((d, d)), np.empty((d, d))
     for seg in range(steps.shape[0]):
-        hs = h[seg]
         for step in range(steps[seg]):
             j0 = starts[seg] + 2 * step
-            A0 = A[j0]
-            A1 = A[j0 + 1]
-            A2 = A[j0 + 2]
-            _matmul_into(A0, Phi, k1)
-            for i in range(d):
-                for j in range(d):
-                    tmp[i, j] = Phi[i, j] + 0.5 * hs * k1[i, j]
-            _matmul_into(A1, tmp, k2)
-            for i in range(d):
-                for j in range(d):
-                    tmp[i, j] = Phi[i, j] + 0.5 * hs * k2[i, j]
-            _matmul_into(A1, tmp, k3)
-            for i in range(d):
-                for j in range(d):
-                    tmp[i, j] = Phi[i, j] + hs * k3[i, j]
-            _matmul_into(A2, tmp, k4)
-            for i in range(d):
-                for j in range(d):
-                    Phi[i, j] += hs / 6.0 * (k1[i, j] + 2.0 * k2[i, j] + 2.0 * k3[i, j] + k4[i, j])
+            _rk4_step(A[j0], A[j0 + 1], A[j0 + 2], Phi, h[seg], k1, k2, k3, k4, tmp)
         _matmul_into(jumps[seg], Phi, tmp)
         for i in range(d):
             for j in range(d):
