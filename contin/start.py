@@ -67,10 +67,10 @@ def homotopy_start(hb: HarmonicBalance, lam0: float, parameter: str, soft_value:
     params[parameter] = soft_value
     easy = HarmonicBalance(model, parameter, hb.options, params)
     guess = np.asarray(guess, float)
-    if hb.options.crossings:
+    if hb.options.crossings != "none":
         # Newton's path from a rough guess wanders through states with many contact switches; the plain
         # sampled law gets there as reliably, and its solution is within O(1/N) of the resolved one
-        plain = HarmonicBalance(model, parameter, dataclasses.replace(hb.options, crossings=False), params)
+        plain = HarmonicBalance(model, parameter, dataclasses.replace(hb.options, crossings="none"), params)
         first = solve_at_parameter(plain, guess, soft_value, opts)
         if first.converged:
             guess = first.x
