@@ -32,6 +32,9 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("-q", "--quiet", action="store_true", help="no progress display")
     r.add_argument("--resume", action="store_true",
                    help="continue an interrupted run in OUTDIR from its last stored point")
+    r.add_argument("--budget", type=float, default=None, metavar="ERR",
+                   help="convergence scenes: recommend the cheapest setting whose errors are all <= ERR "
+                   "(the same as --set analysis.budget=ERR)")
     sw = sub.add_parser("sweep", help="run a scene at every point of a grid of values, on Dask",
                         description="Run SCENE once per point of the outer product of the --grid axes, each "
                         "point in OUTDIR/points/<name>, indexed in OUTDIR/sweep.csv. Points already complete "
@@ -130,6 +133,14 @@ def cmd_check(args) -> int:
         from contin.analyses.bifurcation_curve import describe
 
         print(describe(scene, model))
+    elif a["type"] == "convergence":
+        from contin.analyses.convergence import setting_label, settings_of
+
+        settings, iref = settings_of(a)
+        print(f"  the {a['base']['type']} analysis of analysis.base run at {len(settings)} settings of "
+              f"{', '.join(a['vary'])} ({a['combine']}); reference {setting_label(settings[iref], a['labels'])}")
+        print("  settings: " + "; ".join(setting_label(s, a["labels"]) for s in settings))
+        print("  quantities: " + ", ".join(q if isinstance(q, str) else q["type"] for q in a["quantities"]))
     elif a["type"] == "static":
         print(f"  equilibria (H = 0) in {a['parameter']} over {a['range']}; unknowns: {model.n_dof} dof")
     elif a["type"] == "backbone":
@@ -144,12 +155,23 @@ def cmd_run(args) -> int:
     from pathlib import Path
 
     from contin.runner import run_scene
-    from contin.scene import load_scene
+    from contin.scene import SceneError, load_scene
 
-    scene = load_scene(args.scene, args.overrides)
+    overrides = list(args.overrides)
+    if args.budget is not None:
+        import math
+
+        if not (math.isfinite(args.budget) and args.budget > 0):
+            raise SceneError("--budget", "a positive finite number (the largest error accepted)", args.budget)
+        overrides.append(f"analysis.budget={args.budget!r}")
+    scene = load_scene(args.scene, overrides)
+    if args.budget is not None and scene.analysis["type"] != "convergence":
+        raise SceneError("--budget", "a convergence scene (analysis.type: convergence)", scene.analysis["type"])
     outdir = Path(args.outdir) if args.outdir else Path("results") / Path(args.scene).stem
     summary = run_scene(scene, outdir, progress=not args.quiet, resume=args.resume)
     a = summary.get("analysis", {})
+    for line in a.get("table", []) if scene.analysis["type"] == "convergence" else []:
+        print(line)
     for b in a.get("branches", []):
         print(f"branch {b['branch']} (nu={b['nu']}): {b['points']} points, {b['status']}: {b['message']}")
     for c in a.get("curves", []):
