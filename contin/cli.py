@@ -163,10 +163,11 @@ def cmd_run(args) -> int:
 
         if not (math.isfinite(args.budget) and args.budget > 0):
             raise SceneError("--budget", "a positive finite number (the largest error accepted)", args.budget)
+        kind = load_scene(args.scene, overrides).analysis["type"]
+        if kind != "convergence":
+            raise SceneError("--budget", "a convergence scene (analysis.type: convergence)", kind)
         overrides.append(f"analysis.budget={args.budget!r}")
     scene = load_scene(args.scene, overrides)
-    if args.budget is not None and scene.analysis["type"] != "convergence":
-        raise SceneError("--budget", "a convergence scene (analysis.type: convergence)", scene.analysis["type"])
     outdir = Path(args.outdir) if args.outdir else Path("results") / Path(args.scene).stem
     summary = run_scene(scene, outdir, progress=not args.quiet, resume=args.resume)
     a = summary.get("analysis", {})

@@ -45,10 +45,11 @@ or of type names):
     else ``amp_`` of the first dof) over the rows of the selected branches
     (``branch``, ``nu``), refined by the vertex of the parabola through the
     largest stored row and its two neighbours along the branch (``refine``).
-``fold``
-    The parameter (or the column ``of``) of a located fold in
-    ``special_points.csv``: the ``index``-th fold in branch order (default
-    0), or the one nearest ``near`` (within ``window`` if given).
+``fold`` and ``special``
+    The parameter (or the column ``of``) of a located fold (for ``special``:
+    of the ``kind`` fold, pd, ns or bp) in ``special_points.csv``: the
+    ``index``-th in branch order (default 0), or the one nearest ``near``
+    (within ``window`` if given).
 ``stable_interval``
     Hull ``[from, to]`` of the parameter intervals where a stable solution of
     order ``nu`` exists (:func:`contin.sweep.stable_intervals`: each end at
@@ -126,7 +127,7 @@ CONVERGENCE = {
     "reference": Key("a mapping from setting paths of vary to values, or null",
                      lambda v: v is None or isinstance(v, dict), None),
     "quantities": Key("a non-empty list of quantities (type names or mappings with a type among "
-                      "peak, fold, stable_interval, value, static_deflection)", _quantities_ok, required=True),
+                      "peak, fold, special, stable_interval, value, static_deflection)", _quantities_ok, required=True),
     "error": string("relative", ERROR_KINDS),
     "budget": number(positive=True),
     "warmup": flag(True),
@@ -143,6 +144,9 @@ QUANTITIES = {
     "peak": {**_COMMON, **_SELECT, "measure": string(), "refine": flag(True)},
     "fold": {**_COMMON, **_SELECT, "index": Key("an integer >= 0", lambda v: isinstance(v, int) and v >= 0, 0),
              "near": number(), "window": number(positive=True), "of": string()},
+    "special": {**_COMMON, **_SELECT, "kind": string("fold", ("fold", "pd", "ns", "bp")),
+                "index": Key("an integer >= 0", lambda v: isinstance(v, int) and v >= 0, 0),
+                "near": number(), "window": number(positive=True), "of": string()},
     "stable_interval": {**_COMMON, "nu": Key("an integer >= 1", lambda v: isinstance(v, int) and v >= 1, 1),
                         "measure": string(), "min": number(),
                         "ends": listing(["from", "to"], lambda x: x in ("from", "to", "length"),
@@ -324,7 +328,7 @@ def normalize_quantity(q, i: int, base_type: str, lines: dict | None = None) -> 
     if base_type == "static" and qtype == "stable_interval":
         raise SceneError(f"{where}.type", "a quantity of a periodic-solution base (peak, fold, value, "
                          "static_deflection) for a static base", qtype)
-    if qtype == "fold" and out["near"] is not None and "index" in q:
+    if qtype in ("fold", "special") and out["near"] is not None and "index" in q:
         raise SceneError(where, "either index or near, not both", sorted(q))
     return out
 
@@ -341,12 +345,13 @@ def quantity_items(q: dict, ctx_defaults: dict) -> list[tuple[str, str]]:
         m = q["measure"] or ctx_defaults["measure"]
         base = q["name"] or f"peak_{m}"
         return [(_slug(base), f"peak of {m}")]
-    if t == "fold":
+    if t in ("fold", "special"):
         what = q["of"] or ctx_defaults["parameter"]
+        kind = q.get("kind", "fold")
         if q["near"] is not None:
-            base, desc = q["name"] or f"fold_near_{q['near']:g}", f"{what} at the fold nearest {q['near']:g}"
+            base, desc = q["name"] or f"{kind}_near_{q['near']:g}", f"{what} at the {kind} nearest {q['near']:g}"
         else:
-            base, desc = q["name"] or f"fold_{q['index']}", f"{what} at fold {q['index']}"
+            base, desc = q["name"] or f"{kind}_{q['index']}", f"{what} at {kind} {q['index']}"
         return [(_slug(base), desc)]
     if t == "stable_interval":
         base = q["name"] or f"stable_nu{q['nu']}"
@@ -409,28 +414,29 @@ def _peak(rows, q, measure, param, file):
 
 
 def _fold(rows, special, q, param, file):
+    kind = q.get("kind", "fold")
     kinds = list(special.get("kind", [])) if special else []
     what = q["of"] or param
     if not kinds:
         raise Missing("no special points")
     col = _column(special, what, "column", "special_points.csv")
     br = np.asarray(special["branch"])
-    keep = [j for j, k in enumerate(kinds) if k == "fold"]
+    keep = [j for j, k in enumerate(kinds) if k == kind]
     if q["branch"] is not None:
         keep = [j for j in keep if br[j] == q["branch"]]
     if q["nu"] is not None:
         nu_of = {int(b): int(n) for b, n in zip(rows["branch"], rows["nu"])}
         keep = [j for j in keep if nu_of.get(int(br[j])) == q["nu"]]
     if not keep:
-        raise Missing("no fold found")
+        raise Missing(f"no {kind} found")
     if q["near"] is not None:
         pv = _column(special, param, "parameter", "special_points.csv")
         j = min(keep, key=lambda j: abs(pv[j] - q["near"]))
         if q["window"] is not None and abs(pv[j] - q["near"]) > q["window"]:
-            raise Missing(f"no fold within {q['window']:g} of {q['near']:g} (nearest at {pv[j]:.6g})")
+            raise Missing(f"no {kind} within {q['window']:g} of {q['near']:g} (nearest at {pv[j]:.6g})")
         return float(col[j])
     if q["index"] >= len(keep):
-        raise Missing(f"fold {q['index']} asked, {len(keep)} found")
+        raise Missing(f"{kind} {q['index']} asked, {len(keep)} found")
     return float(col[keep[q["index"]]])
 
 
@@ -468,8 +474,23 @@ def _value(rows, q, measure, param, file):
     raise Missing(f"branch {q['branch']} does not reach {param} = {at:g}")
 
 
-def extract(run_dir: Path, quantities: list[dict], defaults: dict, table_file: str) -> tuple[dict, dict]:
+def extract(run_dir: Path, quantities: list[dict], defaults: dict, table_file: str,
+            strict: bool = False) -> tuple[dict, dict]:
     """Values of the quantities in one run directory.
+
+    Parameters
+    ----------
+    run_dir : Path
+        A finished run of the base analysis.
+    quantities : list of dict
+        Checked quantities (:func:`normalize_quantity`).
+    defaults : dict
+        ``parameter``, ``measure`` and ``static_measure`` of the base run.
+    table_file : str
+        ``branches.csv`` or ``simulation.csv``.
+    strict : bool
+        Raise ``KeyError`` for a named column the results do not have;
+        else such a quantity is missing at this run.
 
     Returns
     -------
@@ -481,7 +502,7 @@ def extract(run_dir: Path, quantities: list[dict], defaults: dict, table_file: s
     Raises
     ------
     KeyError
-        A named column that the results do not have (bad input, not a missing value).
+        With ``strict``, a named column that the results do not have.
     """
     from contin.results import read_csv
 
@@ -499,7 +520,7 @@ def extract(run_dir: Path, quantities: list[dict], defaults: dict, table_file: s
             t = q["type"]
             if t == "peak":
                 got = [_peak(rows, q, q["measure"] or defaults["measure"], param, table_file)]
-            elif t == "fold":
+            elif t in ("fold", "special"):
                 got = [_fold(rows, special, q, param, table_file)]
             elif t == "stable_interval":
                 got = _stable_interval(rows, special, q, param, table_file)
@@ -508,6 +529,10 @@ def extract(run_dir: Path, quantities: list[dict], defaults: dict, table_file: s
             values.update(zip(cols, got))
         except Missing as exc:
             missing.update({c: str(exc) for c in cols})
+        except KeyError as exc:
+            if strict:
+                raise
+            missing.update({c: exc.args[0] for c in cols})
     return values, missing
 
 
@@ -652,12 +677,19 @@ def run(ctx) -> dict:
             pass  # the timed run reports it
         ctx.timings["warmup"] = time.perf_counter() - t_all
 
+    first_complete = [True]
+
     def check_columns(run_dir):
+        """A column no run writes is bad input, found at the first complete run (``hK_`` columns exist from H = K)."""
+        if not first_complete[0]:
+            return
+        first_complete[0] = False
         try:
-            extract(run_dir, quantities, defaults, table_file)
+            extract(run_dir, quantities, defaults, table_file, strict=True)
         except KeyError as exc:
-            raise SceneError("analysis.quantities", "columns the base analysis writes", None,
-                             hint=f": {exc.args[0]}") from None
+            if not re.search(r"'h\d+_", exc.args[0]):
+                raise SceneError("analysis.quantities", "columns the base analysis writes", None,
+                                 hint=f": {exc.args[0]}") from None
 
     records = []
     for i, (s, label, sc) in enumerate(zip(settings, labels, scenes)):
