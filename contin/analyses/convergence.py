@@ -36,6 +36,9 @@ run (model build, start, continuation, stability, result files) with
 ``time.perf_counter``, after one untimed warm-up run of the first setting so
 that numba compilation and cache loading are not counted (``warmup: false``
 switches it off); with ``repeat: k`` the smallest of ``k`` timings is kept.
+The CPU time of the same run (``time.process_time``) is recorded too; ``cost:
+cpu_time`` makes it the cost axis of the plot and of the budget (on a machine
+shared with other jobs it varies less than the wall time).
 
 Quantities of interest (``quantities``, a list of mappings with a ``type``
 or of type names):
@@ -133,6 +136,7 @@ CONVERGENCE = {
     "warmup": flag(True),
     "repeat": int_range(1, 1, 20, "an integer"),
     "labels": mapping(),
+    "cost": string("wall_time", ("wall_time", "cpu_time")),
 }
 
 _COMMON = {"type": string(required=True), "name": string(), "error": string(None, ERROR_KINDS)}
@@ -546,7 +550,7 @@ def _error(v, ref, kind):
     return d
 
 
-def recommend(records: list[dict], columns: list[str], budget: float) -> dict:
+def recommend(records: list[dict], columns: list[str], budget: float, cost: str = "wall_time") -> dict:
     """The cheapest setting whose errors of all quantities are at most ``budget``.
 
     Parameters
@@ -557,11 +561,14 @@ def recommend(records: list[dict], columns: list[str], budget: float) -> dict:
     columns : list of str
         The quantity columns.
     budget : float
+    cost : str
+        ``wall_time`` or ``cpu_time``: the column that decides which setting is cheapest.
 
     Returns
     -------
     dict
-        ``budget``, ``setting`` (label or None), ``wall_time``, ``max_error``,
+        ``budget``, ``setting`` (label or None), the cost (``wall_time`` or
+        ``cpu_time``) of that setting, ``max_error``,
         ``message`` (one sentence saying what was found, or that no setting
         reaches the budget and which came closest).
     """
@@ -575,18 +582,18 @@ def recommend(records: list[dict], columns: list[str], budget: float) -> dict:
         if best is None or worst < best[1]:
             best = (r, worst)
         if worst <= budget:
-            passing.append((r["wall_time"], r, worst))
+            passing.append((r[cost], r, worst))
     if passing:
         t, r, worst = min(passing, key=lambda x: x[0])
-        return {"budget": budget, "setting": r["setting"], "wall_time": t, "max_error": worst,
+        return {"budget": budget, "setting": r["setting"], cost: t, "max_error": worst,
                 "message": f"cheapest setting with every error <= {budget:.3g}: {r['setting']} "
                            f"({t:.3g} s, largest error {worst:.2e})"}
     msg = f"no setting (the reference excluded: its own error is not measured) reaches every error <= {budget:.3g}"
     if best is not None:
-        msg += f"; the smallest largest error is {best[1]:.2e}, at {best[0]['setting']} ({best[0]['wall_time']:.3g} s)"
+        msg += f"; the smallest largest error is {best[1]:.2e}, at {best[0]['setting']} ({best[0][cost]:.3g} s)"
     else:
         msg += "; no setting has every quantity"
-    return {"budget": budget, "setting": None, "wall_time": None, "max_error": None if best is None else best[1],
+    return {"budget": budget, "setting": None, cost: None, "max_error": None if best is None else best[1],
             "message": msg}
 
 
@@ -600,13 +607,13 @@ def _fmt(v, err=False) -> str:
 
 def format_table(records: list[dict], items: list[tuple[str, str]], error_kinds: dict) -> list[str]:
     """The printed table: one line per setting, value and error of each quantity."""
-    head = ["setting", "time [s]"]
+    head = ["setting", "wall [s]", "cpu [s]"]
     for c, _ in items:
         head += [c, f"{'rel.' if error_kinds[c] == 'relative' else 'abs.'} error"]
     body = []
     for r in records:
         label = r["setting"] + (" (ref.)" if r["reference"] else "")
-        line = [label, f"{r['wall_time']:.3f}" if r["wall_time"] is not None else "-"]
+        line = [label] + [f"{r[k]:.3f}" if r[k] is not None else "-" for k in ("wall_time", "cpu_time")]
         for c, _ in items:
             line += [_fmt(r.get(c)), "-" if r["reference"] else _fmt(r.get(f"{c}_error"), True)]
         body.append(line)
@@ -748,7 +755,7 @@ def run(ctx) -> dict:
         csv.write({k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in r.items()})
     csv.close()
     budget = a["budget"]
-    recommendation = recommend(records, columns, budget) if budget is not None else None
+    recommendation = recommend(records, columns, budget, a["cost"]) if budget is not None else None
     ref_label = labels[iref]
     table = [f"convergence of the {btype} analysis; reference {ref_label}; wall time of each run after one "
              f"untimed warm-up run (numba compilation excluded)" if a["warmup"] else
@@ -757,7 +764,7 @@ def run(ctx) -> dict:
     table += format_table(records, items, kinds)
     if recommendation:
         table.append(recommendation["message"])
-    ctx.plot = lambda: _plot(ctx, records, items, kinds, budget, btype, ref_label)
+    ctx.plot = lambda: _plot(ctx, records, items, kinds, budget, btype, ref_label, a["cost"])
     return {
         "base": btype,
         "vary": vary_cols,
@@ -774,8 +781,9 @@ def run(ctx) -> dict:
     }
 
 
-def _plot(ctx, records, items, kinds, budget, btype, ref_label):
+def _plot(ctx, records, items, kinds, budget, btype, ref_label, cost):
     import matplotlib
+    import matplotlib.ticker
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -783,9 +791,10 @@ def _plot(ctx, records, items, kinds, budget, btype, ref_label):
     fig, ax = plt.subplots(figsize=(7.5, 5.2))
     markers = "osD^v<>ph*"
     drawn = 0
+    labelled: set = set()
     for k, (c, d) in enumerate(items):
-        pts = [(r["wall_time"], r[f"{c}_error"], r["setting"]) for r in records
-               if not r["reference"] and r["wall_time"] is not None and r.get(f"{c}_error") not in (None, 0.0)
+        pts = [(r[cost], r[f"{c}_error"], r["setting"]) for r in records
+               if not r["reference"] and r[cost] is not None and r.get(f"{c}_error") not in (None, 0.0)
                and math.isfinite(r[f"{c}_error"])]
         if not pts:
             continue
@@ -793,10 +802,16 @@ def _plot(ctx, records, items, kinds, budget, btype, ref_label):
         t, e, lab = zip(*pts)
         ax.loglog(t, e, marker=markers[k % len(markers)], label=f"{c} ({kinds[c]})")
         for ti, ei, li in zip(t, e, lab):
-            ax.annotate(li, (ti, ei), textcoords="offset points", xytext=(4, 3), fontsize=7)
+            if li not in labelled:  # the settings share their time: one label per setting
+                labelled.add(li)
+                ax.annotate(li, (ti, ei), textcoords="offset points", xytext=(4, 3), fontsize=7)
     if budget is not None:
         ax.axhline(budget, color="0.5", ls=":", lw=1, label=f"budget {budget:g}")
-    ax.set_xlabel("wall time per run [s]")
+    ax.set_xlabel(("wall" if cost == "wall_time" else "CPU") + " time per run [s]")
+    for axis in (ax.xaxis, ax.yaxis):
+        if axis is ax.xaxis or np.ptp(ax.get_ylim()) < 10:
+            axis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
+            axis.set_minor_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
     ax.set_ylabel("error against the reference")
     title = ctx.scene.output["title"] or f"{ctx.model.name}: {btype} accuracy against cost (reference {ref_label})"
     ax.set_title(title, fontsize=10)
