@@ -1,4 +1,4 @@
-"""The ``contin`` command: ``run``, ``sweep``, ``check``, ``models``, ``absorber`` and ``plot``.
+"""The ``contin`` command: ``run``, ``sweep``, ``check``, ``models``, ``absorber``, ``budget`` and ``plot``.
 
 Exit status: 0 on success, 1 when a run failed for numerical reasons (for
 ``sweep``: when at least one grid point failed; the sweep still runs every
@@ -76,6 +76,11 @@ def _parser() -> argparse.ArgumentParser:
                     help="with --max-amplification: put the fixed points (seed rule) or the true peak at A")
     ab.add_argument("--plot", metavar="FILE", default=None, help="save |X1|/delta_st against w (PNG, PDF, SVG)")
     ab.add_argument("--json", metavar="FILE", default=None, help="also write the design as JSON")
+    bu = sub.add_parser("budget", help="recommend a setting from a finished convergence run",
+                        description="Read OUTDIR/convergence.csv of a convergence run and print the cheapest "
+                        "setting whose errors are all <= ERR (the reference excluded), or say that none is.")
+    bu.add_argument("outdir", help="a result directory of `contin run` on a convergence scene")
+    bu.add_argument("error", type=float, metavar="ERR", help="largest error accepted")
     pl = sub.add_parser("plot", help="time history, orbit and spectrum of a stored point")
     pl.add_argument("outdir", help="a result directory of `contin run`")
     pl.add_argument("--point", type=int, required=True, metavar="ROW", help="row of branches.csv (0-based)")
@@ -184,6 +189,29 @@ def cmd_run(args) -> int:
     return EXIT_INTERRUPTED if summary["status"] == "interrupted" else EXIT_OK
 
 
+def cmd_budget(args) -> int:
+    import json
+    import math
+    from pathlib import Path
+
+    from contin.analyses.convergence import read_records, recommend
+    from contin.scene import SceneError
+
+    if not (math.isfinite(args.error) and args.error > 0):
+        raise SceneError("ERR", "a positive finite number (the largest error accepted)", args.error)
+    out = Path(args.outdir)
+    try:
+        summary = json.loads((out / "summary.json").read_text())
+        a = summary["analysis"]
+        columns, cost = a["columns"], a.get("cost", "wall_time")
+    except (OSError, ValueError, KeyError, TypeError):
+        raise SceneError(str(out), "the result directory of a finished convergence run (summary.json with "
+                         "its analysis)", None) from None
+    rec = recommend(read_records(out / "convergence.csv", columns), columns, args.error, cost)
+    print(rec["message"])
+    return EXIT_OK
+
+
 def cmd_absorber(args) -> int:
     import math
 
@@ -247,6 +275,8 @@ def main(argv=None) -> int:
             return cmd_check(args)
         if args.command == "absorber":
             return cmd_absorber(args)
+        if args.command == "budget":
+            return cmd_budget(args)
         if args.command == "plot":
             from contin.pointplot import plot_point
 

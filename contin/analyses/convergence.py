@@ -81,7 +81,8 @@ error over the quantities; empty when one is missing), ``missing``),
 points labelled by setting) and ``summary.json`` (``analysis.table``, the
 printed table; ``analysis.recommendation`` for ``budget`` or ``contin run
 --budget ERR``: the cheapest setting whose errors are all at most ``ERR``, the
-reference excluded since its own error is not measured).
+reference excluded since its own error is not measured; ``contin budget OUTDIR
+ERR`` gives the same from a finished run without running it again).
 """
 
 from __future__ import annotations
@@ -98,8 +99,8 @@ import numpy as np
 from contin.analyses import register_analysis
 from contin.schema import Key, SceneError, check_section, flag, int_range, is_number, listing, mapping, number, string
 
-__all__ = ["CONVERGENCE", "QUANTITIES", "run", "settings_of", "recommend", "quantity_items", "extract",
-           "format_table"]
+__all__ = ["CONVERGENCE", "QUANTITIES", "run", "settings_of", "recommend", "read_records", "quantity_items",
+           "extract", "format_table"]
 
 #: base analyses a convergence study can run, and the table their quantities read
 BASE_TABLES = {"frequency_response": "branches.csv", "static": "branches.csv", "backbone": "branches.csv",
@@ -597,6 +598,21 @@ def recommend(records: list[dict], columns: list[str], budget: float, cost: str 
             "message": msg}
 
 
+def read_records(path: Path, columns: list[str]) -> list[dict]:
+    """Rows of a ``convergence.csv`` as dicts for :func:`recommend` (empty cells as None)."""
+    import csv
+
+    out = []
+    with open(path, newline="") as fh:
+        for row in csv.DictReader(fh):
+            rec = {"setting": row["setting"], "reference": row["reference"] == "true", "status": row["status"]}
+            for k in ["wall_time", "cpu_time"] + [f"{c}_error" for c in columns]:
+                v = row.get(k, "")
+                rec[k] = float(v) if v not in ("", None) else None
+            out.append(rec)
+    return out
+
+
 def _fmt(v, err=False) -> str:
     if v is None:
         return "-"
@@ -709,7 +725,11 @@ def run(ctx) -> dict:
                 summary = run_scene(sc, run_dir, progress=False)
             except RunError as exc:
                 status, message = "failed", " ".join(str(exc).split())
+                wall, cpu = time.perf_counter() - t0, time.process_time() - c0  # the time spent until it failed
                 break
+            except SceneError as exc:  # a value the model refuses at run time (bad input, not a missing value)
+                raise SceneError("analysis.vary", "settings the base analysis accepts", label,
+                                 hint=f"; with them: {exc}") from None
             dt, dc = time.perf_counter() - t0, time.process_time() - c0
             if wall is None or dt < wall:
                 wall, cpu = dt, dc
@@ -724,7 +744,7 @@ def run(ctx) -> dict:
             check_columns(run_dir)
             vals, miss = extract(run_dir, quantities, defaults, table_file)
         else:
-            vals, miss = {}, {c: f"run {status}" + (f" ({message})" if message and message != status else "")
+            vals, miss = {}, {c: f"run {status}" + (f" ({message})" if message and message != "interrupted" else "")
                               for c in columns}
         rec.update(vals)
         rec["_missing"] = miss
@@ -744,7 +764,10 @@ def run(ctx) -> dict:
                 miss[c] = "reference has none" if ref is not None else "reference not run"
         errs = [r[f"{c}_error"] for c in columns]
         r["max_error"] = None if any(e is None for e in errs) else max(errs)
-        r["missing"] = "; ".join(f"{c}: {why}" for c, why in miss.items())
+        if len(miss) == len(columns) and len(set(miss.values())) == 1:
+            r["missing"] = "every quantity: " + next(iter(miss.values()))
+        else:
+            r["missing"] = "; ".join(f"{c}: {why}" for c, why in miss.items())
     vary_cols = list(a["vary"])
     header = ["setting"] + vary_cols + ["reference", "status", "wall_time", "cpu_time", "points"]
     for c in columns:
@@ -778,6 +801,7 @@ def run(ctx) -> dict:
         "table": table,
         "recommendation": recommendation,
         "columns": columns,
+        "cost": a["cost"],
     }
 
 

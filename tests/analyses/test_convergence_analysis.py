@@ -131,6 +131,12 @@ def test_duffing_h1_peak_is_the_closed_form_amplitude_and_errors_decay_spectrall
     cheapest = min(passing, key=lambda i: rows["wall_time"][i])
     assert rec["setting"] == rows["setting"][cheapest]
     assert rec["max_error"] <= 1e-5
+    capsys.readouterr()
+    # the same recommendation from the finished run, and a stricter budget that nothing meets
+    assert main(["budget", str(out), "1e-5"]) == 0
+    assert capsys.readouterr().out.strip() == rec["message"]
+    assert main(["budget", str(out), "1e-30"]) == 0
+    assert "no setting" in capsys.readouterr().out
 
 
 def test_clearance_contact_errors_decay_algebraically(tmp_path):
