@@ -276,7 +276,7 @@ def validate(data: dict, model: dict, analysis: dict, lines: dict) -> None:
 
     base = analysis["base"]
     btype = base.get("type")
-    if btype not in BASE_TABLES:
+    if not isinstance(btype, str) or btype not in BASE_TABLES:
         raise SceneError("analysis.base.type", "one of " + ", ".join(repr(t) for t in BASE_TABLES), btype,
                          lines.get("analysis.base.type"),
                          hint=suggest(btype, BASE_TABLES) if isinstance(btype, str) else "")
@@ -324,7 +324,7 @@ def normalize_quantity(q, i: int, base_type: str, lines: dict | None = None) -> 
     if isinstance(q, str):
         q = {"type": q}
     qtype = q.get("type")
-    if qtype not in QUANTITIES:
+    if not isinstance(qtype, str) or qtype not in QUANTITIES:
         raise SceneError(f"{where}.type", "one of " + ", ".join(QUANTITIES), qtype,
                          hint=suggest(qtype, QUANTITIES) if isinstance(qtype, str) else "")
     out = check_section(q, QUANTITIES[qtype], where, lines or {})
