@@ -77,8 +77,9 @@ def _parser() -> argparse.ArgumentParser:
     ab.add_argument("--plot", metavar="FILE", default=None, help="save |X1|/delta_st against w (PNG, PDF, SVG)")
     ab.add_argument("--json", metavar="FILE", default=None, help="also write the design as JSON")
     bu = sub.add_parser("budget", help="recommend a setting from a finished convergence run",
-                        description="Read OUTDIR/convergence.csv of a convergence run and print the cheapest "
-                        "setting whose errors are all <= ERR (the reference excluded), or say that none is.")
+                        description="Read OUTDIR/convergence.csv of a convergence run, print the cheapest "
+                        "setting whose errors are all <= ERR (the reference excluded) or say that none is, "
+                        "and redraw OUTDIR/convergence.png with ERR as a line.")
     bu.add_argument("outdir", help="a result directory of `contin run` on a convergence scene")
     bu.add_argument("error", type=float, metavar="ERR", help="largest error accepted")
     pl = sub.add_parser("plot", help="time history, orbit and spectrum of a stored point")
@@ -194,7 +195,7 @@ def cmd_budget(args) -> int:
     import math
     from pathlib import Path
 
-    from contin.analyses.convergence import read_records, recommend
+    from contin.analyses.convergence import read_records, recommend, replot
     from contin.scene import SceneError
 
     if not (math.isfinite(args.error) and args.error > 0):
@@ -209,6 +210,8 @@ def cmd_budget(args) -> int:
                          "its analysis)", None) from None
     rec = recommend(read_records(out / "convergence.csv", columns), columns, args.error, cost)
     print(rec["message"])
+    if summary.get("scene", {}).get("output", {}).get("plots", True):
+        print(f"plot: {replot(out, args.error)}")
     return EXIT_OK
 
 

@@ -82,7 +82,8 @@ points labelled by setting) and ``summary.json`` (``analysis.table``, the
 printed table; ``analysis.recommendation`` for ``budget`` or ``contin run
 --budget ERR``: the cheapest setting whose errors are all at most ``ERR``, the
 reference excluded since its own error is not measured; ``contin budget OUTDIR
-ERR`` gives the same from a finished run without running it again).
+ERR`` gives the same from a finished run without running it again, and redraws
+``convergence.png`` with that budget).
 """
 
 from __future__ import annotations
@@ -100,7 +101,7 @@ from contin.analyses import register_analysis
 from contin.schema import Key, SceneError, check_section, flag, int_range, is_number, listing, mapping, number, string
 
 __all__ = ["CONVERGENCE", "QUANTITIES", "run", "settings_of", "recommend", "read_records", "quantity_items",
-           "extract", "format_table"]
+           "extract", "format_table", "plot_convergence", "replot"]
 
 #: base analyses a convergence study can run, and the table their quantities read
 BASE_TABLES = {"frequency_response": "branches.csv", "static": "branches.csv", "backbone": "branches.csv",
@@ -805,12 +806,32 @@ def run(ctx) -> dict:
     }
 
 
-def _plot(ctx, records, items, kinds, budget, btype, ref_label, cost):
+def plot_convergence(path: Path, records: list[dict], items: list[tuple[str, str]], kinds: dict,
+                     budget: float | None, cost: str, title: str) -> None:
+    """Log-log error against time, one line per quantity, points labelled by setting.
+
+    Parameters
+    ----------
+    path : Path
+        The PNG to write.
+    records : list of dict
+        ``setting``, ``reference``, ``wall_time``, ``cpu_time`` and
+        ``<column>_error`` per setting (reference and zero errors are left out).
+    items : list of (str, str)
+        Quantity columns and descriptions.
+    kinds : dict
+        Column -> ``relative`` or ``absolute``.
+    budget : float or None
+        Drawn as a horizontal line.
+    cost : str
+        ``wall_time`` or ``cpu_time``: the horizontal axis.
+    title : str
+    """
     import matplotlib
-    import matplotlib.ticker
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import matplotlib.ticker
 
     fig, ax = plt.subplots(figsize=(7.5, 5.2))
     markers = "osD^v<>ph*"
@@ -818,7 +839,7 @@ def _plot(ctx, records, items, kinds, budget, btype, ref_label, cost):
     labelled: set = set()
     for k, (c, d) in enumerate(items):
         pts = [(r[cost], r[f"{c}_error"], r["setting"]) for r in records
-               if not r["reference"] and r[cost] is not None and r.get(f"{c}_error") not in (None, 0.0)
+               if not r["reference"] and r.get(cost) is not None and r.get(f"{c}_error") not in (None, 0.0)
                and math.isfinite(r[f"{c}_error"])]
         if not pts:
             continue
@@ -826,24 +847,61 @@ def _plot(ctx, records, items, kinds, budget, btype, ref_label, cost):
         t, e, lab = zip(*pts)
         ax.loglog(t, e, marker=markers[k % len(markers)], label=f"{c} ({kinds[c]})")
         for ti, ei, li in zip(t, e, lab):
-            if li not in labelled:  # the settings share their time: one label per setting
+            if li not in labelled:  # the quantities of a setting share its time: one label per setting
                 labelled.add(li)
                 ax.annotate(li, (ti, ei), textcoords="offset points", xytext=(4, 3), fontsize=7)
     if budget is not None:
         ax.axhline(budget, color="0.5", ls=":", lw=1, label=f"budget {budget:g}")
     ax.set_xlabel(("wall" if cost == "wall_time" else "CPU") + " time per run [s]")
-    for axis in (ax.xaxis, ax.yaxis):
-        if axis is ax.xaxis or np.ptp(ax.get_ylim()) < 10:
-            axis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
-            axis.set_minor_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
+    lo, hi = ax.get_xlim()
+    if hi < 10 * lo:  # less than a decade: plain numbers on the time axis
+        ax.xaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
+        ax.tick_params(axis="x", which="minor", labelsize=7)
     ax.set_ylabel("error against the reference")
-    title = ctx.scene.output["title"] or f"{ctx.model.name}: {btype} accuracy against cost (reference {ref_label})"
     ax.set_title(title, fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     if drawn or budget is not None:
         ax.legend(fontsize=8)
-    path = ctx.outdir / "convergence.png"
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def replot(outdir: Path, budget: float | None = None) -> Path:
+    """Draw ``convergence.png`` of a finished convergence run again.
+
+    Parameters
+    ----------
+    outdir : Path
+        The run's result directory.
+    budget : float, optional
+        Drawn as a line; by default the run's own budget, if it had one.
+
+    Returns
+    -------
+    Path
+        The PNG.
+    """
+    import json
+
+    outdir = Path(outdir)
+    summary = json.loads((outdir / "summary.json").read_text())
+    a = summary["analysis"]
+    items = [(q["column"], q["description"]) for q in a["quantities"]]
+    kinds = {q["column"]: q["error"] for q in a["quantities"]}
+    records = read_records(outdir / "convergence.csv", a["columns"])
+    if budget is None and a.get("recommendation"):
+        budget = a["recommendation"]["budget"]
+    title = (summary["scene"].get("output") or {}).get("title") or \
+        f"{summary['model']['name']}: {a['base']} accuracy against cost (reference {a['reference']})"
+    path = outdir / "convergence.png"
+    plot_convergence(path, records, items, kinds, budget, a.get("cost", "wall_time"), title)
+    return path
+
+
+def _plot(ctx, records, items, kinds, budget, btype, ref_label, cost):
+    title = ctx.scene.output["title"] or f"{ctx.model.name}: {btype} accuracy against cost (reference {ref_label})"
+    path = ctx.outdir / "convergence.png"
+    plot_convergence(path, records, items, kinds, budget, cost, title)
     return [path.name]

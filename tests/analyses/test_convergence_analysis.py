@@ -200,6 +200,36 @@ analysis:
     assert rows["w_at_p_s_30_error"][-1] == 0
 
 
+def test_stable_interval_of_the_mathieu_trivial_solution_against_scipy(tmp_path):
+    from scipy.special import mathieu_a, mathieu_b
+
+    text = """
+model:
+  builtin: mathieu
+  parameters: {eps: 0.4, c: 0.0, g: 0.0, w: 1.0}
+  effects: [parametric]
+analysis:
+  type: convergence
+  base:
+    type: frequency_response
+    parameter: delta
+    range: [-0.2, 0.4]
+    stability: hill
+    continuation: {ds_max: 0.05}
+  vary: {analysis.harmonics: [2, 3]}
+  reference: {analysis.harmonics: 10}
+  warmup: false
+  quantities: [{type: stable_interval, nu: 1, ends: [from, to, length]}]
+"""
+    rows, summary, out = run(tmp_path, text)
+    # x'' + (delta + eps cos t) x = 0 is stable between the transition curves a_0(q)/4 and b_1(q)/4, q = 2 eps
+    lo, hi = mathieu_a(0, 0.8) / 4, mathieu_b(1, 0.8) / 4
+    assert rows["stable_nu1_from"][-1] == pytest.approx(lo, abs=1e-9)
+    assert rows["stable_nu1_to"][-1] == pytest.approx(hi, abs=1e-9)
+    assert rows["stable_nu1_length"][-1] == pytest.approx(hi - lo, abs=2e-9)
+    assert rows["stable_nu1_to_error"][0] > 100 * rows["stable_nu1_to_error"][1] > 0
+
+
 BAD = [
     ({"analysis__vary": {"analysis.harmonix": [1, 3]}}, r"analysis\.vary\.analysis\.harmonix.*: expected a key of the "
                                                          r"frequency_response analysis.*did you mean 'harmonics'"),
