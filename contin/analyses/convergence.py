@@ -22,7 +22,8 @@ given under ``vary`` by their dotted path in the scene, for example
 
 Setting paths start with ``analysis.`` (a key of the base section, nested
 mappings allowed, e.g. ``analysis.continuation.newton_tol``,
-``analysis.stability_options.steps_per_period``) or ``model.`` (built-in
+``analysis.stability_options.steps_per_period``; not ``analysis.starts``: the
+start to study goes in the base section itself) or ``model.`` (built-in
 models: ``model.parameters.NAME``, ``model.options.NAME``; custom models any
 key, e.g. ``model.parameters.NAME``). With ``combine: product`` (the default)
 every combination of the lists is run, the last key varying fastest; with
@@ -108,7 +109,7 @@ BASE_TABLES = {"frequency_response": "branches.csv", "static": "branches.csv", "
                "simulate": "simulation.csv"}
 
 #: short names of settings in labels
-SHORT = {"harmonics": "H", "samples": "N", "subharmonic": "nu", "terms": "n"}
+SHORT = {"harmonics": "H", "samples": "N", "subharmonic": "nu", "terms": "n", "steps_per_period": "steps"}
 
 ERROR_KINDS = ("relative", "absolute")
 
@@ -303,6 +304,8 @@ def validate(data: dict, model: dict, analysis: dict, lines: dict) -> None:
             raise SceneError(f"analysis.labels.{path}", "a setting path of analysis.vary", path)
     for i, q in enumerate(analysis["quantities"]):
         normalize_quantity(q, i, btype, lines)
+    if not isinstance(data.get("output") or {}, dict):
+        return  # the scene check reports the output section
     settings, _ = settings_of(analysis)
     seen = set()
     for s in settings:
@@ -311,7 +314,7 @@ def validate(data: dict, model: dict, analysis: dict, lines: dict) -> None:
             raise SceneError("analysis.vary", "distinct settings", label, hint="; this setting appears twice")
         seen.add(label)
         try:
-            scene_from_data(variant_data({**data, "model": data["model"]}, s), "analysis.base")
+            scene_from_data(variant_data(data, s), "analysis.base")
         except SceneError as exc:
             raise SceneError("analysis.vary", "settings that each give a valid scene", label,
                              hint=f"; with them: {exc}") from None
@@ -373,9 +376,9 @@ class Missing(Exception):
 
 
 def _branch_rows(rows: dict, q: dict) -> np.ndarray:
-    n = len(rows.get("branch", []))
+    n = len(next(iter(rows.values()))) if rows else 0
     sel = np.ones(n, bool)
-    if q.get("branch") is not None:
+    if q.get("branch") is not None and "branch" in rows:
         sel &= np.asarray(rows["branch"]) == q["branch"]
     if q.get("nu") is not None and "nu" in rows:
         sel &= np.asarray(rows["nu"]) == q["nu"]
@@ -401,7 +404,7 @@ def _peak(rows, q, measure, param, file):
     best = float(m[i])
     if not q["refine"]:
         return best
-    b = rows["branch"]
+    b = rows["branch"] if "branch" in rows else np.zeros(len(m))
     if 0 < i < len(m) - 1 and b[i - 1] == b[i] == b[i + 1]:
         p = _column(rows, param, "parameter", file)
         pts = [(p[j], m[j]) for j in (i - 1, i, i + 1)]
@@ -699,6 +702,9 @@ def run(ctx) -> dict:
             run_scene(scenes[0], runs_dir / "warmup", progress=False)
         except RunError:
             pass  # the timed run reports it
+        except SceneError as exc:  # a value the model refuses at run time
+            raise SceneError("analysis.vary", "settings the base analysis accepts", labels[0],
+                             hint=f"; with them: {exc}") from None
         ctx.timings["warmup"] = time.perf_counter() - t_all
 
     first_complete = [True]

@@ -230,6 +230,26 @@ analysis:
     assert rows["stable_nu1_to_error"][0] > 100 * rows["stable_nu1_to_error"][1] > 0
 
 
+def test_time_integration_steps_converge_at_fourth_order(tmp_path):
+    text = """
+model:
+  builtin: duffing
+  parameters: {m: 1, c: 0.1, k: 1, g: 1, F: 0.5}
+  effects: [damping, cubic, forcing]
+analysis:
+  type: convergence
+  base: {type: simulate, parameter: w, values: [1.2], transient: 100, record: 4, samples_per_period: 16}
+  vary: {analysis.steps_per_period: [16, 32, 64, 128]}
+  reference: {analysis.steps_per_period: 2048}
+  quantities: [{type: value, measure: amp_x, at: 1.2}]
+"""
+    rows, summary, out = run(tmp_path, text)
+    assert list(rows["setting"])[:2] == ["steps=16", "steps=32"]
+    err = rows["amp_x_at_w_1_2_error"][:-1]
+    # classical Runge-Kutta: the error falls like steps^-4
+    assert np.polyfit(np.log(rows["analysis.steps_per_period"][:-1]), np.log(err), 1)[0] == pytest.approx(-4, abs=0.4)
+
+
 BAD = [
     ({"analysis__vary": {"analysis.harmonix": [1, 3]}}, r"analysis\.vary\.analysis\.harmonix.*: expected a key of the "
                                                          r"frequency_response analysis.*did you mean 'harmonics'"),
