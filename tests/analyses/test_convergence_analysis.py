@@ -134,7 +134,8 @@ def test_duffing_h1_peak_is_the_closed_form_amplitude_and_errors_decay_spectrall
     capsys.readouterr()
     # the same recommendation from the finished run, and a stricter budget that nothing meets
     assert main(["budget", str(out), "1e-5"]) == 0
-    assert capsys.readouterr().out.strip() == rec["message"]
+    printed = capsys.readouterr().out.splitlines()
+    assert printed[0] == rec["message"] and printed[1] == f"plot: {out / 'convergence.png'}"
     assert main(["budget", str(out), "1e-30"]) == 0
     assert "no setting" in capsys.readouterr().out
 
