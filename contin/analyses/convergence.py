@@ -742,6 +742,9 @@ def run(ctx) -> dict:
                 wall, cpu = dt, dc
             status = summary["status"]
             points = (summary.get("analysis") or {}).get("rows")
+            if points == 0:  # say why: the branches' own messages (a start that did not converge, ...)
+                message = "; ".join(str(b.get("message")) for b in (summary.get("analysis") or {}).get("branches", [])
+                                    if b.get("message"))
             if status != "complete":
                 message = "interrupted"
                 break
@@ -750,6 +753,8 @@ def run(ctx) -> dict:
         if status == "complete":
             check_columns(run_dir)
             vals, miss = extract(run_dir, quantities, defaults, table_file)
+            if points == 0 and message:
+                miss = {c: f"{why} ({message})" for c, why in miss.items()}
         else:
             vals, miss = {}, {c: f"run {status}" + (f" ({message})" if message and message != "interrupted" else "")
                               for c in columns}

@@ -170,7 +170,7 @@ def test_recommend_picks_the_cheapest_passing_row_and_says_when_none_passes():
 
 
 def test_missing_quantity_is_reported_not_a_crash(tmp_path, capsys):
-    text = DUFFING.replace("[1, 3, 5, 7]", "[1, 3]").replace("15}", "5}").replace(
+    text = DUFFING.replace("[1, 3, 5, 7]", "[1, 3]").replace("15}", "5}\n  warmup: false").replace(
         "- {type: peak, measure: amp_x}", "- {type: fold, index: 7, name: eighth_fold}")
     rows, summary, out = run(tmp_path, text, "--budget", "1e-2")
     printed = capsys.readouterr().out
