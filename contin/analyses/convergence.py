@@ -65,21 +65,26 @@ or of type names):
     A column (``measure``; for a static base its ``measure``) at the
     parameter value ``at`` on a branch (default 0): the first crossing of
     ``at`` along the branch, linearly interpolated between stored rows
-    (exact where ``at`` is the start of the branch). For a ``simulate`` base
-    the table is ``simulation.csv``.
+    (exact where ``at`` is the start of the branch or an end of ``range``,
+    where a branch ends exactly). For a ``simulate`` base the table is
+    ``simulation.csv`` and ``at`` one of its ``values``.
 
 The error of each quantity is ``|q - q_ref|``, divided by ``|q_ref|`` for
 ``error: relative`` (the default; per quantity too). A quantity a run does not
 produce (no fold, no stable interval, a failed run) is *missing*: its cells
 are empty and the ``missing`` column says why.
 
+Settings are labelled by the last part of their paths (``harmonics`` as
+``H``, ``samples`` as ``N``, ``terms`` as ``n``, ``steps_per_period`` as
+``steps``), or by the names given under ``labels`` (path -> name).
+
 Result files: ``convergence.csv`` (one row per setting: ``setting`` (label),
 the values of the ``vary`` paths, ``reference``, ``status``, ``wall_time``,
-``cpu_time`` (``time.process_time`` of the same run: less sensitive than the
-wall time to other jobs on a shared machine), ``points`` (rows written), each quantity and ``<quantity>_error``, ``max_error`` (the largest
-error over the quantities; empty when one is missing), ``missing``),
-``convergence.png`` (log-log error against wall time, one line per quantity,
-points labelled by setting) and ``summary.json`` (``analysis.table``, the
+``cpu_time``, ``points`` (rows written), each quantity and
+``<quantity>_error``, ``max_error`` (the largest error over the quantities;
+empty when one is missing), ``missing``, ``run`` (the run's directory) and
+``message`` (why a run failed)), ``convergence.png`` (log-log error against
+time, one line per quantity, points labelled by setting) and ``summary.json`` (``analysis.table``, the
 printed table; ``analysis.recommendation`` for ``budget`` or ``contin run
 --budget ERR``: the cheapest setting whose errors are all at most ``ERR``, the
 reference excluded since its own error is not measured; ``contin budget OUTDIR
