@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from scipy.optimize import brentq
+from scipy.optimize import brentq, minimize_scalar
 
 from contin.analyses.convergence import recommend
 from contin.cli import main
@@ -98,23 +98,21 @@ def test_duffing_h1_peak_is_the_closed_form_amplitude_and_errors_decay_spectrall
     rows, summary, out = duffing
     assert list(rows["analysis.harmonics"]) == [1, 3, 5, 7, 15]
     assert list(rows["reference"]) == [False] * 4 + [True]
-    # one-harmonic balance of x'' + c x' + k x + g x^3 = F cos(w t): the peak is where c w A = F and
-    # w^2 = k + 3/4 g A^2, i.e. c A sqrt(k + 3/4 g A^2) = F
+    # one-harmonic balance of x'' + c x' + k x + g x^3 = F cos(w t): [(k - w^2 + 3/4 g A^2)^2 + (c w)^2] A^2 = F^2;
+    # at the largest A, d/dw = 0 gives k - w^2 + 3/4 g A^2 = c^2/2, so (c^4/4 + c^2 w^2) A^2 = F^2 there
     c, k, g, F = 0.1, 1.0, 1.0, 0.5
-    a1 = brentq(lambda A: c * A * math.sqrt(k + 0.75 * g * A * A) - F, 0.1, 10)
-    assert rows["peak_amp_x"][0] == pytest.approx(a1, rel=2e-4)
-    # the fold of the one-harmonic amplitude equation, solved independently: w(A) on the upper branch
-    # w^2 = k + 3/4 g A^2 + sqrt(F^2/A^2 - c^2 w^2) ... is the largest w on the curve
+    a1 = brentq(lambda A: A * A * (c**4 / 4 + c * c * (k + 0.75 * g * A * A - c * c / 2)) - F * F, 0.1, 10)
+    assert rows["peak_amp_x"][0] == pytest.approx(a1, rel=1e-6)  # the peak between stored points, by a parabola
+    # the jump-down fold of the one-harmonic amplitude equation, solved independently: the largest w on the
+    # curve, w(A) taken on the side above the backbone w^2 = k + 3/4 g A^2
     def G(A, w):
         return ((k - w * w) * A + 0.75 * g * A**3) ** 2 + (c * w * A) ** 2 - F * F
 
-    ws = []
-    for A in np.linspace(1.5, a1, 4001):
-        try:
-            ws.append(brentq(lambda w: G(A, w), math.sqrt(k + 0.75 * g * A * A) - 1e-9, 3.0))
-        except ValueError:
-            pass
-    assert rows["fold_up"][0] == pytest.approx(max(ws), rel=1e-6)
+    def w_of(A):
+        return brentq(lambda w: G(A, w), math.sqrt(k + 0.75 * g * A * A) - 1e-9, 3.0)
+
+    best = minimize_scalar(lambda A: -w_of(A), bounds=(1.5, a1 - 1e-9), method="bounded", options={"xatol": 1e-12})
+    assert rows["fold_up"][0] == pytest.approx(-best.fun, rel=1e-10)
     # smooth (analytic) nonlinearity: log(error) falls linearly in H, by more than a decade per harmonic
     H = rows["analysis.harmonics"][:4]
     err = rows["fold_up_error"][:4]
