@@ -104,7 +104,7 @@ from pathlib import Path
 import numpy as np
 
 from contin.analyses import register_analysis
-from contin.schema import Key, SceneError, check_section, flag, int_range, is_number, listing, mapping, number, string
+from contin.schema import Key, SceneError, check_section, flag, int_range, listing, mapping, number, string
 
 __all__ = ["CONVERGENCE", "QUANTITIES", "run", "settings_of", "recommend", "read_records", "quantity_items",
            "extract", "format_table", "plot_convergence", "replot"]
@@ -677,7 +677,7 @@ def _defaults(scene, data) -> dict:
 @register_analysis("convergence", CONVERGENCE, validate)
 def run(ctx) -> dict:
     """Run a ``convergence`` scene; returns its part of ``summary.json``."""
-    from contin.results import CsvStream, write_json_atomic
+    from contin.results import CsvStream
     from contin.runner import RunError, run_scene
     from contin.scene import scene_from_data
 
@@ -753,8 +753,8 @@ def run(ctx) -> dict:
             if status != "complete":
                 message = "interrupted"
                 break
-        rec = {"setting": label, **{p: v for p, v in s.items()}, "reference": i == iref, "status": status,
-               "wall_time": wall, "cpu_time": cpu, "points": points, "run": str(run_dir.relative_to(ctx.outdir)), "message": message}
+        rec = {"setting": label, **s, "reference": i == iref, "status": status, "wall_time": wall, "cpu_time": cpu,
+               "points": points, "run": str(run_dir.relative_to(ctx.outdir)), "message": message}
         if status == "complete":
             check_columns(run_dir)
             vals, miss = extract(run_dir, quantities, defaults, table_file)

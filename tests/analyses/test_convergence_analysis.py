@@ -139,7 +139,7 @@ def test_duffing_h1_peak_is_the_closed_form_amplitude_and_errors_decay_spectrall
 
 
 def test_clearance_contact_errors_decay_algebraically(tmp_path):
-    rows, summary, out = run(tmp_path, GAP)
+    rows, _, _ = run(tmp_path, GAP)
     H = rows["analysis.harmonics"][:-1]
     err = rows["amp_x_at_w_2_error"][:-1]
     assert np.all(np.isfinite(err)) and np.all(err > 0)
@@ -170,7 +170,7 @@ def test_recommend_picks_the_cheapest_passing_row_and_says_when_none_passes():
 def test_missing_quantity_is_reported_not_a_crash(tmp_path, capsys):
     text = DUFFING.replace("[1, 3, 5, 7]", "[1, 3]").replace("15}", "5}\n  warmup: false").replace(
         "- {type: peak, measure: amp_x}", "- {type: fold, index: 7, name: eighth_fold}")
-    rows, summary, out = run(tmp_path, text, "--budget", "1e-2")
+    rows, summary, _ = run(tmp_path, text, "--budget", "1e-2")
     printed = capsys.readouterr().out
     assert "missing at H=1: eighth_fold: fold 7 asked, 2 found" in printed
     assert np.all(np.isnan(rows["eighth_fold"])) and np.all(np.isnan(rows["max_error"]))
@@ -193,7 +193,7 @@ analysis:
   warmup: false
   quantities: [{type: static_deflection, at: 30}]
 """
-    rows, summary, out = run(tmp_path, text)
+    rows, _, _ = run(tmp_path, text)
     assert round(rows["w_at_p_s_30"][1], 4) == 3.7643  # the belt paper's Table 1, n = 5
     assert list(rows["setting"]) == ["n=3", "n=5", "n=9"]
     assert rows["w_at_p_s_30_error"][-1] == 0
@@ -220,7 +220,7 @@ analysis:
   warmup: false
   quantities: [{type: stable_interval, nu: 1, ends: [from, to, length]}]
 """
-    rows, summary, out = run(tmp_path, text)
+    rows, _, _ = run(tmp_path, text)
     # x'' + (delta + eps cos t) x = 0 is stable between the transition curves a_0(q)/4 and b_1(q)/4, q = 2 eps
     lo, hi = mathieu_a(0, 0.8) / 4, mathieu_b(1, 0.8) / 4
     assert rows["stable_nu1_from"][-1] == pytest.approx(lo, abs=1e-9)
@@ -242,7 +242,7 @@ analysis:
   reference: {analysis.steps_per_period: 2048}
   quantities: [{type: value, measure: amp_x, at: 1.2}]
 """
-    rows, summary, out = run(tmp_path, text)
+    rows, _, _ = run(tmp_path, text)
     assert list(rows["setting"])[:2] == ["steps=16", "steps=32"]
     err = rows["amp_x_at_w_1_2_error"][:-1]
     # classical Runge-Kutta: the error falls like steps^-4
