@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numba as nb
 import numpy as np
 
-from contin import aft
+from contin import aft, crossings
 from contin.harmonics import coefficient_blocks, default_samples, sample_phases
 from contin.model import Model, suggest
 
@@ -47,11 +47,17 @@ class HBOptions:
         AFT sample count ``N`` per period (>= 2H+1). ``None`` takes
         :func:`contin.harmonics.default_samples` for the model's degree
         (``4H+1`` for cubic forces) and at least the model's ``min_samples``.
+    crossings : bool
+        Resolve the switches of contact laws inside their sample interval
+        (:mod:`contin.crossings`), so that the residual stays continuous when
+        a sample crosses a contact surface (grazing). Off: the plain sampled
+        law, whose residual jumps there when the law does.
     """
 
     harmonics: int = 5
     subharmonic: int = 1
     samples: int | None = None
+    crossings: bool = True
 
     def __post_init__(self):
         for name, lo in (("harmonics", 0), ("subharmonic", 1)):
@@ -64,6 +70,8 @@ class HBOptions:
                 raise ValueError(
                     f"HBOptions.samples must be an integer >= 2*harmonics+1 = {2 * self.harmonics + 1}, got {s!r}"
                 )
+        if not isinstance(self.crossings, (bool, np.bool_)):
+            raise ValueError(f"HBOptions.crossings must be true or false, got {self.crossings!r}")
 
     @classmethod
     def from_dict(cls, d: dict) -> "HBOptions":
@@ -190,6 +198,14 @@ class HarmonicBalance:
             np.zeros((self.N, self.n, self.n)),
             np.zeros((self.N, self.n, self.n)),
         )
+        # elements whose switches are resolved between samples (their law may jump on the surface)
+        self._switching = []
+        if options.crossings and self.H > 0:
+            for el in model.forces:
+                sw = el.switching_functions(np.zeros((0, self.n)), np.zeros((0, self.n)), np.zeros(0), self.p0)
+                if sw is not None and sw.difference_x is not None:
+                    self._switching.append(el)
+        self._crossings = []
         self.evaluations = 0
 
     # -- parameters -------------------------------------------------------
@@ -291,9 +307,9 @@ class HarmonicBalance:
         dfdx, dfdxd : ndarray, shape (N, n, n)
         """
         x, xd, _ = self.samples_of(u, lam)
-        return tuple(a.copy() for a in self._forces_at(x, xd, self.params_at(lam)))
+        return tuple(a.copy() for a in self._forces_at(x, xd, self.params_at(lam), u))
 
-    def _forces_at(self, x, xd, p):
+    def _forces_at(self, x, xd, p, u):
         """Nonlinear force and its derivatives at the samples, in the reused work arrays."""
         f, dfdx, dfdxd = self._work
         f[:] = 0.0
@@ -301,7 +317,34 @@ class HarmonicBalance:
         dfdxd[:] = 0.0
         for el in self.model.forces:
             el.evaluate(x, xd, self.tau, p, f, dfdx, dfdxd)
+        self._crossings = []
+        if self._switching:
+            U = np.ascontiguousarray(coefficient_blocks(u, self.n))
+            Omega = p[self.kw] / self.nu
+            for el in self._switching:
+                sw = el.switching_functions(x, xd, self.tau, p)
+                cr = crossings.locate_crossings(el, U, Omega, self.theta, sw.value, p)
+                if cr.t.size:
+                    coef = crossings.apply_crossings(cr.intervals, cr.sign, cr.t, sw.difference, sw.difference_x,
+                                                     sw.difference_xd, f, dfdx, dfdxd)
+                    self._crossings.append((el, sw, cr, coef))
         return f, dfdx, dfdxd
+
+    def _crossing_terms(self, x, xd, p, J, dfdp):
+        """Crossing terms of ``J`` and ``dfdp`` (see :mod:`contin.crossings`)."""
+        Omega = p[self.kw] / self.nu
+        for el, sw, cr, coef in self._crossings:
+            dtdU = crossings.crossing_gradients(cr.phi, cr.gx, cr.gxd, cr.slope, Omega, self.H)
+            crossings.add_crossing_jacobian(cr.intervals, coef, sw.difference, self.theta, dtdU, J)
+            dt = np.zeros(cr.t.size)
+            if self.k == self.kw:  # x' = (w/nu) dx/dtheta at the crossing
+                dt -= np.einsum("kq,kq->k", cr.gxd, cr.dx1) / self.nu / cr.slope
+            Lp = np.zeros((0, 1, 1))
+            if el.depends_on(self.k):
+                hp, Lp = el.switching_dp(x, xd, self.tau, p, self.k)
+                hpc, _ = el.switching_dp(cr.state[0], cr.state[1], cr.phi, p, self.k)
+                dt -= hpc[np.arange(cr.t.size), cr.intervals[:, 2]] / cr.slope
+            crossings.add_crossing_dp(cr.intervals, coef, sw.difference, Lp, dt, dfdp)
 
     # -- residual and Jacobian -------------------------------------------
     def residual(self, u: np.ndarray, lam: float) -> np.ndarray:
@@ -313,7 +356,7 @@ class HarmonicBalance:
         R = linear_apply(M, C, K, p[self.kw] / self.nu, U).reshape(-1) - fext
         if self.model.forces:
             x, xd, _ = self.samples_of(u, lam)
-            f, _, _ = self._forces_at(x, xd, p)
+            f, _, _ = self._forces_at(x, xd, p, u)
             R += aft.project(f, self.H).reshape(-1)
         self.evaluations += 1
         return R
@@ -337,11 +380,13 @@ class HarmonicBalance:
         Jlam = -dfext if dAu is None else dAu - dfext
         if self.model.forces:
             x, xd, xp = self.samples_of(u, lam)
-            f, dfdx, dfdxd = self._forces_at(x, xd, p)
+            f, dfdx, dfdxd = self._forces_at(x, xd, p, u)
             dfdp = np.zeros((self.N, self.n))
             for el in self.model.forces:
                 if el.depends_on(self.k):
                     el.evaluate_dp(x, xd, self.tau, p, self.k, dfdp)
+            if self._crossings:
+                self._crossing_terms(x, xd, p, J, dfdp)
             # when lambda is w, the velocity xdot = (w/nu) x'(theta) depends on it too
             Rn, Jn = aft.nonlinear_terms(f, dfdx, dfdxd, dfdp, xp, p[self.kw] / self.nu, self.nu, self.H,
                                          self.k == self.kw, J)

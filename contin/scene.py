@@ -62,6 +62,7 @@ FREQUENCY_RESPONSE = {
     "subharmonic": Key("an integer from 1 to 64", lambda v: is_int(v) and 1 <= v <= 64, 1),
     "samples": Key("an integer from 2*harmonics+1 to 2**20, or null",
                    lambda v: v is None or (is_int(v) and 3 <= v <= 2**20), None),
+    "crossings": Key("true or false", lambda v: isinstance(v, bool), True),
     "stability": string("both", ("hill", "floquet", "both", "none")),
     "stability_options": mapping(),
     "switch": listing([], lambda x: x in ("pd", "bp"), "a list of bifurcation kinds among 'pd', 'bp'"),
