@@ -79,7 +79,8 @@ Settings are labelled by the last part of their paths (``harmonics`` as
 ``steps``), or by the names given under ``labels`` (path -> name).
 
 Result files: ``convergence.csv`` (one row per setting: ``setting`` (label),
-the values of the ``vary`` paths, ``reference``, ``status``, ``wall_time``,
+the values of the ``vary`` paths, ``group`` (the values of all but the last
+path: one line of the plot each), ``reference``, ``status``, ``wall_time``,
 ``cpu_time``, ``points`` (rows written), each quantity and
 ``<quantity>_error``, ``max_error`` (the largest error over the quantities;
 empty when one is missing), ``missing``, ``run`` (the run's directory) and
@@ -614,7 +615,8 @@ def read_records(path: Path, columns: list[str]) -> list[dict]:
     out = []
     with open(path, newline="") as fh:
         for row in csv.DictReader(fh):
-            rec = {"setting": row["setting"], "reference": row["reference"] == "true", "status": row["status"]}
+            rec = {"setting": row["setting"], "group": row.get("group", ""), "reference": row["reference"] == "true",
+                   "status": row["status"]}
             for k in ["wall_time", "cpu_time"] + [f"{c}_error" for c in columns]:
                 v = row.get(k, "")
                 rec[k] = float(v) if v not in ("", None) else None
@@ -753,7 +755,9 @@ def run(ctx) -> dict:
             if status != "complete":
                 message = "interrupted"
                 break
-        rec = {"setting": label, **s, "reference": i == iref, "status": status, "wall_time": wall, "cpu_time": cpu,
+        group = setting_label({k: s[k] for k in list(s)[:-1]}, a["labels"])  # the lines of the plot
+        rec = {"setting": label, **s, "group": group, "reference": i == iref, "status": status, "wall_time": wall,
+               "cpu_time": cpu,
                "points": points, "run": str(run_dir.relative_to(ctx.outdir)), "message": message}
         if status == "complete":
             check_columns(run_dir)
@@ -786,7 +790,7 @@ def run(ctx) -> dict:
         else:
             r["missing"] = "; ".join(f"{c}: {why}" for c, why in miss.items())
     vary_cols = list(a["vary"])
-    header = ["setting"] + vary_cols + ["reference", "status", "wall_time", "cpu_time", "points"]
+    header = ["setting"] + vary_cols + ["group", "reference", "status", "wall_time", "cpu_time", "points"]
     for c in columns:
         header += [c, f"{c}_error"]
     header += ["max_error", "missing", "run", "message"]
@@ -824,14 +828,15 @@ def run(ctx) -> dict:
 
 def plot_convergence(path: Path, records: list[dict], items: list[tuple[str, str]], kinds: dict,
                      budget: float | None, cost: str, title: str) -> None:
-    """Log-log error against time, one line per quantity, points labelled by setting.
+    """Log-log error against time, one line per quantity (and per value of the other settings), points labelled.
 
     Parameters
     ----------
     path : Path
         The PNG to write.
     records : list of dict
-        ``setting``, ``reference``, ``wall_time``, ``cpu_time`` and
+        ``setting``, ``group`` (the values of the settings but the last: one
+        line each), ``reference``, ``wall_time``, ``cpu_time`` and
         ``<column>_error`` per setting (reference and zero errors are left out).
     items : list of (str, str)
         Quantity columns and descriptions.
@@ -853,19 +858,24 @@ def plot_convergence(path: Path, records: list[dict], items: list[tuple[str, str
     markers = "osD^v<>ph*"
     drawn = 0
     labelled: set = set()
+    groups = list(dict.fromkeys(r.get("group", "") for r in records))
+    styles = ["-", "--", ":", "-."]
     for k, (c, d) in enumerate(items):
-        pts = [(r[cost], r[f"{c}_error"], r["setting"]) for r in records
-               if not r["reference"] and r.get(cost) is not None and r.get(f"{c}_error") not in (None, 0.0)
-               and math.isfinite(r[f"{c}_error"])]
-        if not pts:
-            continue
-        drawn += 1
-        t, e, lab = zip(*pts)
-        ax.loglog(t, e, marker=markers[k % len(markers)], label=f"{c} ({kinds[c]})")
-        for ti, ei, li in zip(t, e, lab):
-            if li not in labelled:  # the quantities of a setting share its time: one label per setting
-                labelled.add(li)
-                ax.annotate(li, (ti, ei), textcoords="offset points", xytext=(4, 3), fontsize=7)
+        for g, group in enumerate(groups):
+            pts = [(r[cost], r[f"{c}_error"], r["setting"]) for r in records
+                   if r.get("group", "") == group and not r["reference"] and r.get(cost) is not None
+                   and r.get(f"{c}_error") not in (None, 0.0) and math.isfinite(r[f"{c}_error"])]
+            if not pts:
+                continue
+            drawn += 1
+            t, e, lab = zip(*pts)
+            name = f"{c} ({kinds[c]})" + (f", {group}" if group else "")
+            ax.loglog(t, e, marker=markers[(k + g) % len(markers)], ls=styles[g % len(styles)], label=name)
+            for ti, ei, li in zip(t, e, lab):
+                if li not in labelled:  # the quantities of a setting share its time: one label per setting
+                    labelled.add(li)
+                    short = li[len(group) + 2:] if group and li.startswith(group + ", ") else li
+                    ax.annotate(short, (ti, ei), textcoords="offset points", xytext=(4, 3), fontsize=7)
     if budget is not None:
         ax.axhline(budget, color="0.5", ls=":", lw=1, label=f"budget {budget:g}")
     ax.set_xlabel(("wall" if cost == "wall_time" else "CPU") + " time per run [s]")
