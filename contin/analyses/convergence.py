@@ -119,6 +119,9 @@ SHORT = {"harmonics": "H", "samples": "N", "subharmonic": "nu", "terms": "n", "s
 
 ERROR_KINDS = ("relative", "absolute")
 
+#: relative difference of two timings below which the budget counts them as equal
+TIME_TIE = 0.05
+
 
 def _vary_ok(v) -> bool:
     return isinstance(v, dict) and len(v) > 0 and all(
@@ -564,6 +567,10 @@ def _error(v, ref, kind):
 def recommend(records: list[dict], columns: list[str], budget: float, cost: str = "wall_time") -> dict:
     """The cheapest setting whose errors of all quantities are at most ``budget``.
 
+    Timings within :data:`TIME_TIE` (5 %) of the fastest passing one count as
+    equal (timing noise); among those the first in ``records`` (the coarsest
+    setting, as listed) is recommended.
+
     Parameters
     ----------
     records : list of dict
@@ -595,10 +602,13 @@ def recommend(records: list[dict], columns: list[str], budget: float, cost: str 
         if worst <= budget:
             passing.append((r[cost], r, worst))
     if passing:
-        t, r, worst = min(passing, key=lambda x: x[0])
+        fastest = min(t for t, _, _ in passing)
+        # timings within TIME_TIE of the fastest are equal within their noise: the first listed (coarsest) wins
+        t, r, worst = next(p for p in passing if p[0] <= (1 + TIME_TIE) * fastest)
+        tie = "" if t == fastest else f"; within {TIME_TIE:.0%} of the fastest, {fastest:.3g} s, so equal in cost"
         return {"budget": budget, "setting": r["setting"], cost: t, "max_error": worst,
                 "message": f"cheapest setting with every error <= {budget:.3g}: {r['setting']} "
-                           f"({t:.3g} s, largest error {worst:.2e})"}
+                           f"({t:.3g} s, largest error {worst:.2e}{tie})"}
     msg = f"no setting (the reference excluded: its own error is not measured) reaches every error <= {budget:.3g}"
     if best is not None:
         msg += f"; the smallest largest error is {best[1]:.2e}, at {best[0]['setting']} ({best[0][cost]:.3g} s)"
