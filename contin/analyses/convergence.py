@@ -84,7 +84,7 @@ path: one line of the plot each), ``reference``, ``status``, ``wall_time``,
 ``cpu_time``, ``points`` (rows written), each quantity and
 ``<quantity>_error``, ``max_error`` (the largest error over the quantities;
 empty when one is missing), ``missing``, ``run`` (the run's directory) and
-``message`` (why a run failed)), ``convergence.png`` (log-log error against
+``message`` (why a run failed, or why a branch ended before its range)), ``convergence.png`` (log-log error against
 time, one line per quantity, points labelled by setting) and ``summary.json`` (``analysis.table``, the
 printed table; ``analysis.recommendation`` for ``budget`` or ``contin run
 --budget ERR``: the cheapest setting whose errors are all at most ``ERR``, the
@@ -118,6 +118,9 @@ BASE_TABLES = {"frequency_response": "branches.csv", "static": "branches.csv", "
 SHORT = {"harmonics": "H", "samples": "N", "subharmonic": "nu", "terms": "n", "steps_per_period": "steps"}
 
 ERROR_KINDS = ("relative", "absolute")
+
+#: branch statuses that end a branch before its range (their messages explain a missing quantity)
+EARLY_ENDS = ("step_too_small", "start_failed", "newton_failed", "ill_conditioned")
 
 #: relative difference of two timings below which the budget counts them as equal
 TIME_TIE = 0.05
@@ -759,9 +762,10 @@ def run(ctx) -> dict:
                 wall, cpu = dt, dc
             status = summary["status"]
             points = (summary.get("analysis") or {}).get("rows")
-            if points == 0:  # say why: the branches' own messages (a start that did not converge, ...)
-                message = "; ".join(str(b.get("message")) for b in (summary.get("analysis") or {}).get("branches", [])
-                                    if b.get("message"))
+            # branches that ended early say why (a start that did not converge, a step that collapsed, ...)
+            message = "; ".join(f"branch {b.get('branch')}: {b.get('message')}"
+                                for b in (summary.get("analysis") or {}).get("branches", [])
+                                if b.get("status") in EARLY_ENDS and b.get("message"))
             if status != "complete":
                 message = "interrupted"
                 break
@@ -772,7 +776,7 @@ def run(ctx) -> dict:
         if status == "complete":
             check_columns(run_dir)
             vals, miss = extract(run_dir, quantities, defaults, table_file)
-            if points == 0 and message:
+            if message:
                 miss = {c: f"{why} ({message})" for c, why in miss.items()}
         else:
             vals, miss = {}, {c: f"run {status}" + (f" ({message})" if message and message != "interrupted" else "")
