@@ -1,4 +1,4 @@
-"""The ``contin`` command: ``run``, ``sweep``, ``check``, ``models``, ``absorber`` and ``plot``.
+"""The ``contin`` command: ``run``, ``sweep``, ``check``, ``models``, ``absorber``, ``budget`` and ``plot``.
 
 Exit status: 0 on success, 1 when a run failed for numerical reasons (for
 ``sweep``: when at least one grid point failed; the sweep still runs every
@@ -32,6 +32,9 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("-q", "--quiet", action="store_true", help="no progress display")
     r.add_argument("--resume", action="store_true",
                    help="continue an interrupted run in OUTDIR from its last stored point")
+    r.add_argument("--budget", type=float, default=None, metavar="ERR",
+                   help="convergence scenes: recommend the cheapest setting whose errors are all <= ERR "
+                   "(the same as --set analysis.budget=ERR)")
     sw = sub.add_parser("sweep", help="run a scene at every point of a grid of values, on Dask",
                         description="Run SCENE once per point of the outer product of the --grid axes, each "
                         "point in OUTDIR/points/<name>, indexed in OUTDIR/sweep.csv. Points already complete "
@@ -73,6 +76,12 @@ def _parser() -> argparse.ArgumentParser:
                     help="with --max-amplification: put the fixed points (seed rule) or the true peak at A")
     ab.add_argument("--plot", metavar="FILE", default=None, help="save |X1|/delta_st against w (PNG, PDF, SVG)")
     ab.add_argument("--json", metavar="FILE", default=None, help="also write the design as JSON")
+    bu = sub.add_parser("budget", help="recommend a setting from a finished convergence run",
+                        description="Read OUTDIR/convergence.csv of a convergence run, print the cheapest "
+                        "setting whose errors are all <= ERR (the reference excluded) or say that none is, "
+                        "and redraw OUTDIR/convergence.png with ERR as a line.")
+    bu.add_argument("outdir", help="a result directory of `contin run` on a convergence scene")
+    bu.add_argument("error", type=float, metavar="ERR", help="largest error accepted")
     pl = sub.add_parser("plot", help="time history, orbit and spectrum of a stored point")
     pl.add_argument("outdir", help="a result directory of `contin run`")
     pl.add_argument("--point", type=int, required=True, metavar="ROW", help="row of branches.csv (0-based)")
@@ -130,6 +139,14 @@ def cmd_check(args) -> int:
         from contin.analyses.bifurcation_curve import describe
 
         print(describe(scene, model))
+    elif a["type"] == "convergence":
+        from contin.analyses.convergence import setting_label, settings_of
+
+        settings, iref = settings_of(a)
+        print(f"  the {a['base']['type']} analysis of analysis.base run at {len(settings)} settings of "
+              f"{', '.join(a['vary'])} ({a['combine']}); reference {setting_label(settings[iref], a['labels'])}")
+        print("  settings: " + "; ".join(setting_label(s, a["labels"]) for s in settings))
+        print("  quantities: " + ", ".join(q if isinstance(q, str) else q["type"] for q in a["quantities"]))
     elif a["type"] == "static":
         print(f"  equilibria (H = 0) in {a['parameter']} over {a['range']}; unknowns: {model.n_dof} dof")
     elif a["type"] == "backbone":
@@ -144,12 +161,24 @@ def cmd_run(args) -> int:
     from pathlib import Path
 
     from contin.runner import run_scene
-    from contin.scene import load_scene
+    from contin.scene import SceneError, load_scene
 
-    scene = load_scene(args.scene, args.overrides)
+    overrides = list(args.overrides)
+    if args.budget is not None:
+        import math
+
+        if not (math.isfinite(args.budget) and args.budget > 0):
+            raise SceneError("--budget", "a positive finite number (the largest error accepted)", args.budget)
+        kind = load_scene(args.scene, overrides).analysis["type"]
+        if kind != "convergence":
+            raise SceneError("--budget", "a convergence scene (analysis.type: convergence)", kind)
+        overrides.append(f"analysis.budget={args.budget!r}")
+    scene = load_scene(args.scene, overrides)
     outdir = Path(args.outdir) if args.outdir else Path("results") / Path(args.scene).stem
     summary = run_scene(scene, outdir, progress=not args.quiet, resume=args.resume)
     a = summary.get("analysis", {})
+    for line in a.get("table", []) if scene.analysis["type"] == "convergence" else []:
+        print(line)
     for b in a.get("branches", []):
         print(f"branch {b['branch']} (nu={b['nu']}): {b['points']} points, {b['status']}: {b['message']}")
     for c in a.get("curves", []):
@@ -159,6 +188,31 @@ def cmd_run(args) -> int:
               + (f"; {found}" if found else ""))
     print(f"results in {outdir} ({summary['timings']['total']:.2f} s)")
     return EXIT_INTERRUPTED if summary["status"] == "interrupted" else EXIT_OK
+
+
+def cmd_budget(args) -> int:
+    import json
+    import math
+    from pathlib import Path
+
+    from contin.analyses.convergence import read_records, recommend, replot
+    from contin.scene import SceneError
+
+    if not (math.isfinite(args.error) and args.error > 0):
+        raise SceneError("ERR", "a positive finite number (the largest error accepted)", args.error)
+    out = Path(args.outdir)
+    try:
+        summary = json.loads((out / "summary.json").read_text())
+        a = summary["analysis"]
+        columns, cost = a["columns"], a.get("cost", "wall_time")
+    except (OSError, ValueError, KeyError, TypeError):
+        raise SceneError(str(out), "the result directory of a finished convergence run (summary.json with "
+                         "its analysis)", None) from None
+    rec = recommend(read_records(out / "convergence.csv", columns), columns, args.error, cost)
+    print(rec["message"])
+    if summary.get("scene", {}).get("output", {}).get("plots", True):
+        print(f"plot: {replot(out, args.error)}")
+    return EXIT_OK
 
 
 def cmd_absorber(args) -> int:
@@ -224,6 +278,8 @@ def main(argv=None) -> int:
             return cmd_check(args)
         if args.command == "absorber":
             return cmd_absorber(args)
+        if args.command == "budget":
+            return cmd_budget(args)
         if args.command == "plot":
             from contin.pointplot import plot_point
 

@@ -20,7 +20,7 @@ from contin.model import suggest
 from contin.schema import (Key, SceneError, anything, check_section, integer, is_int, is_number, listing,
                            mapping, number, string)
 
-__all__ = ["SceneError", "Scene", "load_scene", "parse_scene", "apply_override", "analysis_schemas", "SceneLoader"]
+__all__ = ["SceneError", "Scene", "load_scene", "parse_scene", "scene_from_data", "apply_override", "analysis_schemas", "SceneLoader"]
 
 
 class SceneLoader(yaml.SafeLoader):
@@ -213,7 +213,27 @@ def parse_scene(text: str, source: str = "<string>", overrides=()) -> Scene:
         raise SceneError("(top level)", "a mapping with the sections model, analysis, output", type(data).__name__)
     for ov in overrides:
         apply_override(data, ov)
-    lines = _line_map(text)
+    return scene_from_data(data, source, _line_map(text))
+
+
+def scene_from_data(data: dict, source: str = "<string>", lines: dict | None = None) -> Scene:
+    """Validate scene data already loaded (a mapping with ``model``, ``analysis``, ``output``).
+
+    Parameters
+    ----------
+    data : dict
+        The scene as loaded from YAML; not modified.
+    source : str
+        File name for messages.
+    lines : dict, optional
+        Dotted key to YAML line number.
+
+    Raises
+    ------
+    SceneError
+        On any schema violation.
+    """
+    lines = lines or {}
     for k in data:
         if k not in ("model", "analysis", "output"):
             raise SceneError(k, "one of the sections model, analysis, output", None, lines.get(k),
@@ -235,6 +255,10 @@ def parse_scene(text: str, source: str = "<string>", overrides=()) -> Scene:
         start_schema = {k: FREQUENCY_RESPONSE[k] for k in START_KEYS}
         for i, extra in enumerate(analysis["starts"]):
             check_section(extra, start_schema, f"analysis.starts[{i}]", lines)
+    from contin.analyses import ANALYSIS_VALIDATORS
+
+    if atype in ANALYSIS_VALIDATORS:
+        ANALYSIS_VALIDATORS[atype](data, model, analysis, lines)
     output = data.get("output") or {}
     if not isinstance(output, dict):
         raise SceneError("output", "a mapping", output, lines.get("output"))
