@@ -157,13 +157,35 @@ def multiplication_matrix(G, H, T, scale):
 
 
 @nb.njit(cache=True)
+def _fill_velocity_block(Ghat, N, H, n, a, b, Omega, J):
+    # Block of "multiply by G_ab, then by Omega d/dtheta" between dof a (rows) and dof b (columns):
+    # the columns of harmonic l of the block of _fill_block, combined as (a_l, b_l) <- Omega l (-b_l, a_l).
+    # Filled in place so that no second dense matrix is allocated and swept.
+    for k in range(H + 1):
+        h = 0.5 if k == 0 else 1.0
+        rc = (0 if k == 0 else 2 * k - 1) * n + a
+        rs = 2 * k * n + a
+        for l in range(1, H + 1):
+            s = Omega * l * h
+            cc = (2 * l - 1) * n + b
+            cs = 2 * l * n + b
+            Cm, Sm = _cs(Ghat, k - l, N)
+            Cp, Sp = _cs(Ghat, k + l, N)
+            J[rc, cc] -= s * (Sp - Sm)
+            J[rc, cs] += s * (Cm + Cp)
+            if k > 0:
+                J[rs, cc] -= s * (Cm - Cp)
+                J[rs, cs] += s * (Sp + Sm)
+
+
+@nb.njit(cache=True)
 def assemble_jacobian(dfdx, dfdxd, Omega, H, J):
     """Accumulate ``d proj(f(x, xdot)) / du`` into ``J``.
 
     ``xdot = Omega * D u`` with ``D`` the ``d/dtheta`` operator, whose action on
     harmonic ``l`` maps ``(a_l, b_l) -> (l b_l, -l a_l)``. Hence the velocity
     part is the matrix of ``dfdxd`` with columns ``a_l <- -Omega l (b_l column)``
-    and ``b_l <- Omega l (a_l column)``.
+    and ``b_l <- Omega l (a_l column)``, written straight into ``J``.
 
     Parameters
     ----------
@@ -173,21 +195,25 @@ def assemble_jacobian(dfdx, dfdxd, Omega, H, J):
     H : int
     J : ndarray, shape (n(2H+1), n(2H+1)), accumulated in place.
     """
+    N = dfdx.shape[0]
     n = dfdx.shape[1]
-    m = n * (2 * H + 1)
-    multiplication_matrix(dfdx, H, J, 1.0)
-    if np.max(np.abs(dfdxd)) == 0.0:
-        return
-    Tv = np.zeros((m, m))
-    multiplication_matrix(dfdxd, H, Tv, 1.0)
-    for r in range(m):  # row by row: the arrays are C-ordered
-        for l in range(1, H + 1):
-            s = Omega * l
-            for b in range(n):
-                ca = (2 * l - 1) * n + b
-                cb = 2 * l * n + b
-                J[r, ca] -= s * Tv[r, cb]
-                J[r, cb] += s * Tv[r, ca]
+    g = np.empty(N)
+    for a in range(n):
+        for b in range(n):
+            # skip uncoupled dof pairs (common for local contacts); a NaN counts as nonzero
+            hx = False
+            hv = False
+            for j in range(N):
+                hx = hx or dfdx[j, a, b] != 0.0
+                hv = hv or dfdxd[j, a, b] != 0.0
+            if hx:
+                for j in range(N):
+                    g[j] = dfdx[j, a, b]
+                _fill_block(np.fft.rfft(g), N, H, n, a, b, J, 1.0)
+            if hv:
+                for j in range(N):
+                    g[j] = dfdxd[j, a, b]
+                _fill_velocity_block(np.fft.rfft(g), N, H, n, a, b, Omega, J)
 
 
 @nb.njit(cache=True)

@@ -126,6 +126,28 @@ def linear_apply(M, C, K, Omega, U):
     return res
 
 
+@nb.njit(cache=True)
+def linear_apply_dOmega(M, C, Omega, U):
+    """``(dA/dOmega) u`` block by block, shape (2H+1, n): ``-2 k^2 Omega M`` on the diagonal, ``k C`` off it."""
+    n = M.shape[0]
+    H = (U.shape[0] - 1) // 2
+    res = np.zeros((2 * H + 1, n))
+    for k in range(1, H + 1):
+        for i in range(n):
+            sa = 0.0
+            sb = 0.0
+            for j in range(n):
+                d = -2.0 * k * k * Omega * M[i, j]
+                g = k * C[i, j]
+                a = U[2 * k - 1, j]
+                b = U[2 * k, j]
+                sa += d * a + g * b
+                sb += d * b - g * a
+            res[2 * k - 1, i] = sa
+            res[2 * k, i] = sb
+    return res
+
+
 class HarmonicBalance:
     """The residual ``R(u, lambda)`` of a model's periodic solutions.
 
@@ -185,11 +207,23 @@ class HarmonicBalance:
         # M, C, K are fixed during a run unless they depend on lambda: split once
         self._lin_parts = None if self._linear_depends_on_lambda() else self._split_linear(self.p0)
         self._MCK = self.model.linear(self.p0)
+        # only p[k] = lambda changes during a run: sum the terms of M, C, K that do not depend on it
+        # once, and keep the few that do (the gyroscopic ip*w of the rotor) for each evaluation
+        self._lin_fixed, self._lin_terms = [], []
+        for mat in (model.mass, model.damping, model.stiffness):
+            fixed = np.zeros((self.n, self.n))
+            for mono, A in mat.terms:
+                if not mono.depends_on(self.k):
+                    fixed += mono.value(self.p0) * A
+            self._lin_fixed.append(fixed)
+            self._lin_terms.append([(mono, A) for mono, A in mat.terms if mono.depends_on(self.k)])
         self._work = (
             np.zeros((self.N, self.n)),
             np.zeros((self.N, self.n, self.n)),
             np.zeros((self.N, self.n, self.n)),
         )
+        # forces with an explicit lambda dependence, found once rather than at every linearisation
+        self._dp_forces = [el for el in model.forces if el.depends_on(self.k)]
         self.evaluations = 0
 
     # -- parameters -------------------------------------------------------
@@ -234,22 +268,42 @@ class HarmonicBalance:
         A0, A1, A2 = self._lin_parts
         return A0 + Omega * A1 + Omega * Omega * A2
 
-    def _linear_dp_times(self, p: np.ndarray, u: np.ndarray):
-        """``(dA/dlambda) u``, shape (size,), without forming ``dA``; None if ``A`` does not depend on lambda."""
+    def _linear_mck(self, p: np.ndarray):
+        """``(M, C, K)`` at ``p = params_at(lambda)``, from the parts split at construction."""
+        if self._lin_parts is not None:
+            return self._MCK
+        out = []
+        for fixed, terms in zip(self._lin_fixed, self._lin_terms):
+            mat = fixed.copy()
+            for mono, A in terms:
+                mat += mono.value(p) * A
+            out.append(mat)
+        return tuple(out)
+
+    def _linear_mck_dp(self, p: np.ndarray):
+        """``d(M, C, K)/dlambda`` at ``p = params_at(lambda)`` (only the terms that depend on lambda)."""
+        out = []
+        for terms in self._lin_terms:
+            mat = np.zeros((self.n, self.n))
+            for mono, A in terms:
+                mat += mono.derivative(p, self.k) * A
+            out.append(mat)
+        return tuple(out)
+
+    def _linear_dp_times(self, p: np.ndarray, U: np.ndarray, MCK=None):
+        """``(dA/dlambda) u``, shape (size,), block by block from ``U`` (the ``(2H+1, n)`` view of ``u``)
+        without forming ``dA``; None if ``A`` does not depend on lambda."""
         Omega = p[self.kw] / self.nu
-        U = np.ascontiguousarray(coefficient_blocks(u, self.n))
+        out = None
         if self._lin_parts is None:
-            M, C, K = self.model.linear(p)
-            dM, dC, dK = self.model.linear_dp(p, self.k)
+            dM, dC, dK = self._linear_mck_dp(p)
             out = linear_apply(dM, dC, dK, Omega, U)
-            if self.k == self.kw:
-                # d/dOmega of [K - k^2 Omega^2 M, k Omega C] is A at Omega = 1 with M -> 2 Omega M, K -> 0
-                out += linear_apply(2.0 * Omega * M, C, np.zeros_like(K), 1.0, U) / self.nu
-            return out.reshape(-1)
-        if self.k != self.kw:
-            return None  # the linear part does not depend on lambda
-        _, A1, A2 = self._lin_parts
-        return (A1 @ u + 2.0 * Omega * (A2 @ u)) / self.nu
+        if self.k == self.kw:
+            M, C, _ = self._linear_mck(p) if MCK is None else MCK
+            dw = linear_apply_dOmega(M, C, Omega, U)
+            dw /= self.nu  # dOmega/dw
+            out = dw if out is None else out + dw
+        return None if out is None else out.reshape(-1)
 
     # -- excitation -------------------------------------------------------
     def excitation(self, p: np.ndarray):
@@ -308,7 +362,7 @@ class HarmonicBalance:
         """``R(u, lambda)``, shape (size,)."""
         p = self.params_at(lam)
         fext, _ = self.excitation(p)
-        M, C, K = self.model.linear(p) if self._lin_parts is None else self._MCK
+        M, C, K = self._linear_mck(p)
         U = np.ascontiguousarray(coefficient_blocks(u, self.n))
         R = linear_apply(M, C, K, p[self.kw] / self.nu, U).reshape(-1) - fext
         if self.model.forces:
@@ -331,20 +385,25 @@ class HarmonicBalance:
         """
         p = self.params_at(lam)
         fext, dfext = self.excitation(p)
-        J = self.linear_matrix(p)
-        R = J @ u - fext
-        dAu = self._linear_dp_times(p, u)
+        MCK = self._linear_mck(p)
+        M, C, K = MCK
+        Omega = p[self.kw] / self.nu
+        U = np.ascontiguousarray(coefficient_blocks(u, self.n))
+        # the linear part block by block, O(n^2 H): no dense A0 + Omega A1 + Omega^2 A2 nor dense products
+        J = np.zeros((self.size, self.size))
+        linear_operator(M, C, K, Omega, self.H, J, False)
+        R = linear_apply(M, C, K, Omega, U).reshape(-1) - fext
+        dAu = self._linear_dp_times(p, U, MCK)
         Jlam = -dfext if dAu is None else dAu - dfext
         if self.model.forces:
-            x, xd, xp = self.samples_of(u, lam)
+            x, xp = aft.synthesize(U, self.N)
+            xd = Omega * xp
             f, dfdx, dfdxd = self._forces_at(x, xd, p)
             dfdp = np.zeros((self.N, self.n))
-            for el in self.model.forces:
-                if el.depends_on(self.k):
-                    el.evaluate_dp(x, xd, self.tau, p, self.k, dfdp)
+            for el in self._dp_forces:
+                el.evaluate_dp(x, xd, self.tau, p, self.k, dfdp)
             # when lambda is w, the velocity xdot = (w/nu) x'(theta) depends on it too
-            Rn, Jn = aft.nonlinear_terms(f, dfdx, dfdxd, dfdp, xp, p[self.kw] / self.nu, self.nu, self.H,
-                                         self.k == self.kw, J)
+            Rn, Jn = aft.nonlinear_terms(f, dfdx, dfdxd, dfdp, xp, Omega, self.nu, self.H, self.k == self.kw, J)
             R += Rn
             Jlam += Jn
         self.evaluations += 1

@@ -17,7 +17,6 @@ import dataclasses
 from typing import Callable
 
 import numpy as np
-from scipy.linalg import lu_solve
 from scipy.linalg.lapack import get_lapack_funcs
 
 __all__ = [
@@ -34,7 +33,7 @@ __all__ = [
 NUMERICAL_ERRORS = (ArithmeticError, np.linalg.LinAlgError)
 
 
-_GETRF_GECON_D = get_lapack_funcs(("getrf", "gecon"), (np.empty((1, 1)),))
+_GETRF, _GECON, _GETRS = get_lapack_funcs(("getrf", "gecon", "getrs"), (np.empty((1, 1)),))
 
 
 class SingularMatrixError(np.linalg.LinAlgError):
@@ -73,8 +72,17 @@ class LUFactor:
     def solve(self, b: np.ndarray) -> np.ndarray:
         """Solve ``A x = b``; ``b`` has shape (n,) or (n, k)."""
         b = np.asarray(b, dtype=float)
+        if b.shape[:1] != (self.lu.shape[0],) or b.ndim > 2:
+            raise ValueError(f"LUFactor.solve: right-hand side of shape {b.shape} for a matrix of order {self.n}")
         rb = self.row_scale * b if b.ndim == 1 else self.row_scale[:, None] * b
-        return lu_solve((self.lu, self.piv), rb, check_finite=False)
+        if rb.size == 0:
+            return rb
+        # LAPACK getrs directly: scipy.linalg.lu_solve adds checks and copies that cost as much as
+        # the solve itself for the small systems of low harmonic counts
+        x, info = _GETRS(self.lu, self.piv, rb, overwrite_b=True)
+        if info != 0:  # pragma: no cover - invalid argument, cannot happen here
+            raise ValueError(f"LAPACK getrs failed (info={info})")
+        return x
 
     @property
     def det_sign(self) -> int:
@@ -116,27 +124,34 @@ def factorize(a: np.ndarray, *, equilibrate: bool = True) -> LUFactor:
     a = np.asarray(a, dtype=float)
     if a.ndim != 2 or a.shape[0] != a.shape[1]:
         raise ValueError(f"factorize expects a square matrix, got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise SingularMatrixError("non-finite entries in the matrix")
     n = a.shape[0]
+    if n == 0:
+        return LUFactor(lu=np.zeros((0, 0), order="F"), piv=np.zeros(0, dtype=np.int32), row_scale=np.ones(0),
+                        rcond=float("inf"))
+    # one pass over |a| gives the finiteness check (a NaN or inf propagates into its row's
+    # maximum), the row scaling and, through one matrix-vector product, the 1-norm
+    absa = np.abs(a)
+    rmax = absa.max(axis=1)
+    if not np.all(np.isfinite(rmax)):
+        raise SingularMatrixError("non-finite entries in the matrix")
     if equilibrate:
-        rmax = np.max(np.abs(a), axis=1) if n else np.ones(0)
         zero = np.flatnonzero(rmax == 0.0)
         if zero.size:
             raise SingularMatrixError(f"zero row {int(zero[0])}")
         row_scale = 1.0 / rmax
-        work = a * row_scale[:, None]
     else:
         row_scale = np.ones(n)
-        work = a.copy()
-    getrf, gecon = _GETRF_GECON_D if work.dtype == np.float64 else get_lapack_funcs(("getrf", "gecon"), (work,))
-    anorm = float(np.max(np.sum(np.abs(work), axis=0))) if n else 0.0
-    lu, piv, info = getrf(work, overwrite_a=True)
+    # getrf works in place on a Fortran-ordered array; handed a C-ordered one, f2py makes a
+    # transposed copy that cost as much as the factorisation itself for orders of a few hundred
+    work = np.empty((n, n), order="F")
+    np.multiply(a, row_scale[:, None], out=work)
+    anorm = float(np.max(row_scale @ absa))
+    lu, piv, info = _GETRF(work, overwrite_a=True)
     if info > 0:
         raise SingularMatrixError(f"zero pivot in column {info - 1}")
     if info < 0:  # pragma: no cover - invalid argument, cannot happen here
         raise SingularMatrixError(f"LAPACK getrf failed (info={info})")
-    rcond, _ = gecon(lu, anorm, norm="1")
+    rcond, _ = _GECON(lu, anorm, norm="1")
     return LUFactor(lu=lu, piv=piv, row_scale=row_scale, rcond=float(rcond))
 
 

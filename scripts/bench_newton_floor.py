@@ -1,0 +1,217 @@
+"""Benchmark: one Newton iteration against its cost floor, and how both grow with H.
+
+One iteration of the continuation corrector is what the engine does per
+update: the residual and the analytic Jacobians of the harmonic-balance
+problem (:meth:`contin.harmonic_balance.HarmonicBalance.linearize`), the
+scaled bordered matrix ``[Ju su, Jlam sl; t]`` of pseudo-arclength
+continuation, its LU factorisation with condition estimate
+(:func:`contin.newton.factorize`) and the solve for the update. Its floor is
+what no implementation of the method can avoid: one dense LU of a matrix of
+the same order (:func:`scipy.linalg.lu_factor`) plus the real FFTs of the
+sampled state (``numpy.fft.irfft`` to the ``N`` samples of the ``n`` dofs and
+``numpy.fft.rfft`` back). The ratio iteration / floor is printed for the
+bearing rotor (at a converged harmonic solution at ``w = 2.16``, paper
+values, ``N = 2^ceil(log2(25 H))`` samples as in ``scenes/rotor_f0_05.yaml``)
+at ``H = 10, 20, 40, 80`` and for the forced Duffing oscillator, with the
+breakdown of the iteration (linearize / bordered matrix / factorize / solve)
+so that a ratio above the target of 3 shows where the time goes.
+
+The second table is the cost per Newton iteration and per continuation point
+of the rotor as ``H`` grows, with the exponent of the growth between
+successive ``H`` against the ``O((nH)^3)`` of the LU: where the measured
+exponent is below 3 the ``O(n^2 N log N + (nH)^2)`` evaluation still
+dominates, where it reaches 3 the iteration sits on the LU floor.
+
+Every figure is measured in this run, side by side, with one BLAS thread.
+
+    python scripts/bench_newton_floor.py [--quick] [--harmonics 10,20,40,80] [--points]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import time
+
+# One BLAS thread: at these sizes a second thread costs more in synchronisation
+# than it gains, and the floor and the iteration must be measured alike.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import numpy as np
+import scipy.linalg
+
+from contin.catalog import build_model
+from contin.harmonic_balance import HarmonicBalance, HBOptions
+from contin.newton import factorize
+
+
+def best_time(fn, repeat: int, rounds: int = 5) -> float:
+    """Smallest mean time of ``fn()`` over ``rounds`` rounds of ``repeat`` calls (noise on a shared machine only adds)."""
+    fn()
+    best = math.inf
+    for _ in range(rounds):
+        t = time.perf_counter()
+        for _ in range(repeat):
+            fn()
+        best = min(best, (time.perf_counter() - t) / repeat)
+    return best
+
+
+class Iteration:
+    """One corrector update as the continuation engine performs it, split in its stages."""
+
+    def __init__(self, hb: HarmonicBalance, u: np.ndarray, lam: float):
+        self.hb, self.u, self.lam = hb, u, lam
+        m = hb.size
+        self.m = m
+        self.su = np.full(m, max(float(np.max(np.abs(u))), 1e-12))
+        self.sl = 1.0
+        t = np.random.default_rng(0).normal(size=m + 1)
+        self.t = t / np.linalg.norm(t)
+        self.A = np.empty((m + 1, m + 1))
+        self.F = np.empty(m + 1)
+        self.A[m] = self.t
+
+    def linearize(self):
+        return self.hb.linearize(self.u, self.lam)
+
+    def border(self, R, Ju, Jlam):
+        m = self.m
+        np.multiply(Ju, self.su, out=self.A[:m, :m])
+        np.multiply(Jlam, self.sl, out=self.A[:m, m])
+        self.F[:m] = R
+        self.F[m] = 0.0
+        return self.F, self.A
+
+    def __call__(self):
+        F, A = self.border(*self.linearize())
+        lu = factorize(A)
+        return lu.solve(-F)
+
+
+def floor_time(m1: int, N: int, n: int, repeat: int) -> tuple[float, float]:
+    """Times of ``lu_factor`` of an ``m1 x m1`` matrix and of ``irfft`` + ``rfft`` of ``N x n`` samples."""
+    rng = np.random.default_rng(1)
+    A = rng.normal(size=(m1, m1)) + m1 * np.eye(m1)
+    X = np.fft.rfft(rng.normal(size=(N, n)), axis=0)
+    t_lu = best_time(lambda: scipy.linalg.lu_factor(A), repeat)
+    t_fft = best_time(lambda: np.fft.rfft(np.fft.irfft(X, N, axis=0), axis=0), repeat)
+    return t_lu, t_fft
+
+
+def measure(hb: HarmonicBalance, u: np.ndarray, lam: float, repeat: int) -> dict:
+    it = Iteration(hb, u, lam)
+    R, Ju, Jlam = it.linearize()
+    F, A = it.border(R, Ju, Jlam)
+    lu = factorize(A)
+    t_lin = best_time(it.linearize, repeat)
+    t_border = best_time(lambda: it.border(R, Ju, Jlam), repeat)
+    t_fac = best_time(lambda: factorize(A), repeat)
+    t_solve = best_time(lambda: lu.solve(-F), repeat)
+    t_it = best_time(it, repeat)
+    t_lu, t_fft = floor_time(hb.size + 1, hb.N, hb.n, repeat)
+    return dict(size=hb.size + 1, N=hb.N, it=t_it, lin=t_lin, border=t_border, fac=t_fac, solve=t_solve,
+                lu=t_lu, fft=t_fft, floor=t_lu + t_fft, ratio=t_it / (t_lu + t_fft))
+
+
+def rotor_samples(H: int) -> int:
+    return 2 ** math.ceil(math.log2(25 * H))
+
+
+def rotor_solution(H: int, lam: float = 2.16):
+    """The rotor's harmonic solution at ``w = lam`` (homotopy in the contact stiffness, the model's own start)."""
+    model = build_model("bearing_rotor", {"f0": 0.5})
+    hb = HarmonicBalance(model, "w", HBOptions(harmonics=H, samples=rotor_samples(H)))
+    u = model.start(hb, lam)
+    return hb, np.asarray(u, dtype=float)
+
+
+def duffing_solution(H: int, lam: float = 1.5):
+    from contin.newton import solve_at_parameter
+
+    hb = HarmonicBalance(build_model("duffing", {"F": 0.5}), "w", HBOptions(harmonics=H))
+    res = solve_at_parameter(hb, hb.linear_solution(lam), lam)
+    return hb, res.x
+
+
+def print_table(rows):
+    print(f"{'case':>16s} {'order':>6s} {'N':>5s} {'iteration':>10s} {'linearize':>10s} {'border':>8s} "
+          f"{'factorize':>10s} {'solve':>7s} | {'lu_factor':>10s} {'FFTs':>7s} {'floor':>8s} | {'ratio':>6s}")
+    for name, r in rows:
+        us = {k: r[k] * 1e6 for k in ("it", "lin", "border", "fac", "solve", "lu", "fft", "floor")}
+        print(f"{name:>16s} {r['size']:6d} {r['N']:5d} {us['it']:10.0f} {us['lin']:10.0f} {us['border']:8.0f} "
+              f"{us['fac']:10.0f} {us['solve']:7.0f} | {us['lu']:10.0f} {us['fft']:7.0f} {us['floor']:8.0f} | "
+              f"{r['ratio']:6.2f}")
+
+
+def points_per_h(hs, quick: bool):
+    """Time per continuation point and per Newton iteration of the rotor's harmonic branch for each H."""
+    from contin.continuation import ContinuationOptions, continuation
+
+    lo, hi = 2.14, (2.15 if quick else 2.18)
+    out = []
+    for H in hs:
+        hb, u0 = rotor_solution(H, lo)
+        opts = ContinuationOptions(ds=0.005, ds_max=0.005)
+        t = time.perf_counter()
+        br = continuation(hb, u0, lo, (lo, hi), opts, parameter_name="w")
+        dt = time.perf_counter() - t
+        out.append((H, hb.size, len(br), dt, int(br.info.get("n_linearizations", 0))))
+    return out
+
+
+def main(argv=None) -> int:
+    from contin.blas import limit_blas_threads
+
+    limit_blas_threads(1)
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="H = 10, 20 only and fewer repetitions (CI)")
+    ap.add_argument("--harmonics", default="10,20,40,80", help="rotor harmonic counts")
+    ap.add_argument("--duffing-harmonics", type=int, default=9)
+    ap.add_argument("--no-points", action="store_true", help="skip the per-point table")
+    a = ap.parse_args(argv)
+    hs = [10, 20] if a.quick else [int(h) for h in a.harmonics.split(",")]
+
+    rows = []
+    for H in hs:
+        hb, u = rotor_solution(H)
+        rows.append((f"rotor H={H}", measure(hb, u, 2.16, max(3, 2000 // (H * H)) if not a.quick else 3)))
+    hb, u = duffing_solution(a.duffing_harmonics)
+    rows.append((f"Duffing H={a.duffing_harmonics}", measure(hb, u, 1.5, 50 if a.quick else 500)))
+    print("one Newton iteration (linearize + bordered matrix + factorize + solve) against its floor")
+    print("(lu_factor of a matrix of the same order + irfft/rfft of the sampled state); times in us")
+    print_table(rows)
+    worst = max(r["ratio"] for _, r in rows)
+    print(f"largest ratio iteration / floor: {worst:.2f} (target <= 3)")
+
+    print()
+    print("rotor: cost growth with H (exponent between successive H; the LU alone grows as H^3)")
+    print(f"{'H':>4s} {'order':>6s} {'iteration us':>13s} {'exp':>5s} {'floor us':>9s} {'exp':>5s} "
+          f"{'linearize us':>13s} {'exp':>5s} {'factorize us':>13s} {'exp':>5s}")
+    prev = None
+    for (name, r), H in zip(rows, hs):
+        if prev is None:
+            e = ["", "", "", ""]
+        else:
+            q = math.log(H / prev[0])
+            e = [f"{math.log(r[k] / prev[1][k]) / q:5.2f}" for k in ("it", "floor", "lin", "fac")]
+        print(f"{H:4d} {r['size']:6d} {r['it'] * 1e6:13.0f} {e[0]:>5s} {r['floor'] * 1e6:9.0f} {e[1]:>5s} "
+              f"{r['lin'] * 1e6:13.0f} {e[2]:>5s} {r['fac'] * 1e6:13.0f} {e[3]:>5s}")
+        prev = (H, r)
+
+    if not a.no_points:
+        print()
+        print("rotor harmonic branch from w = 2.14, ds = 0.005 (per point: corrector, tangent, events; no stability)")
+        print(f"{'H':>4s} {'order':>6s} {'points':>7s} {'time s':>8s} {'per point ms':>13s} {'linearizations':>15s} "
+              f"{'per linearization ms':>21s}")
+        for H, size, pts, dt, n_it in points_per_h(hs, a.quick):
+            per_it = f"{dt / n_it * 1e3:21.2f}" if n_it else f"{'':>21s}"
+            print(f"{H:4d} {size + 1:6d} {pts:7d} {dt:8.2f} {dt / max(pts, 1) * 1e3:13.2f} {n_it:15d} {per_it}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
