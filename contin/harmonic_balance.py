@@ -110,19 +110,34 @@ def linear_operator(M, C, K, Omega, H, out, dOmega_only):
 
 @nb.njit(cache=True)
 def linear_apply(M, C, K, Omega, U):
-    """``A(Omega; M, C, K) u`` block by block, shape (2H+1, n), without the dense ``A``."""
+    """``A(Omega; M, C, K) u`` block by block, shape (2H+1, n), without the dense ``A``.
+
+    Written as loops rather than matrix products: the blocks are n x n with
+    small n, and numba's ``@`` pulls in its BLAS bindings, seconds of
+    compilation on a cold cache for no gain at these sizes.
+    """
     n = M.shape[0]
     H = (U.shape[0] - 1) // 2
-    out = K @ U[0]
-    res = np.empty((2 * H + 1, n))
-    res[0] = out
+    res = np.zeros((2 * H + 1, n))
+    for i in range(n):
+        s = 0.0
+        for j in range(n):
+            s += K[i, j] * U[0, j]
+        res[0, i] = s
     for k in range(1, H + 1):
-        a = U[2 * k - 1]
-        b = U[2 * k]
-        D = K - (k * Omega) ** 2 * M
-        G = k * Omega * C
-        res[2 * k - 1] = D @ a + G @ b
-        res[2 * k] = D @ b - G @ a
+        kO = k * Omega
+        for i in range(n):
+            sa = 0.0
+            sb = 0.0
+            for j in range(n):
+                d = K[i, j] - kO * kO * M[i, j]
+                g = kO * C[i, j]
+                a = U[2 * k - 1, j]
+                b = U[2 * k, j]
+                sa += d * a + g * b
+                sb += d * b - g * a
+            res[2 * k - 1, i] = sa
+            res[2 * k, i] = sb
     return res
 
 
@@ -321,6 +336,16 @@ class HarmonicBalance:
         return self._fext, self._dfext
 
     # -- time domain ------------------------------------------------------
+    def _blocks(self, u: np.ndarray) -> np.ndarray:
+        """``u`` as the C-ordered, writable ``(2H+1, n)`` matrix the kernels take.
+
+        Writable too: numba compiles a separate specialisation for read-only
+        arrays (such as the views of a stored branch), a second compilation
+        of every kernel on a cold cache.
+        """
+        U = np.ascontiguousarray(coefficient_blocks(u, self.n), dtype=float)
+        return U if U.flags.writeable else U.copy()
+
     def samples_of(self, u: np.ndarray, lam: float):
         """Time samples of the solution.
 
@@ -331,7 +356,7 @@ class HarmonicBalance:
         xp : ndarray, shape (N, n)
             ``dx/dtheta``.
         """
-        U = np.ascontiguousarray(coefficient_blocks(u, self.n))
+        U = self._blocks(u)
         x, xp = aft.synthesize(U, self.N)
         Omega = lam / self.nu if self.k == self.kw else self.p0[self.kw] / self.nu
         return x, Omega * xp, xp
@@ -363,7 +388,7 @@ class HarmonicBalance:
         p = self.params_at(lam)
         fext, _ = self.excitation(p)
         M, C, K = self._linear_mck(p)
-        U = np.ascontiguousarray(coefficient_blocks(u, self.n))
+        U = self._blocks(u)
         R = linear_apply(M, C, K, p[self.kw] / self.nu, U).reshape(-1) - fext
         if self.model.forces:
             x, xd, _ = self.samples_of(u, lam)
@@ -388,7 +413,7 @@ class HarmonicBalance:
         MCK = self._linear_mck(p)
         M, C, K = MCK
         Omega = p[self.kw] / self.nu
-        U = np.ascontiguousarray(coefficient_blocks(u, self.n))
+        U = self._blocks(u)
         # the linear part block by block, O(n^2 H): no dense A0 + Omega A1 + Omega^2 A2 nor dense products
         J = np.zeros((self.size, self.size))
         linear_operator(M, C, K, Omega, self.H, J, False)
