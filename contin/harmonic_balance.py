@@ -274,7 +274,7 @@ class HarmonicBalance:
 
     def linear_matrix(self, p: np.ndarray) -> np.ndarray:
         """The linear operator ``A(Omega, p)``, shape (size, size)."""
-        Omega = p[self.kw] / self.nu
+        Omega = float(p[self.kw]) / self.nu  # a Python float: numba types numpy scalars slowly
         if self._lin_parts is None:
             M, C, K = self.model.linear(p)
             A = np.zeros((self.size, self.size))
@@ -308,7 +308,7 @@ class HarmonicBalance:
     def _linear_dp_times(self, p: np.ndarray, U: np.ndarray, MCK=None):
         """``(dA/dlambda) u``, shape (size,), block by block from ``U`` (the ``(2H+1, n)`` view of ``u``)
         without forming ``dA``; None if ``A`` does not depend on lambda."""
-        Omega = p[self.kw] / self.nu
+        Omega = float(p[self.kw]) / self.nu  # a Python float: numba types numpy scalars slowly
         out = None
         if self._lin_parts is None:
             dM, dC, dK = self._linear_mck_dp(p)
@@ -389,7 +389,7 @@ class HarmonicBalance:
         fext, _ = self.excitation(p)
         M, C, K = self._linear_mck(p)
         U = self._blocks(u)
-        R = linear_apply(M, C, K, p[self.kw] / self.nu, U).reshape(-1) - fext
+        R = linear_apply(M, C, K, float(p[self.kw]) / self.nu, U).reshape(-1) - fext
         if self.model.forces:
             x, xd, _ = self.samples_of(u, lam)
             f, _, _ = self._forces_at(x, xd, p)
@@ -412,7 +412,7 @@ class HarmonicBalance:
         fext, dfext = self.excitation(p)
         MCK = self._linear_mck(p)
         M, C, K = MCK
-        Omega = p[self.kw] / self.nu
+        Omega = float(p[self.kw]) / self.nu  # a Python float: numba types numpy scalars slowly
         U = self._blocks(u)
         # the linear part block by block, O(n^2 H): no dense A0 + Omega A1 + Omega^2 A2 nor dense products
         J = np.zeros((self.size, self.size))
@@ -458,7 +458,7 @@ class HarmonicBalance:
         M, C, _ = self.model.linear(p)
         _, D0, _ = self.linearize(u, lam)
         H = self.H
-        Omega = p[self.kw] / self.nu
+        Omega = float(p[self.kw]) / self.nu  # a Python float: numba types numpy scalars slowly
         I = np.eye(2 * H + 1)
         D2 = np.kron(I, M)
         D1 = np.kron(I, C) + 2.0 * Omega * D2 @ self.derivative_operator()

