@@ -135,26 +135,89 @@ def reference_peak(quick: bool) -> float:
     return peak_amplitude(br)
 
 
-def pyharm_row(H, contin_row, contin_peak, ref):
-    """Time pyHarm on the same branch if it is installed; say so otherwise."""
-    try:
-        import pyHarm  # noqa: F401
-    except ImportError:
-        print("pyHarm: not importable here (pip install pyHarm-os); skipped")
+PYHARM_DRIVER = r"""
+import json, logging, sys, time
+import numpy as np
+import pyHarm
+
+H, N = int(sys.argv[1]), int(sys.argv[2])
+lin = {"M": np.array([[1.0]]), "C": np.array([[0.1]]), "K": np.array([[1.0]])}
+lin["G"] = 0 * lin["M"]
+
+
+def maestro(w_hi):
+    return pyHarm.Maestro({
+        "analysis": {"FRF": {"study": "frf", "puls_inf": 0.5, "puls_start": 0.5, "puls_sup": w_hi, "ds0": 0.02,
+                             "ds_min": 1e-8, "ds_max": 0.1, "sign_ds": 1, "verbose": False, "stepsizer": "acceptance",
+                             "predictor": "tangent", "corrector": "arc_length", "stopper": "bounds",
+                             "solver": "NewtonRaphson"}},
+        "system": {"type": "Base", "nh": H, "nti": N},
+        "substructures": {"sub1": {"matrix": lin, "ndofs": 1}},
+        "connectors": {
+            "loading": {"type": "CosinusForcing", "connect": {"sub1": [0]}, "dirs": [0], "amp": 0.5},
+            "cubic": {"type": "CubicSpring", "connect": {"sub1": [0]}, "dirs": [0], "k": 1.0},
+        },
+    })
+
+
+logging.disable(logging.CRITICAL)
+maestro(0.6).operate()  # warm-up: numba compilation or cache load
+m = maestro(3.0)
+t = time.perf_counter()
+m.operate()
+dt = time.perf_counter() - t
+X = np.array([s.x for s in m.nls["FRF"].SolList if s.flag_accepted])
+idx = [int(i) for i in m.getIndex("sub1", 0, 0)]
+print("PYHARM_JSON " + json.dumps({"time": dt, "x": X.tolist(), "idx": idx, "version": pyHarm.__version__}))
+"""
+
+
+def pyharm_python(option):
+    """An interpreter that can import pyHarm: ``--pyharm-python``, ``$PYHARM_PYTHON`` or this one."""
+    import importlib.util
+    import sys
+
+    exe = option or os.environ.get("PYHARM_PYTHON")
+    if exe:
+        return exe
+    return sys.executable if importlib.util.find_spec("pyHarm") is not None else None
+
+
+def pyharm_row(H, N, hb, contin_row, option):
+    """Time pyHarm on the same branch (same H and N) if it can be run; say so otherwise.
+
+    Its points are checked with contin's residual of the same discretised
+    problem: equal accuracy means both solve the same equations to the same
+    tolerance. pyHarm runs in a subprocess so that it can live in its own
+    environment (``--pyharm-python``).
+    """
+    import json
+    import subprocess
+
+    exe = pyharm_python(option)
+    if exe is None:
+        print("pyHarm: not importable here (pip install pyHarm-os, or --pyharm-python PATH); skipped")
         return
     try:
-        t, pts, peak = run_pyharm(H)
+        r = subprocess.run([exe, "-c", PYHARM_DRIVER, str(H), str(N)], capture_output=True, text=True, timeout=900,
+                           env=dict(os.environ, OPENBLAS_NUM_THREADS="1"))
+        line = [x for x in r.stdout.splitlines() if x.startswith("PYHARM_JSON ")]
+        if r.returncode != 0 or not line:
+            raise RuntimeError((r.stderr or r.stdout).strip().splitlines()[-1] if (r.stderr or r.stdout).strip()
+                               else f"exit status {r.returncode}")
+        out = json.loads(line[-1][len("PYHARM_JSON "):])
     except Exception as exc:  # an optional third-party package: report, never fail the benchmark
-        print(f"pyHarm: importable but its run failed ({type(exc).__name__}: {exc}); skipped")
+        print(f"pyHarm: its run failed ({type(exc).__name__}: {exc}); skipped")
         return
-    print(f"pyHarm: {pts} points in {t:.3f} s ({t / max(pts, 1) * 1e6:.0f} us per point), peak amplitude "
-          f"{peak:.10f} (error against H = 25 {abs(peak - ref):.1e}); ratio pyHarm/contin per point "
-          f"{t / max(pts, 1) / contin_row[4]:.2f}x, whole branch {t / contin_row[3]:.2f}x")
-
-
-def run_pyharm(H):
-    """The same Duffing branch with pyHarm (its own AFT and continuation); time, points and peak amplitude."""
-    raise RuntimeError("no pyHarm driver for this version")
+    X = np.asarray(out["x"], dtype=float)
+    t, pts = float(out["time"]), len(X)
+    idx = out["idx"]
+    res = max(float(np.max(np.abs(hb.residual(X[i, idx], X[i, -1])))) for i in range(pts))
+    peak = float(np.max(np.hypot(X[:, idx[1]], X[:, idx[2]])))
+    print(f"pyHarm {out['version']} (H = {H}, N = {N}, its pseudo-arclength with Newton-Raphson): {pts} points in "
+          f"{t:.3f} s ({t / max(pts, 1) * 1e6:.0f} us per point); largest contin residual at its points {res:.1e}; "
+          f"peak of its points {peak:.10f}")
+    print(f"ratio pyHarm/contin: per point {t / max(pts, 1) / contin_row[4]:.2f}x, whole branch {t / contin_row[3]:.2f}x")
 
 
 def main(argv=None):
@@ -162,6 +225,8 @@ def main(argv=None):
     ap.add_argument("--harmonics", type=int, default=5)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--quick", action="store_true", help="small settings for CI")
+    ap.add_argument("--pyharm-python", default=None,
+                    help="a Python interpreter with pyHarm installed (default: $PYHARM_PYTHON, or this one)")
     a = ap.parse_args(argv)
     H = a.harmonics
     repeat = 1 if a.quick else a.repeat
@@ -199,7 +264,9 @@ def main(argv=None):
     print(f"equal accuracy: largest difference between the two branches' points {du:.1e} (coefficients), "
           f"{dw:.1e} (w); peak amplitude contin {peaks['contin (numba AFT)']:.10f}, numpy "
           f"{peaks['plain numpy AFT']:.10f}, error against H = 25 {abs(peaks['contin (numba AFT)'] - ref):.1e}")
-    pyharm_row(H, c, peaks["contin (numba AFT)"], ref)
+    res_c = max(float(np.max(np.abs(hb.residual(bc.unknowns[i], bc.parameter[i])))) for i in range(len(bc)))
+    print(f"largest residual at contin's points {res_c:.1e}")
+    pyharm_row(H, hb.N, hb, c, a.pyharm_python)
     print()
     print("one Newton iteration (residual + Jacobian + dense solve) as H grows, same point type:")
     print(f"{'H':>4s} {'N':>5s} {'unknowns':>9s} {'contin [us]':>12s} {'numpy [us]':>11s} {'ratio':>6s}")
