@@ -250,21 +250,34 @@ def odd_multiplication_matrix(G, H, T, scale):
             g = np.ascontiguousarray(G[:, a, b])
             if np.max(np.abs(g)) == 0.0:
                 continue
-            Ghat = np.fft.rfft(g)
-            for i in range(H):
-                k = 2 * i + 1
-                rc = 2 * i * n + a
-                rs = (2 * i + 1) * n + a
-                for j in range(H):
-                    l = 2 * j + 1
-                    cc = 2 * j * n + b
-                    cs = (2 * j + 1) * n + b
-                    Cm, Sm = _cs(Ghat, (k - l) // 2, N)
-                    Cp, Sp = _cs(Ghat, (k + l) // 2, N)
-                    T[rc, cc] += scale * (Cm + Cp)
-                    T[rc, cs] += scale * (Sp - Sm)
-                    T[rs, cc] += scale * (Sp + Sm)
-                    T[rs, cs] += scale * (Cm - Cp)
+            _fill_odd_block(np.fft.rfft(g), N, H, n, a, b, T, scale, 0.0, False)
+
+
+@nb.njit(cache=True)
+def _fill_odd_block(Ghat, N, H, n, a, b, T, scale, Omega2, velocity):
+    # Odd-to-odd block of "multiply by G_ab" (velocity=False) or of "multiply by G_ab after
+    # Omega2 d/dtheta'" (velocity=True: columns (a_l, b_l) <- Omega2 l (-b_l, a_l)), in place.
+    for i in range(H):
+        k = 2 * i + 1
+        rc = 2 * i * n + a
+        rs = (2 * i + 1) * n + a
+        for j in range(H):
+            l = 2 * j + 1
+            cc = 2 * j * n + b
+            cs = (2 * j + 1) * n + b
+            Cm, Sm = _cs(Ghat, (k - l) // 2, N)
+            Cp, Sp = _cs(Ghat, (k + l) // 2, N)
+            if velocity:
+                v = scale * Omega2 * l
+                T[rc, cc] -= v * (Sp - Sm)
+                T[rc, cs] += v * (Cm + Cp)
+                T[rs, cc] -= v * (Cm - Cp)
+                T[rs, cs] += v * (Sp + Sm)
+            else:
+                T[rc, cc] += scale * (Cm + Cp)
+                T[rc, cs] += scale * (Sp - Sm)
+                T[rs, cc] += scale * (Sp + Sm)
+                T[rs, cs] += scale * (Cm - Cp)
 
 
 @nb.njit(cache=True)
@@ -284,21 +297,25 @@ def odd_jacobian(dfdx, dfdxd, Omega2, H, B):
     H : int
     B : ndarray, shape (2nH, 2nH), accumulated in place.
     """
+    N = dfdx.shape[0]
     n = dfdx.shape[1]
-    m = 2 * n * H
-    odd_multiplication_matrix(dfdx, H, B, 1.0)
-    if np.max(np.abs(dfdxd)) == 0.0:
-        return
-    Tv = np.zeros((m, m))
-    odd_multiplication_matrix(dfdxd, H, Tv, 1.0)
-    for r in range(m):
-        for j in range(H):
-            s = Omega2 * (2 * j + 1)
-            for b in range(n):
-                ca = 2 * j * n + b
-                cb = (2 * j + 1) * n + b
-                B[r, ca] -= s * Tv[r, cb]
-                B[r, cb] += s * Tv[r, ca]
+    g = np.empty(N)
+    for a in range(n):
+        for b in range(n):
+            # skip uncoupled dof pairs; a NaN counts as nonzero
+            hx = False
+            hv = False
+            for j in range(N):
+                hx = hx or dfdx[j, a, b] != 0.0
+                hv = hv or dfdxd[j, a, b] != 0.0
+            if hx:
+                for j in range(N):
+                    g[j] = dfdx[j, a, b]
+                _fill_odd_block(np.fft.rfft(g), N, H, n, a, b, B, 1.0, 0.0, False)
+            if hv:
+                for j in range(N):
+                    g[j] = dfdxd[j, a, b]
+                _fill_odd_block(np.fft.rfft(g), N, H, n, a, b, B, 1.0, Omega2, True)
 
 
 @nb.njit(cache=True)

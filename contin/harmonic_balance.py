@@ -25,6 +25,7 @@ import numba as nb
 import numpy as np
 
 from contin import aft
+from contin.elements.harmonic import HarmonicExcitation
 from contin.harmonics import coefficient_blocks, default_samples, sample_phases
 from contin.model import Model, suggest
 
@@ -219,8 +220,11 @@ class HarmonicBalance:
                         f"period 2*pi*nu/w for nu={self.nu}"
                     )
         self._fext_key = None
-        # M, C, K are fixed during a run unless they depend on lambda: split once
-        self._lin_parts = None if self._linear_depends_on_lambda() else self._split_linear(self.p0)
+        self._fext_shapes = None
+        # M, C, K are fixed during a run unless they depend on lambda; the dense split of A for
+        # linear_matrix() is made on first use (the Newton path works block by block)
+        self._lin_depends = self._linear_depends_on_lambda()
+        self._lin_parts = None
         self._MCK = self.model.linear(self.p0)
         # only p[k] = lambda changes during a run: sum the terms of M, C, K that do not depend on it
         # once, and keep the few that do (the gyroscopic ip*w of the rotor) for each evaluation
@@ -275,17 +279,19 @@ class HarmonicBalance:
     def linear_matrix(self, p: np.ndarray) -> np.ndarray:
         """The linear operator ``A(Omega, p)``, shape (size, size)."""
         Omega = float(p[self.kw]) / self.nu  # a Python float: numba types numpy scalars slowly
-        if self._lin_parts is None:
+        if self._lin_depends:
             M, C, K = self.model.linear(p)
             A = np.zeros((self.size, self.size))
             linear_operator(M, C, K, Omega, self.H, A, False)
             return A
+        if self._lin_parts is None:
+            self._lin_parts = self._split_linear(self.p0)
         A0, A1, A2 = self._lin_parts
         return A0 + Omega * A1 + Omega * Omega * A2
 
     def _linear_mck(self, p: np.ndarray):
         """``(M, C, K)`` at ``p = params_at(lambda)``, from the parts split at construction."""
-        if self._lin_parts is not None:
+        if not self._lin_depends:
             return self._MCK
         out = []
         for fixed, terms in zip(self._lin_fixed, self._lin_terms):
@@ -310,7 +316,7 @@ class HarmonicBalance:
         without forming ``dA``; None if ``A`` does not depend on lambda."""
         Omega = float(p[self.kw]) / self.nu  # a Python float: numba types numpy scalars slowly
         out = None
-        if self._lin_parts is None:
+        if self._lin_depends:
             dM, dC, dK = self._linear_mck_dp(p)
             out = linear_apply(dM, dC, dK, Omega, U)
         if self.k == self.kw:
@@ -325,13 +331,35 @@ class HarmonicBalance:
         """Fourier coefficients of ``f_ext`` and their ``lambda`` derivative, shape (size,)."""
         key = p.tobytes()
         if key != self._fext_key:
-            f = np.zeros((self.N, self.n))
-            df = np.zeros((self.N, self.n))
-            for el in self.model.excitations:
+            if self._fext_shapes is None:
+                # a harmonic excitation is an amplitude A(p) times a fixed shape of tau: project the shape once,
+                # so that a parameter change (lambda = w for the rotor's unbalance e w^2) costs no transform
+                self._fext_shapes = []
+                for el in self.model.excitations:
+                    shape = None
+                    if type(el) is HarmonicExcitation:  # not a subclass, which may change evaluate()
+                        g = np.zeros((self.N, self.n))
+                        g[:, el.dof] = el._shape(self.tau)
+                        shape = aft.project(g, self.H).reshape(-1)
+                    self._fext_shapes.append((el, shape))
+            fext = np.zeros(self.size)
+            dfext = np.zeros(self.size)
+            f = df = None
+            for el, shape in self._fext_shapes:
+                if shape is not None:
+                    fext += el.amplitude.value(p) * shape
+                    if el.amplitude.depends_on(self.k):
+                        dfext += el.amplitude.derivative(p, self.k) * shape
+                    continue
+                if f is None:
+                    f = np.zeros((self.N, self.n))
+                    df = np.zeros((self.N, self.n))
                 el.evaluate(self.tau, p, f)
                 el.evaluate_dp(self.tau, p, self.k, df)
-            self._fext = aft.project(f, self.H).reshape(-1)
-            self._dfext = aft.project(df, self.H).reshape(-1)
+            if f is not None:
+                fext += aft.project(f, self.H).reshape(-1)
+                dfext += aft.project(df, self.H).reshape(-1)
+            self._fext, self._dfext = fext, dfext
             self._fext_key = key
         return self._fext, self._dfext
 
@@ -470,9 +498,9 @@ class HarmonicBalance:
     def derivative_operator(self) -> np.ndarray:
         """The ``d/dtheta`` operator on coefficient vectors, shape (size, size)."""
         Dop = np.zeros((2 * self.H + 1, 2 * self.H + 1))
-        for k in range(1, self.H + 1):
-            Dop[2 * k - 1, 2 * k] = k
-            Dop[2 * k, 2 * k - 1] = -k
+        k = np.arange(1, self.H + 1)
+        Dop[2 * k - 1, 2 * k] = k
+        Dop[2 * k, 2 * k - 1] = -k
         return np.kron(Dop, np.eye(self.n))
 
     def unknown_scale(self):
