@@ -106,15 +106,30 @@ class LUFactor:
         LAPACK ``getrf`` output (the same as :func:`scipy.linalg.lu_factor`).
     row_scale : ndarray, shape (n,)
         Positive row scaling applied before factorising.
+    anorm : float
+        1-norm of ``diag(row_scale) @ A`` (for the condition estimate).
     rcond : float
         LAPACK ``gecon`` estimate of the reciprocal 1-norm condition number of
-        ``diag(row_scale) @ A``.
+        ``diag(row_scale) @ A``, computed on first access: a Newton
+        iteration reads it only for the last factorisation, and each estimate
+        costs several triangular solves.
     """
 
     lu: np.ndarray
     piv: np.ndarray
     row_scale: np.ndarray
-    rcond: float
+    anorm: float = float("nan")
+    _rcond: float | None = dataclasses.field(default=None, repr=False)
+
+    @property
+    def rcond(self) -> float:
+        if self._rcond is None:
+            if self.lu.shape[0] == 0:
+                value = float("inf")
+            else:
+                value, _ = _GECON(self.lu, self.anorm, norm="1")
+            object.__setattr__(self, "_rcond", float(value))  # a cache on a frozen record
+        return self._rcond
 
     @property
     def n(self) -> int:
@@ -179,7 +194,7 @@ def factorize(a: np.ndarray, *, equilibrate: bool = True) -> LUFactor:
     n = a.shape[0]
     if n == 0:
         return LUFactor(lu=np.zeros((0, 0), order="F"), piv=np.zeros(0, dtype=np.int32), row_scale=np.ones(0),
-                        rcond=float("inf"))
+                        anorm=0.0)
     # getrf works in place on a Fortran-ordered array; handed a C-ordered one, f2py makes a
     # transposed copy that cost as much as the factorisation itself for orders of a few hundred
     work = np.empty((n, n), order="F")
@@ -194,8 +209,7 @@ def factorize(a: np.ndarray, *, equilibrate: bool = True) -> LUFactor:
         raise SingularMatrixError(f"zero pivot in column {info - 1}")
     if info < 0:  # pragma: no cover - invalid argument, cannot happen here
         raise SingularMatrixError(f"LAPACK getrf failed (info={info})")
-    rcond, _ = _GECON(lu, anorm, norm="1")
-    return LUFactor(lu=lu, piv=piv, row_scale=row_scale, rcond=float(rcond))
+    return LUFactor(lu=lu, piv=piv, row_scale=row_scale, anorm=anorm)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -335,8 +349,12 @@ def newton(
     x = np.array(x0, dtype=float, copy=True).reshape(-1)
     scale = 1.0 if x_scale is None else np.asarray(x_scale, dtype=float)
     history: list[float] = []
-    rcond = float("nan")
     n_lu = 0
+    lu = None
+
+    def last_rcond():
+        # the condition estimate of the last factorisation only (LUFactor computes it on access)
+        return lu.rcond if lu is not None else float("nan")
 
     def fail(message, best, F=None, J=None, k=0, singular=False):
         return NewtonResult(
@@ -347,7 +365,7 @@ def newton(
             message=message,
             residual=F,
             jacobian=J,
-            rcond=rcond,
+            rcond=last_rcond(),
             residual_history=tuple(history),
             singular=singular,
             factorizations=n_lu,
@@ -372,7 +390,6 @@ def newton(
     best = (x.copy(), r)
     k = 0
     step_norm = None
-    lu = None
     chord = False  # the previous update was a chord step
     while True:
         if r <= tol and (xtol is None or step_norm is None or step_norm <= xtol):
@@ -387,10 +404,9 @@ def newton(
             except SingularMatrixError as exc:
                 return fail(f"singular Jacobian at iteration {k} ({exc})", best, F, J, k, True)
             n_lu += 1
-            rcond = lu.rcond
-            if rcond < rcond_min:
+            if rcond_min > 0 and lu.rcond < rcond_min:
                 return fail(
-                    f"singular Jacobian at iteration {k} (rcond={rcond:.1e} < {rcond_min:.1e})",
+                    f"singular Jacobian at iteration {k} (rcond={lu.rcond:.1e} < {rcond_min:.1e})",
                     best, F, J, k, True,
                 )
         dx = lu.solve(-F)
@@ -419,7 +435,6 @@ def newton(
         try:
             lu_final = factorize(J, equilibrate=equilibrate)
             n_lu += 1
-            rcond = lu_final.rcond
         except SingularMatrixError as exc:
             message += f"; singular Jacobian at the solution ({exc})"
     return NewtonResult(
@@ -431,7 +446,7 @@ def newton(
         residual=F,
         jacobian=J,
         lu=lu_final,
-        rcond=rcond,
+        rcond=lu_final.rcond if lu_final is not None else last_rcond(),
         residual_history=tuple(history),
         factorizations=n_lu,
     )
