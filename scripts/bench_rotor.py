@@ -26,7 +26,7 @@ Two measurements, side by side in one run:
 ``--quick`` is a smoke run for CI: the harmonic branch alone over w = 2.12..2.2
 at H = 12, a few speeds with short transients (its classes are not converged).
 
-    python scripts/bench_rotor.py [--quick] [--every 1] [--harmonics 40,60,80,120]
+    python scripts/bench_rotor.py [--quick] [--every 1] [--harmonics 40,60,80,120] [--no-convergence]
 """
 
 from __future__ import annotations
@@ -99,6 +99,7 @@ def main(argv=None) -> int:
     ap.add_argument("--transient", type=float, default=1500, help="revolutions to steady state")
     ap.add_argument("--record", type=int, default=40, help="revolutions classified")
     ap.add_argument("--harmonics", default="40,60,80,120", help="H values (of w/2) for the nu = 2 convergence")
+    ap.add_argument("--no-convergence", action="store_true", help="skip the nu = 2 convergence study (part 2)")
     args = ap.parse_args(argv)
     overrides = []
     hs = [int(h) for h in args.harmonics.split(",")]
@@ -144,8 +145,8 @@ def main(argv=None) -> int:
           f"diagram {t_diagram:.1f} s; ratio brute force / diagram = {total / t_diagram:.1f}x")
 
     # 2. the stable nu = 2 interval against H
-    if args.quick:
-        print("(quick run: the nu = 2 convergence study is skipped)")
+    if args.quick or args.no_convergence:
+        print("(the nu = 2 convergence study is skipped)")
         return 0
     print(f"\n{'H (of w/2)':>10s} {'samples':>8s} {'stable from':>12s} {'to':>10s} {'time s':>7s}")
     results = []
