@@ -55,6 +55,9 @@ def synthesize(U, N):
     """
     H = (U.shape[0] - 1) // 2
     n = U.shape[1]
+    if N < 2 * H + 1:
+        # numba does not check bounds: fewer samples would write past the spectrum
+        raise ValueError("synthesize needs N >= 2H+1 samples")
     X = np.zeros((N // 2 + 1, n), dtype=np.complex128)
     Xp = np.zeros((N // 2 + 1, n), dtype=np.complex128)
     half = 0.5 * N
@@ -88,6 +91,8 @@ def project(f, H):
     """
     N = f.shape[0]
     n = f.shape[1]
+    if N < 2 * H + 1:
+        raise ValueError("project needs N >= 2H+1 samples")  # numba does not check bounds
     F = np.fft.rfft(f, axis=0)
     out = np.empty((2 * H + 1, n))
     inv = 1.0 / N

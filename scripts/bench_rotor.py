@@ -65,6 +65,38 @@ def diagram_class(rows, w: float) -> str:
     return "+".join(sorted(set(out))) or "neither"
 
 
+def stable_row_near(rows, w: float, cls: str):
+    """Row (in branches.csv) of the stored stable point of class ``cls`` nearest to speed w, or None."""
+    nu_of = {"harmonic": 1, "subharmonic": 2}[cls]
+    best = None
+    for i in range(len(rows["w"])):
+        if int(rows["nu"][i]) != nu_of or not bool(rows["stable"][i]):
+            continue
+        if nu_of == 2 and rows["whirl_fwd_half_disc"][i] < 1e-3:
+            continue
+        d = abs(float(rows["w"][i]) - w)
+        if best is None or d < best[0]:
+            best = (d, i)
+    return None if best is None else best[1]
+
+
+def simulate_from_orbit(model, outdir: Path, rows, w: float, cls: str, transient: float, record: int):
+    """Class of the steady state reached from the diagram's own stable orbit at w (its phase theta = 0)."""
+    from contin import aft
+    from contin.checkpoint import read_records
+    from contin.poincare import steady_state
+
+    row = stable_row_near(rows, w, cls)
+    if row is None:
+        return None
+    rec = next(r for r in read_records(outdir / "state.jsonl") if r["type"] == "point" and r["row"] == row)
+    nu = int(rec["nu"])
+    U = np.array(rec["u"], dtype=float).reshape(-1, 4)
+    x, xp = aft.synthesize(U, 2 * U.shape[0])  # at least 2H+1 samples: only theta = 0 is used
+    _, res = steady_state(model, {"w": w}, x0=x[0], v0=(w / nu) * xp[0], transient=transient, record=record)
+    return brute_force_class(res.period if res is not None else None)
+
+
 def brute_force_class(period) -> str:
     """The brute-force class of a steady-state period (None: not periodic)."""
     return {1: "harmonic", 2: "subharmonic"}.get(period, "neither")
@@ -127,7 +159,7 @@ def main(argv=None) -> int:
     print(f"brute force: {len(simulated)} of the {len(grid)} speeds w = {lo:g}..{hi:g} step {dw:.4g}, "
           f"{args.transient:g} + {args.record} revolutions each")
     print(f"{'w':>8s} {'brute force':>12s} {'diagram':>22s} {'agree':>6s} {'time s':>7s}")
-    t_bf, n_agree = [], 0
+    t_bf, n_agree, disagree = [], 0, []
     for i in simulated:
         w = float(grid[i])
         t1 = time.perf_counter()
@@ -137,10 +169,26 @@ def main(argv=None) -> int:
         bf, dg = brute_force_class(res.period if res is not None else None), diagram_class(rows, w)
         ok = agrees(bf, dg)
         n_agree += ok
+        if not ok and dg != "neither":
+            disagree.append((w, bf, dg))
         print(f"{w:8.4f} {bf:>12s} {dg:>22s} {'yes' if ok else 'NO':>6s} {t_bf[-1]:7.2f}")
     total = float(np.sum(t_bf)) * len(grid) / len(simulated)
     how = "measured" if len(simulated) == len(grid) else f"extrapolated from {len(simulated)} speeds"
     print(f"classification: same class at {n_agree} of {len(simulated)} speeds")
+    if disagree:
+        # where the simulation from near rest ended elsewhere, start it on the diagram's stable orbit:
+        # if it stays there, the two attractors coexist and the sweep from rest found the other one
+        n_stay = 0
+        print(f"{len(disagree)} speeds where the diagram has a stable solution the simulation from rest did not "
+              f"reach; simulated again from the diagram's orbit (200 + {args.record} revolutions):")
+        print(f"{'w':>8s} {'from rest':>12s} {'from orbit':>12s} {'diagram':>22s}")
+        for w, bf, dg in disagree:
+            cls = dg.split("+")[0]
+            again = simulate_from_orbit(model, tmp / "diagram", rows, w, cls, 200, args.record)
+            n_stay += again is not None and again in dg.split("+")
+            print(f"{w:8.4f} {bf:>12s} {str(again):>12s} {dg:>22s}")
+        print(f"started on the diagram's orbit, the simulation keeps its class at {n_stay} of {len(disagree)} of them "
+              f"(coexisting attractors)")
     print(f"brute force: {np.mean(t_bf):.2f} s per speed, {total:.1f} s for the {len(grid)} speeds ({how}); "
           f"diagram {t_diagram:.1f} s; ratio brute force / diagram = {total / t_diagram:.1f}x")
 
