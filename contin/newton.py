@@ -279,6 +279,7 @@ def newton(
     factor_final: bool = False,
     equilibrate: bool = True,
     reuse_lu: bool = True,
+    lu0: LUFactor | None = None,
 ) -> NewtonResult:
     """Newton's method for ``F(x) = 0``.
 
@@ -295,9 +296,10 @@ def newton(
     factorisation of ``J(x_{k-1})`` by about ``q`` (the Jacobian error
     ``J(x_k) - J(x_{k-1})`` is of the order of the last update); the chord step
     is taken when ``q r_k <= tol / 10``, so it is expected to converge where
-    Newton would. Convergence is still decided on the residual itself; if a
-    chord step falls short, the next update refactorises (the fall back to
-    full Newton), so at most one update is added. The LU is the dominant cost
+    Newton would (at most two chord steps in a row). Convergence is still
+    decided on the residual itself; if a chord step falls short, its observed
+    contraction decides the next update, which refactorises (the fall back
+    to full Newton) unless that contraction predicts convergence. The LU is the dominant cost
     of an update for large systems, and a corrector that converges in two or
     three updates saves one factorisation out of three or four.
 
@@ -338,7 +340,15 @@ def newton(
         Row-equilibrate the Jacobian before factorising (see
         :func:`factorize`).
     reuse_lu : bool
-        Allow the chord step described above (False: full Newton throughout).
+        Allow the chord steps described here (False: full Newton throughout).
+    lu0 : LUFactor, optional
+        A factorisation of a matrix close to ``J(x0)``, for example the final
+        one of the previous point of a continuation (whose Jacobian the
+        predictor moved away from by one step): the first update is a chord
+        step with it, saving the factorisation at ``x0``. If that update does
+        not reduce the residual it is undone (one more evaluation, at ``x0``,
+        restores the caller's state) and the iteration goes on as full Newton,
+        so a poor ``lu0`` costs two evaluations, never convergence.
 
     Returns
     -------
@@ -348,7 +358,8 @@ def newton(
     scale = 1.0 if x_scale is None else np.asarray(x_scale, dtype=float)
     history: list[float] = []
     n_lu = 0
-    lu = None
+    lu = None  # the last factorisation made here (its rcond is reported)
+    step_lu = None  # the factorisation used for chord steps
 
     def last_rcond():
         # the condition estimate of the last factorisation only (LUFactor computes it on access)
@@ -388,32 +399,59 @@ def newton(
     best = (x.copy(), r)
     k = 0
     step_norm = None
-    chord = False  # the previous update was a chord step
+    given = lu0 if reuse_lu else None  # the caller's factorisation, tried on the first update
+    step_lu = given
+    chords = 0  # consecutive chord steps
     while True:
         if r <= tol and (xtol is None or step_norm is None or step_norm <= xtol):
             break
         if k >= max_iter:
             return fail(f"residual {r:.1e} after {k} iterations", best, F, J, k)
         q = history[-1] / history[-2] if k >= 1 and history[-2] > 0 else math.inf
-        chord = reuse_lu and lu is not None and not chord and q < 1.0 and q * r <= 0.1 * tol
+        trial = given is not None and k == 0
+        if k == 1 and given is not None:
+            # measured on the rotor: after a chord step with a factorisation from elsewhere, the
+            # contraction of that step says nothing about the next one (it made the residual grow)
+            step_lu = given = None
+        chord = trial or (reuse_lu and step_lu is not None and chords < 2 and q < 1.0 and q * r <= 0.1 * tol)
         if not chord:
             try:
                 lu = factorize(J, equilibrate=equilibrate)
             except SingularMatrixError as exc:
                 return fail(f"singular Jacobian at iteration {k} ({exc})", best, F, J, k, True)
             n_lu += 1
+            step_lu = lu
+            chords = 0
             if rcond_min > 0 and lu.rcond < rcond_min:
                 return fail(
                     f"singular Jacobian at iteration {k} (rcond={lu.rcond:.1e} < {rcond_min:.1e})",
                     best, F, J, k, True,
                 )
-        dx = lu.solve(-F)
+        else:
+            chords += 1
+        dx = step_lu.solve(-F)
         if not np.all(np.isfinite(dx)):
+            if trial:
+                given = step_lu = None  # the caller's factorisation does not fit: factorise here
+                chords = 0
+                continue
             return fail(f"singular Jacobian at iteration {k} (non-finite update)", best, F, J, k, True)
         x += dx
         k += 1
         step_norm = _inf_norm(dx / scale)
         F, J, err = evaluate(x)
+        if trial and (err is not None or not np.all(np.isfinite(F)) or _inf_norm(F) >= r):
+            # the caller's factorisation did not reduce the residual: undo the step (one evaluation
+            # more to restore the caller's state at x0) and go on as full Newton from x0
+            x -= dx
+            k -= 1
+            step_norm = None
+            given = step_lu = None
+            chords = 0
+            F, J, err = evaluate(x)
+            if err is not None:  # pragma: no cover - evaluated fine a moment ago
+                return fail(f"evaluation failed at the initial guess ({err})", best, None, None, k)
+            continue
         if err is not None:
             return fail(f"evaluation failed at iteration {k} ({err})", best, None, None, k)
         if not np.all(np.isfinite(F)):

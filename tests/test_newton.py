@@ -202,3 +202,25 @@ def test_slow_contraction_keeps_full_newton():
     b = newton(f, [2.0], tol=1e-10, max_iter=60)
     assert a.converged and b.converged
     assert a.iterations == b.iterations and a.factorizations == b.factorizations
+
+
+def test_a_given_factorisation_saves_the_first_one_and_a_poor_one_costs_no_convergence(rng):
+    A = rng.standard_normal((6, 6)) + 6 * np.eye(6)
+    b = rng.standard_normal(6)
+
+    def f(x):
+        return A @ x + 0.05 * x**3 - b, A + np.diag(0.15 * x**2)
+
+    full = newton(f, np.zeros(6), tol=1e-12, factor_final=True, reuse_lu=False)
+    x_near = full.x + 1e-4 * rng.standard_normal(6)
+    near = factorize(f(full.x)[1])  # the Jacobian at a nearby point, as a previous continuation point gives
+    ref = newton(f, x_near, tol=1e-12, factor_final=True, reuse_lu=False)
+    res = newton(f, x_near, tol=1e-12, factor_final=True, lu0=near)
+    assert res.converged and ref.converged
+    assert res.factorizations < ref.factorizations
+    np.testing.assert_allclose(res.x, ref.x, atol=1e-12)
+    # a factorisation of an unrelated matrix: the step is undone and Newton converges as without it
+    bad = factorize(-np.eye(6))
+    res = newton(f, np.zeros(6), tol=1e-12, factor_final=True, lu0=bad)
+    assert res.converged and res.iterations == full.iterations
+    np.testing.assert_allclose(res.x, full.x, atol=1e-12)
