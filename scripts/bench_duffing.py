@@ -193,14 +193,16 @@ def pyharm_row(H, N, hb, contin_row, option):
     """
     import json
     import subprocess
+    import tempfile
 
     exe = pyharm_python(option)
     if exe is None:
         print("pyHarm: not importable here (pip install pyHarm-os, or --pyharm-python PATH); skipped")
         return
     try:
-        r = subprocess.run([exe, "-c", PYHARM_DRIVER, str(H), str(N)], capture_output=True, text=True, timeout=900,
-                           env=dict(os.environ, OPENBLAS_NUM_THREADS="1"))
+        with tempfile.TemporaryDirectory(prefix="bench_pyharm_") as cwd:  # pyHarm writes a context folder in its cwd
+            r = subprocess.run([exe, "-c", PYHARM_DRIVER, str(H), str(N)], capture_output=True, text=True, timeout=900,
+                               env=dict(os.environ, OPENBLAS_NUM_THREADS="1"), cwd=cwd)
         line = [x for x in r.stdout.splitlines() if x.startswith("PYHARM_JSON ")]
         if r.returncode != 0 or not line:
             raise RuntimeError((r.stderr or r.stdout).strip().splitlines()[-1] if (r.stderr or r.stdout).strip()
