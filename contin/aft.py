@@ -55,6 +55,9 @@ def synthesize(U, N):
     """
     H = (U.shape[0] - 1) // 2
     n = U.shape[1]
+    if N < 2 * H + 1:
+        # numba does not check bounds: fewer samples would write past the spectrum
+        raise ValueError("synthesize needs N >= 2H+1 samples")
     X = np.zeros((N // 2 + 1, n), dtype=np.complex128)
     Xp = np.zeros((N // 2 + 1, n), dtype=np.complex128)
     half = 0.5 * N
@@ -88,6 +91,8 @@ def project(f, H):
     """
     N = f.shape[0]
     n = f.shape[1]
+    if N < 2 * H + 1:
+        raise ValueError("project needs N >= 2H+1 samples")  # numba does not check bounds
     F = np.fft.rfft(f, axis=0)
     out = np.empty((2 * H + 1, n))
     inv = 1.0 / N
@@ -157,13 +162,35 @@ def multiplication_matrix(G, H, T, scale):
 
 
 @nb.njit(cache=True)
+def _fill_velocity_block(Ghat, N, H, n, a, b, Omega, J):
+    # Block of "multiply by G_ab, then by Omega d/dtheta" between dof a (rows) and dof b (columns):
+    # the columns of harmonic l of the block of _fill_block, combined as (a_l, b_l) <- Omega l (-b_l, a_l).
+    # Filled in place so that no second dense matrix is allocated and swept.
+    for k in range(H + 1):
+        h = 0.5 if k == 0 else 1.0
+        rc = (0 if k == 0 else 2 * k - 1) * n + a
+        rs = 2 * k * n + a
+        for l in range(1, H + 1):
+            s = Omega * l * h
+            cc = (2 * l - 1) * n + b
+            cs = 2 * l * n + b
+            Cm, Sm = _cs(Ghat, k - l, N)
+            Cp, Sp = _cs(Ghat, k + l, N)
+            J[rc, cc] -= s * (Sp - Sm)
+            J[rc, cs] += s * (Cm + Cp)
+            if k > 0:
+                J[rs, cc] -= s * (Cm - Cp)
+                J[rs, cs] += s * (Sp + Sm)
+
+
+@nb.njit(cache=True)
 def assemble_jacobian(dfdx, dfdxd, Omega, H, J):
     """Accumulate ``d proj(f(x, xdot)) / du`` into ``J``.
 
     ``xdot = Omega * D u`` with ``D`` the ``d/dtheta`` operator, whose action on
     harmonic ``l`` maps ``(a_l, b_l) -> (l b_l, -l a_l)``. Hence the velocity
     part is the matrix of ``dfdxd`` with columns ``a_l <- -Omega l (b_l column)``
-    and ``b_l <- Omega l (a_l column)``.
+    and ``b_l <- Omega l (a_l column)``, written straight into ``J``.
 
     Parameters
     ----------
@@ -173,21 +200,25 @@ def assemble_jacobian(dfdx, dfdxd, Omega, H, J):
     H : int
     J : ndarray, shape (n(2H+1), n(2H+1)), accumulated in place.
     """
+    N = dfdx.shape[0]
     n = dfdx.shape[1]
-    m = n * (2 * H + 1)
-    multiplication_matrix(dfdx, H, J, 1.0)
-    if np.max(np.abs(dfdxd)) == 0.0:
-        return
-    Tv = np.zeros((m, m))
-    multiplication_matrix(dfdxd, H, Tv, 1.0)
-    for r in range(m):  # row by row: the arrays are C-ordered
-        for l in range(1, H + 1):
-            s = Omega * l
-            for b in range(n):
-                ca = (2 * l - 1) * n + b
-                cb = 2 * l * n + b
-                J[r, ca] -= s * Tv[r, cb]
-                J[r, cb] += s * Tv[r, ca]
+    g = np.empty(N)
+    for a in range(n):
+        for b in range(n):
+            # skip uncoupled dof pairs (common for local contacts); a NaN counts as nonzero
+            hx = False
+            hv = False
+            for j in range(N):
+                hx = hx or dfdx[j, a, b] != 0.0
+                hv = hv or dfdxd[j, a, b] != 0.0
+            if hx:
+                for j in range(N):
+                    g[j] = dfdx[j, a, b]
+                _fill_block(np.fft.rfft(g), N, H, n, a, b, J, 1.0)
+            if hv:
+                for j in range(N):
+                    g[j] = dfdxd[j, a, b]
+                _fill_velocity_block(np.fft.rfft(g), N, H, n, a, b, Omega, J)
 
 
 @nb.njit(cache=True)
@@ -224,21 +255,34 @@ def odd_multiplication_matrix(G, H, T, scale):
             g = np.ascontiguousarray(G[:, a, b])
             if np.max(np.abs(g)) == 0.0:
                 continue
-            Ghat = np.fft.rfft(g)
-            for i in range(H):
-                k = 2 * i + 1
-                rc = 2 * i * n + a
-                rs = (2 * i + 1) * n + a
-                for j in range(H):
-                    l = 2 * j + 1
-                    cc = 2 * j * n + b
-                    cs = (2 * j + 1) * n + b
-                    Cm, Sm = _cs(Ghat, (k - l) // 2, N)
-                    Cp, Sp = _cs(Ghat, (k + l) // 2, N)
-                    T[rc, cc] += scale * (Cm + Cp)
-                    T[rc, cs] += scale * (Sp - Sm)
-                    T[rs, cc] += scale * (Sp + Sm)
-                    T[rs, cs] += scale * (Cm - Cp)
+            _fill_odd_block(np.fft.rfft(g), N, H, n, a, b, T, scale, 0.0, False)
+
+
+@nb.njit(cache=True)
+def _fill_odd_block(Ghat, N, H, n, a, b, T, scale, Omega2, velocity):
+    # Odd-to-odd block of "multiply by G_ab" (velocity=False) or of "multiply by G_ab after
+    # Omega2 d/dtheta'" (velocity=True: columns (a_l, b_l) <- Omega2 l (-b_l, a_l)), in place.
+    for i in range(H):
+        k = 2 * i + 1
+        rc = 2 * i * n + a
+        rs = (2 * i + 1) * n + a
+        for j in range(H):
+            l = 2 * j + 1
+            cc = 2 * j * n + b
+            cs = (2 * j + 1) * n + b
+            Cm, Sm = _cs(Ghat, (k - l) // 2, N)
+            Cp, Sp = _cs(Ghat, (k + l) // 2, N)
+            if velocity:
+                v = scale * Omega2 * l
+                T[rc, cc] -= v * (Sp - Sm)
+                T[rc, cs] += v * (Cm + Cp)
+                T[rs, cc] -= v * (Cm - Cp)
+                T[rs, cs] += v * (Sp + Sm)
+            else:
+                T[rc, cc] += scale * (Cm + Cp)
+                T[rc, cs] += scale * (Sp - Sm)
+                T[rs, cc] += scale * (Sp + Sm)
+                T[rs, cs] += scale * (Cm - Cp)
 
 
 @nb.njit(cache=True)
@@ -258,21 +302,25 @@ def odd_jacobian(dfdx, dfdxd, Omega2, H, B):
     H : int
     B : ndarray, shape (2nH, 2nH), accumulated in place.
     """
+    N = dfdx.shape[0]
     n = dfdx.shape[1]
-    m = 2 * n * H
-    odd_multiplication_matrix(dfdx, H, B, 1.0)
-    if np.max(np.abs(dfdxd)) == 0.0:
-        return
-    Tv = np.zeros((m, m))
-    odd_multiplication_matrix(dfdxd, H, Tv, 1.0)
-    for r in range(m):
-        for j in range(H):
-            s = Omega2 * (2 * j + 1)
-            for b in range(n):
-                ca = 2 * j * n + b
-                cb = (2 * j + 1) * n + b
-                B[r, ca] -= s * Tv[r, cb]
-                B[r, cb] += s * Tv[r, ca]
+    g = np.empty(N)
+    for a in range(n):
+        for b in range(n):
+            # skip uncoupled dof pairs; a NaN counts as nonzero
+            hx = False
+            hv = False
+            for j in range(N):
+                hx = hx or dfdx[j, a, b] != 0.0
+                hv = hv or dfdxd[j, a, b] != 0.0
+            if hx:
+                for j in range(N):
+                    g[j] = dfdx[j, a, b]
+                _fill_odd_block(np.fft.rfft(g), N, H, n, a, b, B, 1.0, 0.0, False)
+            if hv:
+                for j in range(N):
+                    g[j] = dfdxd[j, a, b]
+                _fill_odd_block(np.fft.rfft(g), N, H, n, a, b, B, 1.0, Omega2, True)
 
 
 @nb.njit(cache=True)

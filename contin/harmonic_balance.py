@@ -25,6 +25,7 @@ import numba as nb
 import numpy as np
 
 from contin import aft, contact_quadrature, crossings
+from contin.elements.harmonic import HarmonicExcitation
 from contin.harmonics import coefficient_blocks, default_samples, derivative_coefficients, sample_phases
 from contin.model import Model, suggest
 
@@ -126,19 +127,56 @@ def linear_operator(M, C, K, Omega, H, out, dOmega_only):
 
 @nb.njit(cache=True)
 def linear_apply(M, C, K, Omega, U):
-    """``A(Omega; M, C, K) u`` block by block, shape (2H+1, n), without the dense ``A``."""
+    """``A(Omega; M, C, K) u`` block by block, shape (2H+1, n), without the dense ``A``.
+
+    Written as loops rather than matrix products: the blocks are n x n with
+    small n, and numba's ``@`` pulls in its BLAS bindings, seconds of
+    compilation on a cold cache for no gain at these sizes.
+    """
     n = M.shape[0]
     H = (U.shape[0] - 1) // 2
-    out = K @ U[0]
-    res = np.empty((2 * H + 1, n))
-    res[0] = out
+    res = np.zeros((2 * H + 1, n))
+    for i in range(n):
+        s = 0.0
+        for j in range(n):
+            s += K[i, j] * U[0, j]
+        res[0, i] = s
     for k in range(1, H + 1):
-        a = U[2 * k - 1]
-        b = U[2 * k]
-        D = K - (k * Omega) ** 2 * M
-        G = k * Omega * C
-        res[2 * k - 1] = D @ a + G @ b
-        res[2 * k] = D @ b - G @ a
+        kO = k * Omega
+        for i in range(n):
+            sa = 0.0
+            sb = 0.0
+            for j in range(n):
+                d = K[i, j] - kO * kO * M[i, j]
+                g = kO * C[i, j]
+                a = U[2 * k - 1, j]
+                b = U[2 * k, j]
+                sa += d * a + g * b
+                sb += d * b - g * a
+            res[2 * k - 1, i] = sa
+            res[2 * k, i] = sb
+    return res
+
+
+@nb.njit(cache=True)
+def linear_apply_dOmega(M, C, Omega, U):
+    """``(dA/dOmega) u`` block by block, shape (2H+1, n): ``-2 k^2 Omega M`` on the diagonal, ``k C`` off it."""
+    n = M.shape[0]
+    H = (U.shape[0] - 1) // 2
+    res = np.zeros((2 * H + 1, n))
+    for k in range(1, H + 1):
+        for i in range(n):
+            sa = 0.0
+            sb = 0.0
+            for j in range(n):
+                d = -2.0 * k * k * Omega * M[i, j]
+                g = k * C[i, j]
+                a = U[2 * k - 1, j]
+                b = U[2 * k, j]
+                sa += d * a + g * b
+                sb += d * b - g * a
+            res[2 * k - 1, i] = sa
+            res[2 * k, i] = sb
     return res
 
 
@@ -198,9 +236,22 @@ class HarmonicBalance:
                         f"period 2*pi*nu/w for nu={self.nu}"
                     )
         self._fext_key = None
-        # M, C, K are fixed during a run unless they depend on lambda: split once
-        self._lin_parts = None if self._linear_depends_on_lambda() else self._split_linear(self.p0)
+        self._fext_shapes = None
+        # M, C, K are fixed during a run unless they depend on lambda; the dense split of A for
+        # linear_matrix() is made on first use (the Newton path works block by block)
+        self._lin_depends = self._linear_depends_on_lambda()
+        self._lin_parts = None
         self._MCK = self.model.linear(self.p0)
+        # only p[k] = lambda changes during a run: sum the terms of M, C, K that do not depend on it
+        # once, and keep the few that do (the gyroscopic ip*w of the rotor) for each evaluation
+        self._lin_fixed, self._lin_terms = [], []
+        for mat in (model.mass, model.damping, model.stiffness):
+            fixed = np.zeros((self.n, self.n))
+            for mono, A in mat.terms:
+                if not mono.depends_on(self.k):
+                    fixed += mono.value(self.p0) * A
+            self._lin_fixed.append(fixed)
+            self._lin_terms.append([(mono, A) for mono, A in mat.terms if mono.depends_on(self.k)])
         self._work = (
             np.zeros((self.N, self.n)),
             np.zeros((self.N, self.n, self.n)),
@@ -215,6 +266,11 @@ class HarmonicBalance:
                     self._switching.append(el)
         self._crossings = []
         self._laws = []
+        # forces with an explicit lambda dependence, found once rather than at every linearisation
+        # (those integrated over their arcs differentiate there instead)
+        exact = options.crossings == "exact"
+        self._dp_forces = [el for el in model.forces
+                           if el.depends_on(self.k) and not (exact and el in self._switching)]
         self.evaluations = 0
 
     # -- parameters -------------------------------------------------------
@@ -250,48 +306,102 @@ class HarmonicBalance:
 
     def linear_matrix(self, p: np.ndarray) -> np.ndarray:
         """The linear operator ``A(Omega, p)``, shape (size, size)."""
-        Omega = p[self.kw] / self.nu
-        if self._lin_parts is None:
+        Omega = float(p[self.kw]) / self.nu  # a Python float: numba types numpy scalars slowly
+        if self._lin_depends:
             M, C, K = self.model.linear(p)
             A = np.zeros((self.size, self.size))
             linear_operator(M, C, K, Omega, self.H, A, False)
             return A
+        if self._lin_parts is None:
+            self._lin_parts = self._split_linear(self.p0)
         A0, A1, A2 = self._lin_parts
         return A0 + Omega * A1 + Omega * Omega * A2
 
-    def _linear_dp_times(self, p: np.ndarray, u: np.ndarray):
-        """``(dA/dlambda) u``, shape (size,), without forming ``dA``; None if ``A`` does not depend on lambda."""
-        Omega = p[self.kw] / self.nu
-        U = np.ascontiguousarray(coefficient_blocks(u, self.n))
-        if self._lin_parts is None:
-            M, C, K = self.model.linear(p)
-            dM, dC, dK = self.model.linear_dp(p, self.k)
+    def _linear_mck(self, p: np.ndarray):
+        """``(M, C, K)`` at ``p = params_at(lambda)``, from the parts split at construction."""
+        if not self._lin_depends:
+            return self._MCK
+        out = []
+        for fixed, terms in zip(self._lin_fixed, self._lin_terms):
+            mat = fixed.copy()
+            for mono, A in terms:
+                mat += mono.value(p) * A
+            out.append(mat)
+        return tuple(out)
+
+    def _linear_mck_dp(self, p: np.ndarray):
+        """``d(M, C, K)/dlambda`` at ``p = params_at(lambda)`` (only the terms that depend on lambda)."""
+        out = []
+        for terms in self._lin_terms:
+            mat = np.zeros((self.n, self.n))
+            for mono, A in terms:
+                mat += mono.derivative(p, self.k) * A
+            out.append(mat)
+        return tuple(out)
+
+    def _linear_dp_times(self, p: np.ndarray, U: np.ndarray, MCK=None):
+        """``(dA/dlambda) u``, shape (size,), block by block from ``U`` (the ``(2H+1, n)`` view of ``u``)
+        without forming ``dA``; None if ``A`` does not depend on lambda."""
+        Omega = float(p[self.kw]) / self.nu  # a Python float: numba types numpy scalars slowly
+        out = None
+        if self._lin_depends:
+            dM, dC, dK = self._linear_mck_dp(p)
             out = linear_apply(dM, dC, dK, Omega, U)
-            if self.k == self.kw:
-                # d/dOmega of [K - k^2 Omega^2 M, k Omega C] is A at Omega = 1 with M -> 2 Omega M, K -> 0
-                out += linear_apply(2.0 * Omega * M, C, np.zeros_like(K), 1.0, U) / self.nu
-            return out.reshape(-1)
-        if self.k != self.kw:
-            return None  # the linear part does not depend on lambda
-        _, A1, A2 = self._lin_parts
-        return (A1 @ u + 2.0 * Omega * (A2 @ u)) / self.nu
+        if self.k == self.kw:
+            M, C, _ = self._linear_mck(p) if MCK is None else MCK
+            dw = linear_apply_dOmega(M, C, Omega, U)
+            dw /= self.nu  # dOmega/dw
+            out = dw if out is None else out + dw
+        return None if out is None else out.reshape(-1)
 
     # -- excitation -------------------------------------------------------
     def excitation(self, p: np.ndarray):
         """Fourier coefficients of ``f_ext`` and their ``lambda`` derivative, shape (size,)."""
         key = p.tobytes()
         if key != self._fext_key:
-            f = np.zeros((self.N, self.n))
-            df = np.zeros((self.N, self.n))
-            for el in self.model.excitations:
+            if self._fext_shapes is None:
+                # a harmonic excitation is an amplitude A(p) times a fixed shape of tau: project the shape once,
+                # so that a parameter change (lambda = w for the rotor's unbalance e w^2) costs no transform
+                self._fext_shapes = []
+                for el in self.model.excitations:
+                    shape = None
+                    if type(el) is HarmonicExcitation:  # not a subclass, which may change evaluate()
+                        g = np.zeros((self.N, self.n))
+                        g[:, el.dof] = el._shape(self.tau)
+                        shape = aft.project(g, self.H).reshape(-1)
+                    self._fext_shapes.append((el, shape))
+            fext = np.zeros(self.size)
+            dfext = np.zeros(self.size)
+            f = df = None
+            for el, shape in self._fext_shapes:
+                if shape is not None:
+                    fext += el.amplitude.value(p) * shape
+                    if el.amplitude.depends_on(self.k):
+                        dfext += el.amplitude.derivative(p, self.k) * shape
+                    continue
+                if f is None:
+                    f = np.zeros((self.N, self.n))
+                    df = np.zeros((self.N, self.n))
                 el.evaluate(self.tau, p, f)
                 el.evaluate_dp(self.tau, p, self.k, df)
-            self._fext = aft.project(f, self.H).reshape(-1)
-            self._dfext = aft.project(df, self.H).reshape(-1)
+            if f is not None:
+                fext += aft.project(f, self.H).reshape(-1)
+                dfext += aft.project(df, self.H).reshape(-1)
+            self._fext, self._dfext = fext, dfext
             self._fext_key = key
         return self._fext, self._dfext
 
     # -- time domain ------------------------------------------------------
+    def _blocks(self, u: np.ndarray) -> np.ndarray:
+        """``u`` as the C-ordered, writable ``(2H+1, n)`` matrix the kernels take.
+
+        Writable too: numba compiles a separate specialisation for read-only
+        arrays (such as the views of a stored branch), a second compilation
+        of every kernel on a cold cache.
+        """
+        U = np.ascontiguousarray(coefficient_blocks(u, self.n), dtype=float)
+        return U if U.flags.writeable else U.copy()
+
     def samples_of(self, u: np.ndarray, lam: float):
         """Time samples of the solution.
 
@@ -302,7 +412,7 @@ class HarmonicBalance:
         xp : ndarray, shape (N, n)
             ``dx/dtheta``.
         """
-        U = np.ascontiguousarray(coefficient_blocks(u, self.n))
+        U = self._blocks(u)
         x, xp = aft.synthesize(U, self.N)
         Omega = lam / self.nu if self.k == self.kw else self.p0[self.kw] / self.nu
         return x, Omega * xp, xp
@@ -336,7 +446,7 @@ class HarmonicBalance:
         self._laws = []
         if not self._switching:
             return f, dfdx, dfdxd
-        U = np.ascontiguousarray(coefficient_blocks(u, self.n))
+        U = self._blocks(u)
         Omega = p[self.kw] / self.nu
         if exact:
             xp, xpp = aft.synthesize(np.ascontiguousarray(derivative_coefficients(U)), self.N)
@@ -397,9 +507,9 @@ class HarmonicBalance:
         """``R(u, lambda)``, shape (size,)."""
         p = self.params_at(lam)
         fext, _ = self.excitation(p)
-        M, C, K = self.model.linear(p) if self._lin_parts is None else self._MCK
-        U = np.ascontiguousarray(coefficient_blocks(u, self.n))
-        R = linear_apply(M, C, K, p[self.kw] / self.nu, U).reshape(-1) - fext
+        M, C, K = self._linear_mck(p)
+        U = self._blocks(u)
+        R = linear_apply(M, C, K, float(p[self.kw]) / self.nu, U).reshape(-1) - fext
         if self.model.forces:
             x, xd, _ = self.samples_of(u, lam)
             f, _, _ = self._forces_at(x, xd, p, u)
@@ -422,26 +532,30 @@ class HarmonicBalance:
         """
         p = self.params_at(lam)
         fext, dfext = self.excitation(p)
-        J = self.linear_matrix(p)
-        R = J @ u - fext
-        dAu = self._linear_dp_times(p, u)
+        MCK = self._linear_mck(p)
+        M, C, K = MCK
+        Omega = float(p[self.kw]) / self.nu  # a Python float: numba types numpy scalars slowly
+        U = self._blocks(u)
+        # the linear part block by block, O(n^2 H): no dense A0 + Omega A1 + Omega^2 A2 nor dense products
+        J = np.zeros((self.size, self.size))
+        linear_operator(M, C, K, Omega, self.H, J, False)
+        R = linear_apply(M, C, K, Omega, U).reshape(-1) - fext
+        dAu = self._linear_dp_times(p, U, MCK)
         Jlam = -dfext if dAu is None else dAu - dfext
         if self.model.forces:
-            x, xd, xp = self.samples_of(u, lam)
+            x, xp = aft.synthesize(U, self.N)
+            xd = Omega * xp
             f, dfdx, dfdxd = self._forces_at(x, xd, p, u)
             dfdp = np.zeros((self.N, self.n))
-            exact = self.options.crossings == "exact"
-            for el in self.model.forces:
-                if el.depends_on(self.k) and not (exact and el in self._switching):
-                    el.evaluate_dp(x, xd, self.tau, p, self.k, dfdp)
+            for el in self._dp_forces:
+                el.evaluate_dp(x, xd, self.tau, p, self.k, dfdp)
             if self._crossings:
                 self._crossing_terms(x, xd, p, J, dfdp)
             if self._laws:
                 R += self._law_coefficients()
                 self._law_terms(x, xd, p, J, Jlam, dfdp)
             # when lambda is w, the velocity xdot = (w/nu) x'(theta) depends on it too
-            Rn, Jn = aft.nonlinear_terms(f, dfdx, dfdxd, dfdp, xp, p[self.kw] / self.nu, self.nu, self.H,
-                                         self.k == self.kw, J)
+            Rn, Jn = aft.nonlinear_terms(f, dfdx, dfdxd, dfdp, xp, Omega, self.nu, self.H, self.k == self.kw, J)
             R += Rn
             Jlam += Jn
         self.evaluations += 1
@@ -471,7 +585,7 @@ class HarmonicBalance:
         M, C, _ = self.model.linear(p)
         _, D0, _ = self.linearize(u, lam)
         H = self.H
-        Omega = p[self.kw] / self.nu
+        Omega = float(p[self.kw]) / self.nu  # a Python float: numba types numpy scalars slowly
         I = np.eye(2 * H + 1)
         D2 = np.kron(I, M)
         D1 = np.kron(I, C) + 2.0 * Omega * D2 @ self.derivative_operator()
@@ -485,9 +599,9 @@ class HarmonicBalance:
     def derivative_operator(self) -> np.ndarray:
         """The ``d/dtheta`` operator on coefficient vectors, shape (size, size)."""
         Dop = np.zeros((2 * self.H + 1, 2 * self.H + 1))
-        for k in range(1, self.H + 1):
-            Dop[2 * k - 1, 2 * k] = k
-            Dop[2 * k, 2 * k - 1] = -k
+        k = np.arange(1, self.H + 1)
+        Dop[2 * k - 1, 2 * k] = k
+        Dop[2 * k, 2 * k - 1] = -k
         return np.kron(Dop, np.eye(self.n))
 
     def unknown_scale(self):

@@ -73,7 +73,9 @@ def point_measures(u: np.ndarray, n_dof: int, dof_names, harmonic_columns: int =
         Time samples used for max/min (default ``max(256, 8H)``): extrema of
         a truncated Fourier series lie between samples.
     """
-    U = np.ascontiguousarray(coefficient_blocks(u, n_dof))
+    # a writable copy: a read-only array (a stored branch's view) would make numba compile a second
+    # specialisation of the transform on a cold cache
+    U = np.array(coefficient_blocks(u, n_dof), dtype=float, order="C")
     H = (U.shape[0] - 1) // 2
     N = samples or max(256, 8 * H + 1)
     x, _ = aft.synthesize(U, N)

@@ -100,7 +100,7 @@ class Monomial:
         v = self.const
         for j, e in self.powers:
             v *= p[j] ** e
-        return v
+        return float(v)  # a Python float: numba's dispatch types numpy scalars far more slowly
 
     def derivative(self, p: np.ndarray, k: int) -> float:
         """``d value / d p[k]``."""

@@ -2,24 +2,31 @@
 
 Two measurements, side by side in one run:
 
-1. **Diagram vs brute force.** ``scenes/rotor_f0_05.yaml`` (the harmonic branch
-   over w = 1.6..2.6 and the 1/2-subharmonic branch, both with Floquet
-   stability by monodromy) is run once and timed. The brute-force alternative,
-   what the rotor paper did, integrates eq. 11 to steady state at each speed
-   (RK4, 4096 steps per revolution, ``--transient`` revolutions, then
-   ``--record`` more classified by :func:`contin.poincare.classify`). It is
-   timed at ``--speeds`` speeds spread over the same range; its cost for the
-   diagram's speed resolution (the number of distinct speeds the diagram
-   stored) is that per-speed cost times that number. The ratio is printed.
-   The classification of each brute-force speed is printed beside what the
-   diagram says there (stable harmonic, stable nu = 2, or neither).
+1. **Diagram vs brute force at the same speed resolution.** ``scenes/rotor_f0_05.yaml``
+   (the harmonic branch over w = 1.6..2.6 and the 1/2-subharmonic branch, both
+   with Floquet stability by monodromy) is run once and timed. Its speed
+   resolution is the median spacing in w of the harmonic branch's stored
+   points. The brute-force alternative, what the rotor paper did, integrates
+   eq. 11 to steady state (RK4, 4096 steps per revolution, ``--transient``
+   revolutions, then ``--record`` more classified by
+   :func:`contin.poincare.classify`) at every speed of a grid over the same
+   range with that spacing. Each speed is classified both ways, with the same
+   three classes: ``harmonic`` (period 1), ``subharmonic`` (period 2) or
+   ``neither``; the diagram's class at w is that of the stable branches
+   through it (see :func:`diagram_class`). Both classes are printed side by
+   side with the agreement count, and the time ratio brute force / diagram.
+   ``--every k`` simulates only every k-th grid speed and extrapolates the
+   brute-force time to the whole grid (the ratio is then marked so).
 2. **Convergence in H of the stable nu = 2 interval.** The nu = 2 branch is
    traced with ``H`` harmonics of w/2 for each ``--harmonics`` value
    (samples ``max(1024, 25 H)``) and the end points of its stable interval
    (a Neimark-Sacker point and a fold) are printed with their change against
    the finest H.
 
-    python scripts/bench_rotor.py [--quick] [--speeds 12] [--harmonics 40,60,80,120]
+``--quick`` is a smoke run for CI: the harmonic branch alone over w = 2.12..2.2
+at H = 12, a few speeds with short transients (its classes are not converged).
+
+    python scripts/bench_rotor.py [--quick] [--every 1] [--harmonics 40,60,80,120] [--no-convergence]
 """
 
 from __future__ import annotations
@@ -58,6 +65,57 @@ def diagram_class(rows, w: float) -> str:
     return "+".join(sorted(set(out))) or "neither"
 
 
+def stable_row_near(rows, w: float, cls: str):
+    """Row (in branches.csv) of the stored stable point of class ``cls`` nearest to speed w, or None."""
+    nu_of = {"harmonic": 1, "subharmonic": 2}[cls]
+    best = None
+    for i in range(len(rows["w"])):
+        if int(rows["nu"][i]) != nu_of or not bool(rows["stable"][i]):
+            continue
+        if nu_of == 2 and rows["whirl_fwd_half_disc"][i] < 1e-3:
+            continue
+        d = abs(float(rows["w"][i]) - w)
+        if best is None or d < best[0]:
+            best = (d, i)
+    return None if best is None else best[1]
+
+
+def simulate_from_orbit(model, outdir: Path, rows, w: float, cls: str, transient: float, record: int):
+    """Class of the steady state reached from the diagram's own stable orbit at w (its phase theta = 0)."""
+    from contin import aft
+    from contin.checkpoint import read_records
+    from contin.poincare import steady_state
+
+    row = stable_row_near(rows, w, cls)
+    if row is None:
+        return None
+    rec = next(r for r in read_records(outdir / "state.jsonl") if r["type"] == "point" and r["row"] == row)
+    nu = int(rec["nu"])
+    U = np.array(rec["u"], dtype=float).reshape(-1, 4)
+    x, xp = aft.synthesize(U, 2 * U.shape[0])  # at least 2H+1 samples: only theta = 0 is used
+    _, res = steady_state(model, {"w": w}, x0=x[0], v0=(w / nu) * xp[0], transient=transient, record=record)
+    return brute_force_class(res.period if res is not None else None)
+
+
+def brute_force_class(period) -> str:
+    """The brute-force class of a steady-state period (None: not periodic)."""
+    return {1: "harmonic", 2: "subharmonic"}.get(period, "neither")
+
+
+def agrees(bf: str, diagram: str) -> bool:
+    """Same class; where the diagram has two stable solutions the simulation may settle on either."""
+    return bf in diagram.split("+")
+
+
+def speed_grid(rows, lo: float, hi: float) -> tuple[np.ndarray, float]:
+    """Speeds over [lo, hi] at the diagram's resolution (median w spacing of the harmonic branch)."""
+    m = np.array([int(n) == 1 for n in rows["nu"]])
+    ws = np.unique(np.round(rows["w"][m] if m.any() else rows["w"], 9))
+    dw = float(np.median(np.diff(ws))) if ws.size > 1 else (hi - lo)
+    n = max(int(round((hi - lo) / dw)), 1)
+    return np.linspace(lo, hi, n + 1), dw
+
+
 def main(argv=None) -> int:
     from contin.blas import limit_blas_threads
     from contin.catalog import build_model
@@ -68,17 +126,20 @@ def main(argv=None) -> int:
     limit_blas_threads(1)
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="small settings (a smoke run; figures not converged)")
-    ap.add_argument("--speeds", type=int, default=12, help="brute-force speeds timed")
+    ap.add_argument("--every", type=int, default=1,
+                    help="simulate every k-th speed of the grid and extrapolate the brute-force time")
     ap.add_argument("--transient", type=float, default=1500, help="revolutions to steady state")
     ap.add_argument("--record", type=int, default=40, help="revolutions classified")
     ap.add_argument("--harmonics", default="40,60,80,120", help="H values (of w/2) for the nu = 2 convergence")
+    ap.add_argument("--no-convergence", action="store_true", help="skip the nu = 2 convergence study (part 2)")
     args = ap.parse_args(argv)
     overrides = []
     hs = [int(h) for h in args.harmonics.split(",")]
+    every = max(args.every, 1)
     if args.quick:
         overrides = ["analysis.range=[2.12, 2.2]", "analysis.start=2.12", "analysis.harmonics=12", "analysis.samples=256",
                      "analysis.stability_options.steps_per_period=2048", "analysis.starts=[]"]
-        args.speeds, args.transient, args.record, hs = 2, 50, 8, [12, 16]
+        args.transient, args.record, hs = 30, 8, [12, 16]
     tmp = Path(tempfile.mkdtemp(prefix="bench_rotor_"))
 
     # 1. the diagram, then brute force at the same speeds
@@ -86,29 +147,54 @@ def main(argv=None) -> int:
     scene, summary = run("rotor_f0_05", overrides, tmp / "diagram")
     t_diagram = time.perf_counter() - t0
     rows = read_csv(tmp / "diagram" / "branches.csv")
-    n_speeds = len(np.unique(np.round(rows["w"], 9)))
     lo, hi = scene.analysis["range"]
+    grid, dw = speed_grid(rows, lo, hi)
+    if args.quick:
+        every = max(len(grid) // 3, 1)  # three speeds
+    simulated = np.arange(0, len(grid), every)
     model = build_model("bearing_rotor", {"f0": 0.5})
     rng = np.random.default_rng(1)
-    speeds = np.linspace(lo, hi, args.speeds + 2)[1:-1]
-    print(f"diagram: {t_diagram:.1f} s for {len(rows['w'])} points at {n_speeds} distinct speeds "
-          f"({len(summary['analysis']['branches'])} branches)")
-    print(f"{'w':>7s} {'brute force':>14s} {'diagram':>22s} {'time s':>7s}")
-    t_bf = []
-    for w in speeds:
+    print(f"diagram: {t_diagram:.1f} s for {len(rows['w'])} points "
+          f"({len(summary['analysis']['branches'])} branches); speed resolution dw = {dw:.4g}")
+    print(f"brute force: {len(simulated)} of the {len(grid)} speeds w = {lo:g}..{hi:g} step {dw:.4g}, "
+          f"{args.transient:g} + {args.record} revolutions each")
+    print(f"{'w':>8s} {'brute force':>12s} {'diagram':>22s} {'agree':>6s} {'time s':>7s}")
+    t_bf, n_agree, disagree = [], 0, []
+    for i in simulated:
+        w = float(grid[i])
         t1 = time.perf_counter()
-        _, res = steady_state(model, {"w": float(w)}, x0=1e-3 * rng.normal(size=4), v0=np.zeros(4),
+        _, res = steady_state(model, {"w": w}, x0=1e-3 * rng.normal(size=4), v0=np.zeros(4),
                               transient=args.transient, record=args.record)
         t_bf.append(time.perf_counter() - t1)
-        cls = {1: "harmonic", 2: "subharmonic"}.get(res.period, "neither")
-        print(f"{w:7.4f} {cls:>14s} {diagram_class(rows, float(w)):>22s} {t_bf[-1]:7.2f}")
-    per_speed = float(np.mean(t_bf))
-    print(f"brute force: {per_speed:.2f} s per speed; for the diagram's {n_speeds} speeds {per_speed * n_speeds:.1f} s; "
-          f"ratio brute force / diagram = {per_speed * n_speeds / t_diagram:.1f}x")
+        bf, dg = brute_force_class(res.period if res is not None else None), diagram_class(rows, w)
+        ok = agrees(bf, dg)
+        n_agree += ok
+        if not ok and dg != "neither":
+            disagree.append((w, bf, dg))
+        print(f"{w:8.4f} {bf:>12s} {dg:>22s} {'yes' if ok else 'NO':>6s} {t_bf[-1]:7.2f}")
+    total = float(np.sum(t_bf)) * len(grid) / len(simulated)
+    how = "measured" if len(simulated) == len(grid) else f"extrapolated from {len(simulated)} speeds"
+    print(f"classification: same class at {n_agree} of {len(simulated)} speeds")
+    if disagree:
+        # where the simulation from near rest ended elsewhere, start it on the diagram's stable orbit:
+        # if it stays there, the two attractors coexist and the sweep from rest found the other one
+        n_stay = 0
+        print(f"{len(disagree)} speeds where the diagram has a stable solution the simulation from rest did not "
+              f"reach; simulated again from the diagram's orbit (200 + {args.record} revolutions):")
+        print(f"{'w':>8s} {'from rest':>12s} {'from orbit':>12s} {'diagram':>22s}")
+        for w, bf, dg in disagree:
+            cls = dg.split("+")[0]
+            again = simulate_from_orbit(model, tmp / "diagram", rows, w, cls, 200, args.record)
+            n_stay += again is not None and again in dg.split("+")
+            print(f"{w:8.4f} {bf:>12s} {str(again):>12s} {dg:>22s}")
+        print(f"started on the diagram's orbit, the simulation keeps its class at {n_stay} of {len(disagree)} of them "
+              f"(coexisting attractors)")
+    print(f"brute force: {np.mean(t_bf):.2f} s per speed, {total:.1f} s for the {len(grid)} speeds ({how}); "
+          f"diagram {t_diagram:.1f} s; ratio brute force / diagram = {total / t_diagram:.1f}x")
 
     # 2. the stable nu = 2 interval against H
-    if args.quick:
-        print("(quick run: the nu = 2 convergence study is skipped)")
+    if args.quick or args.no_convergence:
+        print("(the nu = 2 convergence study is skipped)")
         return 0
     print(f"\n{'H (of w/2)':>10s} {'samples':>8s} {'stable from':>12s} {'to':>10s} {'time s':>7s}")
     results = []

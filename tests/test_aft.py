@@ -91,3 +91,14 @@ def test_embed_doubles_the_period_representation(rng):
     V = coefficient_blocks(v, n)
     for k in range(1, 2 * H + 1, 2):
         assert not V[2 * k - 1].any() and not V[2 * k].any()
+
+
+def test_too_few_samples_is_an_error_not_a_write_past_the_spectrum():
+    import pytest
+
+    from contin import aft
+
+    with pytest.raises(ValueError, match="2H"):
+        aft.synthesize(np.zeros((81, 4)), 64)
+    with pytest.raises(ValueError, match="2H"):
+        aft.project(np.zeros((64, 4)), 40)

@@ -128,3 +128,17 @@ def test_model_errors_name_the_key():
         polynomial_model(["x", "y"], {"w": 1.0}, mass=[[1]])
     with pytest.raises(ValueError, match="unknown effect 'cubik'.*did you mean 'cubic'"):
         build_model("duffing", effects=["cubik"])
+
+
+@pytest.mark.parametrize("param", ["w", "ip", "alpha", "e"])
+def test_blockwise_linear_part_equals_the_dense_operator(param, rng):
+    # no contact at these small amplitudes: the Jacobian is the linear operator A(Omega, p) itself
+    hb = HarmonicBalance(build_model("bearing_rotor", {"f0": 0.0}), param, HBOptions(harmonics=4, subharmonic=2))
+    u = 1e-3 * rng.normal(size=hb.size)
+    lam = hb.p0[hb.k] * 1.05
+    p = hb.params_at(lam)
+    A = hb.linear_matrix(p)
+    R, Ju, _ = hb.linearize(u, lam)
+    np.testing.assert_allclose(Ju, A, rtol=0, atol=1e-13 * np.abs(A).max())
+    fext, _ = hb.excitation(p)
+    np.testing.assert_allclose(R, A @ u - fext, rtol=0, atol=1e-13 * np.abs(fext).max())

@@ -171,3 +171,56 @@ def test_solve_at_parameter():
     res = solve_at_parameter(Cubic(), np.array([2.0]), 1.0, Opts())
     assert not res.converged and res.iterations == 1
     assert "after 1 iterations" in res.message
+
+
+def test_chord_step_reuses_the_factorisation_only_where_it_converges(rng):
+    A = rng.standard_normal((6, 6)) + 6 * np.eye(6)
+    b = rng.standard_normal(6)
+
+    def f(x):
+        return A @ x + 0.05 * x**3 - b, A + np.diag(0.15 * x**2)
+
+    full = newton(f, np.zeros(6), tol=1e-12, factor_final=True, reuse_lu=False)
+    reuse = newton(f, np.zeros(6), tol=1e-12, factor_final=True)
+    assert full.converged and reuse.converged
+    # same number of updates, one factorisation fewer, the same solution to the tolerance
+    assert reuse.iterations == full.iterations
+    assert reuse.factorizations == full.factorizations - 1
+    np.testing.assert_allclose(reuse.x, full.x, atol=1e-12)
+    # the final factorisation is still that of the Jacobian at the solution
+    J = A + np.diag(0.15 * reuse.x**2)
+    rhs = rng.standard_normal(6)
+    np.testing.assert_allclose(J @ reuse.lu.solve(rhs), rhs, atol=1e-12)
+
+
+def test_slow_contraction_keeps_full_newton():
+    # a double root: linear convergence, the chord step is never predicted to finish
+    def f(x):
+        return np.array([(x[0] - 1.0) ** 2]), np.array([[2.0 * (x[0] - 1.0)]])
+
+    a = newton(f, [2.0], tol=1e-10, max_iter=60, reuse_lu=False)
+    b = newton(f, [2.0], tol=1e-10, max_iter=60)
+    assert a.converged and b.converged
+    assert a.iterations == b.iterations and a.factorizations == b.factorizations
+
+
+def test_a_given_factorisation_saves_the_first_one_and_a_poor_one_costs_no_convergence(rng):
+    A = rng.standard_normal((6, 6)) + 6 * np.eye(6)
+    b = rng.standard_normal(6)
+
+    def f(x):
+        return A @ x + 0.05 * x**3 - b, A + np.diag(0.15 * x**2)
+
+    full = newton(f, np.zeros(6), tol=1e-12, factor_final=True, reuse_lu=False)
+    x_near = full.x + 1e-4 * rng.standard_normal(6)
+    near = factorize(f(full.x)[1])  # the Jacobian at a nearby point, as a previous continuation point gives
+    ref = newton(f, x_near, tol=1e-12, factor_final=True, reuse_lu=False)
+    res = newton(f, x_near, tol=1e-12, factor_final=True, lu0=near)
+    assert res.converged and ref.converged
+    assert res.factorizations < ref.factorizations
+    np.testing.assert_allclose(res.x, ref.x, atol=1e-12)
+    # a factorisation of an unrelated matrix: the step is undone and Newton converges as without it
+    bad = factorize(-np.eye(6))
+    res = newton(f, np.zeros(6), tol=1e-12, factor_final=True, lu0=bad)
+    assert res.converged and res.iterations == full.iterations
+    np.testing.assert_allclose(res.x, full.x, atol=1e-12)
