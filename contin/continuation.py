@@ -290,6 +290,18 @@ class ContinuationOptions:
 _ILL_RCOND = 1e-15
 
 
+#: Residual (in units of ``newton_tol``) and scaled update below which a
+#: corrector stalled at a kink of a piecewise-smooth residual is accepted.
+KINK_RESIDUAL_FACTOR = 1e3
+KINK_STEP = 1e-6
+
+
+def _cycles(history) -> bool:
+    """Whether a residual history went up at least twice (Newton cycling, not slow convergence)."""
+    h = np.asarray(history, dtype=float)
+    return h.size >= 4 and int(np.count_nonzero(h[1:] > h[:-1])) >= 2
+
+
 class _Failure(Exception):
     """Internal: a numerical failure ending the branch with a status."""
 
@@ -393,6 +405,8 @@ class _Engine:
         self.turns: list = []  # (angle or None, ds) of the failed steps from the current point
         self.across = False  # a fixed-parameter step across a corner is being tried
         self.n_newton = 0
+        self.n_backtracked = 0  # correctors retried with step halving
+        self.n_kink_accepted = 0  # correctors accepted at a kink of the residual
         self.min_rcond = math.inf
         self.min_rcond_index = -1
         self.last_failure = ""
@@ -479,9 +493,50 @@ class _Engine:
             A[:m] = Jh
             return F, A
 
-        res = newton(fun_and_jac, guess, self.opt.newton_tol, self.opt.newton_max_iter, factor_final=True)
+        return self._newton(fun_and_jac, guess, factor_final=True)
+
+    def _newton(self, fun_and_jac, guess, scale=None, **kw):
+        """Newton, retried with step halving when plain Newton cycles.
+
+        A residual that is only piecewise smooth (stiff contact sampled by the
+        AFT: the Jacobian jumps where a sample crosses the clearance) makes
+        full Newton alternate between two pieces, the residual going up and
+        down without converging; halving the updates breaks most cycles.
+        Where a root sits within rounding of such a kink, no update decreases
+        the residual below ``newton_tol`` (it stalls at a few times the
+        tolerance); the best iterate is then accepted when its residual is
+        below ``KINK_RESIDUAL_FACTOR * newton_tol`` and one more Newton update
+        from it moves the scaled variables by less than ``KINK_STEP``: the
+        point is then that close to the root. Smooth problems never pay for
+        any of this: it happens only after a failure.
+        """
+        opt = self.opt
+        res = newton(fun_and_jac, guess, opt.newton_tol, opt.newton_max_iter, **kw)
         self.n_newton += res.iterations
-        return res
+        if res.converged or res.singular or not _cycles(res.residual_history):
+            return res
+        self.n_backtracked += 1
+        res = newton(fun_and_jac, guess, opt.newton_tol, 2 * opt.newton_max_iter, backtrack=8, **kw)
+        self.n_newton += res.iterations
+        if res.converged or res.singular or not res.residual_norm <= KINK_RESIDUAL_FACTOR * opt.newton_tol:
+            return res
+        F, J = fun_and_jac(res.x.copy())  # also makes sp.last the accepted point
+        F, J = np.array(F, dtype=float), np.array(J, dtype=float)
+        try:
+            lu = factorize(J)
+        except SingularMatrixError:
+            return res
+        dx = lu.solve(-F)
+        if scale is not None:
+            dx = dx / scale
+        step = float(np.max(np.abs(dx), initial=0.0))
+        if not step <= KINK_STEP:
+            return res
+        self.n_kink_accepted += 1
+        r = float(np.max(np.abs(F), initial=0.0))
+        return dataclasses.replace(
+            res, converged=True, residual=F, jacobian=J, residual_norm=r, lu=lu if kw.get("factor_final") else None,
+            rcond=lu.rcond, message=f"converged to a kink of the residual: residual {r:.1e}, next update {step:.1e}")
 
     def _fixed_solve(self, lam: float, u_guess: np.ndarray):
         sp = self.sp
@@ -490,9 +545,7 @@ class _Engine:
             R, Ju, _ = sp.evaluate(u, lam)
             return R, Ju
 
-        res = newton(fun_and_jac, u_guess, self.opt.newton_tol, self.opt.newton_max_iter)
-        self.n_newton += res.iterations
-        return res
+        return self._newton(fun_and_jac, u_guess, scale=sp.su)
 
     def _point_info(self, cand_u, lam, tangent, lu, Ju, Jlam, s, data) -> PointInfo:
         return PointInfo(
@@ -659,6 +712,8 @@ class _Engine:
             min_rcond_index=self.min_rcond_index,
             n_rejected_steps=self.n_rejected,
             n_newton_iterations=self.n_newton,
+            n_backtracked=self.n_backtracked,
+            n_kink_accepted=self.n_kink_accepted,
             n_linearizations=self.sp.calls,
             last_failure=self.last_failure,
             options=self._options_dict,
@@ -822,7 +877,10 @@ class _Engine:
         whose Newton iterates straddle the corner, fails; then a step at
         fixed parameter (``lam`` advanced by ``ds``, in scaled units, in the
         tangent's direction) is tried, as across a corner the branch is
-        locally a graph over ``lam`` unless the corner is a fold.
+        locally a graph over ``lam`` unless the corner is a fold; then one
+        at a fixed value of the unknown dominating the tangent (a corner
+        that is also a fold). A turned candidate at a step within
+        ``corner_ratio`` of ``ds_min`` is a corner as well.
         """
         angle = failed.turn[0] if failed.turn is not None else None
         if not self.turns:
@@ -837,6 +895,25 @@ class _Engine:
             cand = self._oriented(failed.turn[2])
             cand.kink = (angle, ds, first_angle or angle, first_ds)
             return cand
+        cand = self._across_fixed_parameter(ds)
+        if cand is None:
+            cand = self._across_fixed_component(ds)
+        if cand is None:
+            if angle is not None and ds <= self.opt.corner_ratio * self.opt.ds_min:
+                # a turn beyond max_angle_deg over a step this short would need a radius of
+                # curvature below the smallest step: the step control cannot resolve it, so
+                # it is a corner (the candidate lies within ds of the current point)
+                cand = self._oriented(failed.turn[2])
+                cand.kink = (angle, ds, first_angle or angle, first_ds)
+            return cand
+        cand = self._oriented(cand)
+        turn = math.degrees(math.acos(float(np.clip(self.t @ cand.tangent, -1.0, 1.0))))
+        if turn > self.opt.max_angle_deg:
+            cand.kink = (turn, ds, first_angle or turn, first_ds)
+        return cand
+
+    def _across_fixed_parameter(self, ds: float):
+        """A step at fixed ``lam`` advanced by ``ds`` (scaled), or None."""
         sl, t_lam = self.sp.sl, self.t[-1]
         if abs(t_lam) < 1e-3:
             return None  # a vertical tangent: not a graph over lam
@@ -853,10 +930,42 @@ class _Engine:
             self.across = False
         if not (self.lo <= cand.lam <= self.hi):
             return None
-        cand = self._oriented(cand)
-        turn = math.degrees(math.acos(float(np.clip(self.t @ cand.tangent, -1.0, 1.0))))
-        if turn > self.opt.max_angle_deg:
-            cand.kink = (turn, ds, first_angle or turn, first_ds)
+        return cand
+
+    def _across_fixed_component(self, ds: float):
+        """A step with the unknown of the largest tangent component advanced by ``ds``, or None.
+
+        At a corner that is also a fold of the discretised problem (near a
+        fold the tangent is so sensitive to the Jacobian that one AFT sample
+        entering the contact can turn the branch back), there is no
+        solution beyond the corner at fixed ``lam``; the branch is still a
+        graph over the unknown that dominates the tangent.
+        """
+        i = int(np.argmax(np.abs(self.t[:-1])))
+        ti = float(self.t[i])
+        if abs(ti) < 0.1:
+            return None
+        normal = np.zeros(self.m + 1)
+        normal[i] = 1.0
+        offset = math.copysign(ds, ti)
+        guess = self.x.copy()
+        guess[i] += offset
+        self.across = True
+        try:
+            res = self._bordered_solve(guess, self.x, normal, offset)
+            if not res.converged:
+                return None
+            cand = self._check_new(res.x, guess, ds / abs(ti), res.lu, res.rcond, res.iterations)
+        except _StepFailed as exc:
+            if exc.turn is None:
+                return None
+            cand = exc.turn[2]
+        except NUMERICAL_ERRORS:
+            return None
+        finally:
+            self.across = False
+        if not (self.lo <= cand.lam <= self.hi):
+            return None
         return cand
 
     def _oriented(self, cand):
