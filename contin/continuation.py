@@ -52,7 +52,7 @@ from .events import (
 )
 from .newton import NUMERICAL_ERRORS, LUFactor, SingularMatrixError, factorize, newton
 
-__all__ = ["ContinuationOptions", "Monitor", "Problem", "Scaling", "continuation"]
+__all__ = ["ContinuationOptions", "Monitor", "Problem", "Scaling", "connection_report", "continuation"]
 
 
 @runtime_checkable
@@ -290,10 +290,20 @@ class ContinuationOptions:
 _ILL_RCOND = 1e-15
 
 
+#: Growth of ``||u||_inf`` over the automatic scalar scale that updates it.
+RESCALE_FACTOR = 100.0
+
 #: Residual (in units of ``newton_tol``) and scaled update below which a
 #: corrector stalled at a kink of a piecewise-smooth residual is accepted.
 KINK_RESIDUAL_FACTOR = 1e3
 KINK_STEP = 1e-6
+
+
+def _condition(rcond: float) -> float:
+    """Condition estimate from a reciprocal one (``inf`` for a singular matrix, NaN if none)."""
+    if not math.isfinite(rcond):
+        return math.nan
+    return math.inf if rcond <= 0 else 1.0 / rcond
 
 
 def _cycles(history) -> bool:
@@ -406,9 +416,12 @@ class _Engine:
         self.across = False  # a fixed-parameter step across a corner is being tried
         self.n_newton = 0
         self.n_backtracked = 0  # correctors retried with step halving
+        self.adaptive_scale = False
+        self.rescalings: list = []  # (parameter, old scale, new scale)
         self.n_kink_accepted = 0  # correctors accepted at a kink of the residual
         self.min_rcond = math.inf
         self.min_rcond_index = -1
+        self.last_rcond = math.nan
         self.last_failure = ""
         self._options_dict = options.to_dict()
         self._e_last = np.zeros(self.m + 1)
@@ -448,6 +461,7 @@ class _Engine:
             if su is None:
                 norm = float(np.max(np.abs(u))) if m else 0.0
                 su = np.full(m, max(norm, 1e-12) if norm > 0 else 1.0)
+                self.adaptive_scale = True  # a guess from one point: updated as the unknowns grow
         else:
             su = np.ones(m)
         return su, float(sl)
@@ -689,6 +703,7 @@ class _Engine:
         if info.rcond < self.min_rcond:
             self.min_rcond = info.rcond
             self.min_rcond_index = index
+        self.last_rcond = info.rcond
         return index
 
     def _after_store(self) -> bool:
@@ -710,10 +725,17 @@ class _Engine:
             lam_range=(self.lo, self.hi),
             min_rcond=self.min_rcond,
             min_rcond_index=self.min_rcond_index,
+            # 1-norm condition estimates (LAPACK gecon on the LU each corrector makes anyway) of
+            # the scaled, row-equilibrated bordered Jacobian [[Ju su, Jlam sl], [t]]
+            max_condition=_condition(self.min_rcond),
+            max_condition_parameter=(float(b.parameter[self.min_rcond_index])
+                                     if 0 <= self.min_rcond_index < len(b) else math.nan),
+            last_condition=_condition(self.last_rcond),
             n_rejected_steps=self.n_rejected,
             n_newton_iterations=self.n_newton,
             n_backtracked=self.n_backtracked,
             n_kink_accepted=self.n_kink_accepted,
+            rescalings=list(self.rescalings),
             n_linearizations=self.sp.calls,
             last_failure=self.last_failure,
             options=self._options_dict,
@@ -861,6 +883,7 @@ class _Engine:
             if cand.landed:
                 self._finish_range_end(len(self.branch) - 1)
                 return self.branch
+            self._maybe_rescale()
             if self._closed(cand):
                 self.builder.finish(BranchStatus.CLOSED_LOOP, f"the branch returned to its start point {self.fmt(self.branch.parameter[0])}")
                 return self.branch
@@ -967,6 +990,48 @@ class _Engine:
         if not (self.lo <= cand.lam <= self.hi):
             return None
         return cand
+
+    def _maybe_rescale(self):
+        """Grow the scalar unknown scale with the unknowns.
+
+        The automatic scalar scale comes from the start point alone. A lightly
+        damped resonance starting from a tiny response (1e-6 at the start,
+        0.5 at the peak) would otherwise need millions of steps of at most
+        ``ds_max``. So the scale follows ``||u||_inf`` whenever it has grown
+        by ``RESCALE_FACTOR``, and the current point, tangent and references
+        are converted (a positive diagonal change of variables keeps every
+        orientation and sign the events use). It never shrinks: a scale
+        following the response back down would magnify each small wiggle of
+        the branch (a contact's corners) into steps that jump.
+        """
+        if not self.adaptive_scale:
+            return
+        su = float(self.sp.su[0])
+        norm = float(np.max(np.abs(self.u), initial=0.0))
+        if not norm > RESCALE_FACTOR * su:
+            return
+        f = norm / su
+        m = self.m
+        self.sp.su[:] = norm
+
+        def convert_point(x):
+            x = x.copy()
+            x[:m] /= f
+            return x
+
+        def convert_direction(t):
+            t = convert_point(t)
+            return t / np.linalg.norm(t)
+
+        self.x = convert_point(self.x)
+        self.prev_x = convert_point(self.prev_x)
+        self.x_start = convert_point(self.x_start)
+        self.max_dist = float(np.linalg.norm(self.x - self.x_start))
+        self.t = convert_direction(self.t)
+        self.t_start = convert_direction(self.t_start)
+        self.info.tangent = self.t
+        self.turns.clear()
+        self.rescalings.append((self.lam, su, norm))
 
     def _oriented(self, cand):
         """Orient the tangent beyond a corner along the secant (the bordered
@@ -1227,3 +1292,110 @@ def continuation(
         elif hasattr(eng, "sp"):
             branch.info.update(lam_range=(lo, hi), n_linearizations=eng.sp.calls, n_newton_iterations=eng.n_newton)
     return branch
+
+
+def connection_report(problem: Problem, branch: Branch, *, max_angle_deg: float = 45.0, midpoint: bool = True,
+                      max_offset: float = 0.5, newton_tol: float | None = None, skip_kinks: bool = True) -> dict:
+    """Check that consecutive stored points of a branch lie on one connected curve.
+
+    An invariant against silent branch jumping, computed from the problem
+    alone (not from the engine's own tangents):
+
+    - at each stored point the tangent is the null vector of the scaled
+      ``[Ju su, Jlam sl]`` (oriented along the secant); the angle between
+      the secant to the next point and the tangents at both ends must stay
+      below ``max_angle_deg`` (a smooth arc of curvature ``k`` and length
+      ``L`` gives about ``k L / 2``);
+    - with ``midpoint``, the problem is solved again on the hyperplane
+      through the chord's midpoint normal to the chord; the solution must
+      lie within ``max_offset * L`` of the midpoint, i.e. between the two
+      points, not on another sheet.
+
+    Steps across a recorded corner (``kink`` special point) are skipped with
+    ``skip_kinks``: the tangent jumps there by construction.
+
+    Parameters
+    ----------
+    problem : Problem
+    branch : Branch
+        Traced with ``problem``; its ``info`` holds the scales.
+    max_angle_deg, max_offset : float
+    midpoint : bool
+    newton_tol : float, optional
+        Tolerance of the midpoint solves (default: the branch's
+        ``newton_tol`` times 10, or 1e-9).
+    skip_kinks : bool
+
+    Returns
+    -------
+    dict
+        ``ok`` (bool), ``max_angle_deg``, ``max_offset`` (midpoint distance
+        over chord length), ``checked`` (number of steps checked) and
+        ``failures``: list of ``(index, reason)`` for the step from point
+        ``index`` to ``index + 1``.
+    """
+    n = len(branch)
+    m = branch.unknowns.shape[1] if n else 0
+    su = np.broadcast_to(np.asarray(branch.info.get("unknown_scale", 1.0), dtype=float), (m,))
+    sl = float(branch.info.get("parameter_scale", 1.0))
+    opts = branch.info.get("options") or {}
+    tol = newton_tol if newton_tol is not None else 10.0 * float(opts.get("newton_tol", 1e-10))
+    kinks = {sp.index for sp in branch.special_points if sp.kind == SpecialKind.KINK} if skip_kinks else set()
+    X = np.column_stack([branch.unknowns / su, branch.parameter / sl]) if n else np.zeros((0, m + 1))
+    failures: list = []
+    worst_angle, worst_offset, checked = 0.0, 0.0, 0
+
+    def jac(x):
+        R, Ju, Jlam = problem.linearize(x[:m] * su, float(x[m] * sl))
+        return np.asarray(R, dtype=float), np.column_stack([np.asarray(Ju, float) * su, np.asarray(Jlam, float) * sl])
+
+    def tangent(x, d):
+        _, Jh = jac(x)
+        A = np.vstack([Jh, d])
+        rhs = np.zeros(m + 1)
+        rhs[-1] = 1.0
+        try:
+            z = np.linalg.solve(A, rhs)
+        except np.linalg.LinAlgError:
+            return None
+        return z / np.linalg.norm(z)
+
+    def angle(a, b):
+        return math.degrees(math.acos(float(np.clip(abs(a @ b), -1.0, 1.0))))
+
+    for i in range(n - 1):
+        if i in kinks or (i + 1) in kinks:
+            continue
+        d = X[i + 1] - X[i]
+        L = float(np.linalg.norm(d))
+        if L == 0.0:
+            continue
+        d = d / L
+        checked += 1
+        ends = [tangent(X[i], d), tangent(X[i + 1], d)]
+        if any(t is None for t in ends):
+            failures.append((i, "singular Jacobian at a stored point"))
+            continue
+        a = max(angle(d, t) for t in ends)
+        worst_angle = max(worst_angle, a)
+        if a > max_angle_deg:
+            failures.append((i, f"secant and tangent differ by {a:.1f} deg"))
+            continue
+        if not midpoint:
+            continue
+        xm = 0.5 * (X[i] + X[i + 1])
+
+        def fun(x, xm=xm, d=d):
+            R, Jh = jac(x)
+            return np.concatenate([R, [d @ (x - xm)]]), np.vstack([Jh, d])
+
+        res = newton(fun, xm, tol, 30)
+        if not res.converged:
+            failures.append((i, f"no solution on the midpoint hyperplane ({res.message})"))
+            continue
+        off = float(np.linalg.norm(res.x - xm)) / L
+        worst_offset = max(worst_offset, off)
+        if off > max_offset:
+            failures.append((i, f"the midpoint solution lies {off:.2g} chord lengths away from the chord"))
+    return {"ok": not failures, "max_angle_deg": worst_angle, "max_offset": worst_offset, "checked": checked,
+            "failures": failures}
