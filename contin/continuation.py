@@ -293,10 +293,8 @@ _ILL_RCOND = 1e-15
 #: Growth of ``||u||_inf`` over the automatic scalar scale that updates it.
 RESCALE_FACTOR = 100.0
 
-#: Residual (in units of ``newton_tol``) and scaled update below which a
-#: corrector stalled at a kink of a piecewise-smooth residual is accepted.
-KINK_RESIDUAL_FACTOR = 1e3
-KINK_STEP = 1e-6
+#: Growth of the scaled Jacobian since the start that a stop message points out.
+JACOBIAN_GROWTH = 1e3
 
 
 def _condition(rcond: float) -> float:
@@ -418,7 +416,6 @@ class _Engine:
         self.n_backtracked = 0  # correctors retried with step halving
         self.adaptive_scale = False
         self.rescalings: list = []  # (parameter, old scale, new scale)
-        self.n_kink_accepted = 0  # correctors accepted at a kink of the residual
         self.min_rcond = math.inf
         self.min_rcond_index = -1
         self.last_rcond = math.nan
@@ -509,20 +506,15 @@ class _Engine:
 
         return self._newton(fun_and_jac, guess, factor_final=True)
 
-    def _newton(self, fun_and_jac, guess, scale=None, **kw):
+    def _newton(self, fun_and_jac, guess, **kw):
         """Newton, retried with step halving when plain Newton cycles.
 
         A residual that is only piecewise smooth (stiff contact sampled by the
         AFT: the Jacobian jumps where a sample crosses the clearance) makes
         full Newton alternate between two pieces, the residual going up and
         down without converging; halving the updates breaks most cycles.
-        Where a root sits within rounding of such a kink, no update decreases
-        the residual below ``newton_tol`` (it stalls at a few times the
-        tolerance); the best iterate is then accepted when its residual is
-        below ``KINK_RESIDUAL_FACTOR * newton_tol`` and one more Newton update
-        from it moves the scaled variables by less than ``KINK_STEP``: the
-        point is then that close to the root. Smooth problems never pay for
-        any of this: it happens only after a failure.
+        Smooth problems never pay for it: the retry happens only after such
+        a failure.
         """
         opt = self.opt
         res = newton(fun_and_jac, guess, opt.newton_tol, opt.newton_max_iter, **kw)
@@ -532,25 +524,7 @@ class _Engine:
         self.n_backtracked += 1
         res = newton(fun_and_jac, guess, opt.newton_tol, 2 * opt.newton_max_iter, backtrack=8, **kw)
         self.n_newton += res.iterations
-        if res.converged or res.singular or not res.residual_norm <= KINK_RESIDUAL_FACTOR * opt.newton_tol:
-            return res
-        F, J = fun_and_jac(res.x.copy())  # also makes sp.last the accepted point
-        F, J = np.array(F, dtype=float), np.array(J, dtype=float)
-        try:
-            lu = factorize(J)
-        except SingularMatrixError:
-            return res
-        dx = lu.solve(-F)
-        if scale is not None:
-            dx = dx / scale
-        step = float(np.max(np.abs(dx), initial=0.0))
-        if not step <= KINK_STEP:
-            return res
-        self.n_kink_accepted += 1
-        r = float(np.max(np.abs(F), initial=0.0))
-        return dataclasses.replace(
-            res, converged=True, residual=F, jacobian=J, residual_norm=r, lu=lu if kw.get("factor_final") else None,
-            rcond=lu.rcond, message=f"converged to a kink of the residual: residual {r:.1e}, next update {step:.1e}")
+        return res
 
     def _fixed_solve(self, lam: float, u_guess: np.ndarray):
         sp = self.sp
@@ -559,7 +533,7 @@ class _Engine:
             R, Ju, _ = sp.evaluate(u, lam)
             return R, Ju
 
-        return self._newton(fun_and_jac, u_guess, scale=sp.su)
+        return self._newton(fun_and_jac, u_guess)
 
     def _point_info(self, cand_u, lam, tangent, lu, Ju, Jlam, s, data) -> PointInfo:
         return PointInfo(
@@ -646,6 +620,7 @@ class _Engine:
         self.s = 0.0
         self.x_start = x.copy()
         self.t_start = t.copy()
+        self.jac_norm_start = float(np.max(np.abs(Ju * su), initial=0.0))
         self.max_dist = 0.0
         try:
             data = self._monitor(self.u, self.lam, Ju, Jlam)
@@ -661,6 +636,20 @@ class _Engine:
                          located=True, message="start point", event="start", tangent=t.copy())
         )
         return self._after_store()
+
+    def _diagnosis(self) -> str:
+        """What the last stored point says about a stop: condition and growth of the Jacobian."""
+        parts = []
+        try:
+            norm = float(np.max(np.abs(self.info.Ju * self.sp.su)))
+        except (AttributeError, ValueError):
+            return ""
+        if self.jac_norm_start > 0 and norm > JACOBIAN_GROWTH * self.jac_norm_start:
+            parts.append(f"the scaled Jacobian grew {norm / self.jac_norm_start:.1e}-fold since the start "
+                         "(the model blows up there?)")
+        if math.isfinite(self.info.rcond):
+            parts.append(f"condition estimate {_condition(self.info.rcond):.1e}")
+        return "; " + "; ".join(parts) if parts else ""
 
     def _start_failed(self, message: str) -> bool:
         self.builder.finish(BranchStatus.START_FAILED, message)
@@ -734,7 +723,6 @@ class _Engine:
             n_rejected_steps=self.n_rejected,
             n_newton_iterations=self.n_newton,
             n_backtracked=self.n_backtracked,
-            n_kink_accepted=self.n_kink_accepted,
             rescalings=list(self.rescalings),
             n_linearizations=self.sp.calls,
             last_failure=self.last_failure,
@@ -870,7 +858,7 @@ class _Engine:
                     raise _Failure(
                         BranchStatus.STEP_TOO_SMALL,
                         f"step size fell below ds_min={opt.ds_min:g} at {self.fmt(self.lam)}; "
-                        f"last failure: {cand.reason}",
+                        f"last failure: {cand.reason}{self._diagnosis()}",
                     )
                 ds = max(ds * opt.shrink, opt.ds_min)
                 continue

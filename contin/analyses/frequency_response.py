@@ -284,8 +284,7 @@ def run(ctx) -> dict:
             "condition": _condition_summary(branch),
             "rejected_steps": branch.info.get("n_rejected_steps"),
             "newton": {"iterations": branch.info.get("n_newton_iterations"),
-                       "retried_with_step_halving": branch.info.get("n_backtracked", 0),
-                       "accepted_at_a_kink": branch.info.get("n_kink_accepted", 0)},
+                       "retried_with_step_halving": branch.info.get("n_backtracked", 0)},
             "rescalings": [list(r) for r in branch.info.get("rescalings", [])],
             "stability": _stability_summary(branch),
         })

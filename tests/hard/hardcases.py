@@ -1,0 +1,124 @@
+"""Models and independent references shared by the hard-case tests."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.integrate import solve_ivp
+from scipy.optimize import brentq, fsolve
+
+from contin.elements import GapForce
+from contin.model import Monomial
+from contin.models.polynomial import polynomial_model
+
+
+def clearance_oscillator(kc: float, c: float = 0.05, F: float = 0.03, g: float = 0.5):
+    """x'' + c x' + x + kc (x - g)_+ = F cos(w t): a one-sided elastic stop at x = g."""
+    m = polynomial_model(["x"], {"c": c, "F": F, "g": g, "kc": kc, "w": 0.5}, [[1]], [["c"]], [[1]],
+                         forcing=[{"dof": "x", "amplitude": "F"}])
+    names = list(m.parameters)
+    m.forces.append(GapForce(0, Monomial.parse("g", names), Monomial.parse("kc", names), sides="+"))
+    return m
+
+
+def clearance_orbit(w, kc, c=0.05, F=0.03, g=0.5, z0=(0.0, 0.0)):
+    """Periodic orbit of :func:`clearance_oscillator` by shooting on event-located integration.
+
+    Each smooth piece (free, or in contact) is integrated with DOP853 at
+    rtol 1e-12 up to the switching time located by ``solve_ivp``'s event
+    function ``x - g``; the period map's fixed point is found by ``fsolve``.
+
+    Returns
+    -------
+    z : ndarray (2,)
+        ``(x, x')`` at ``t = 0`` (phase of the forcing ``cos(w t)``).
+    x_max, x_min : float
+        Extremes of ``x`` over the period (dense output, 4000 samples per piece).
+    defect : float
+        ``|phi_T(z) - z|_inf``.
+    """
+    T = 2 * math.pi / w
+
+    def free(t, z):
+        return [z[1], F * math.cos(w * t) - c * z[1] - z[0]]
+
+    def contact(t, z):
+        return [z[1], F * math.cos(w * t) - c * z[1] - z[0] - kc * (z[0] - g)]
+
+    def surface(t, z):
+        return z[0] - g
+
+    surface.terminal = True
+
+    def period_map(z0, keep=False):
+        t, z = 0.0, np.array(z0, dtype=float)
+        xs = []
+        inside = z[0] > g
+        while t < T * (1 - 1e-14):
+            sol = solve_ivp(contact if inside else free, (t, T), z, method="DOP853", rtol=1e-12, atol=1e-14,
+                            events=surface, dense_output=keep)
+            if keep:
+                xs.append(sol.sol(np.linspace(sol.t[0], sol.t[-1], 4000))[0])
+            t, z = float(sol.t[-1]), sol.y[:, -1].copy()
+            if sol.status == 1:
+                t, z = float(sol.t_events[0][0]), sol.y_events[0][0].copy()
+                inside = z[1] > 0  # entering the contact when moving outwards
+        return z, (np.concatenate(xs) if keep else None)
+
+    z = fsolve(lambda z: period_map(z)[0] - z, np.asarray(z0, dtype=float), xtol=1e-13)
+    zT, xs = period_map(z, keep=True)
+    return z, float(xs.max()), float(xs.min()), float(np.abs(zT - z).max())
+
+
+def hb_state(u, w, H):
+    """``(x, x')`` at ``t = 0`` of a one-dof HB solution ``u = [a0, a1, b1, ...]``."""
+    return float(u[0] + u[1:2 * H + 1:2].sum()), float(sum(k * w * u[2 * k] for k in range(1, H + 1)))
+
+
+def duffing_folds(F, c):
+    """Folds in ``w`` of the ``H = 1`` Duffing amplitude equation
+    ``[(1 - w^2 + 3/4 A^2)^2 + (c w)^2] A^2 = F^2`` (x'' + c x' + x + x^3 = F cos w t).
+
+    A fold is a double root in ``rho = A^2``: ``G = 0`` and ``dG/drho = 0``. With
+    ``a = 1 - w^2``, ``dG/drho = 0`` is the quadratic ``a^2 + (3 rho - c^2) a +
+    27/16 rho^2 + c^2 = 0`` in ``a``; on it ``F^2 = G + F^2`` is a function of ``rho``
+    whose extremum is the cusp. Each fold is a root of ``F^2(rho) = F^2`` (found
+    in ``rho``, where the two folds near the cusp are ``sqrt(F - F_c)`` apart rather
+    than ``(F - F_c)^(3/2)`` as in ``w``).
+    """
+
+    def a_of(rho, sign):
+        b, cc = 3 * rho - c * c, 27 / 16 * rho**2 + c * c
+        disc = b * b - 4 * cc
+        if disc < 0:
+            return None
+        a = (-b + sign * math.sqrt(disc)) / 2
+        return a if a < 1 else None  # w^2 = 1 - a > 0
+
+    def F2(rho, sign):
+        a = a_of(rho, sign)
+        return 9 / 16 * rho**3 + 1.5 * a * rho**2 + (a * a + c * c * (1 - a)) * rho
+
+    out = []
+    grid = np.geomspace(1e-8, 100.0, 20001)
+    for sign in (-1.0, 1.0):
+        ok = np.array([a_of(r, sign) is not None for r in grid])
+        vals = np.array([F2(r, sign) - F * F if k else np.nan for r, k in zip(grid, ok)])
+        for i in np.flatnonzero(ok[1:] & ok[:-1] & (np.sign(vals[1:]) != np.sign(vals[:-1]))):
+            rho = brentq(lambda r: F2(r, sign) - F * F, grid[i], grid[i + 1], xtol=1e-18, rtol=1e-15)
+            out.append(math.sqrt(1 - a_of(rho, sign)))
+    return sorted(out)
+
+
+def duffing_cusp(c):
+    """Cusp of the Duffing folds: ``(w_c, F_c, rho_c)``.
+
+    ``G = G_rho = G_rhorho = 0``: ``G_rhorho = 0`` gives ``rho = -8 a / 9``; then
+    ``G_rho = 0`` reduces to ``a^2 = 3 c^2 w^2``, i.e. ``w^2 - sqrt(3) c w - 1 = 0``.
+    """
+    wc = (math.sqrt(3) * c + math.sqrt(3 * c * c + 4)) / 2
+    a = 1 - wc * wc
+    rho = -8 * a / 9
+    Fc = math.sqrt(9 / 16 * rho**3 + 1.5 * a * rho**2 + (a * a + (c * wc) ** 2) * rho)
+    return wc, Fc, rho
