@@ -75,6 +75,11 @@ class Problem(Protocol):
         ``ContinuationOptions.scaling`` is ``AUTO`` and
         ``ContinuationOptions.unknown_scale`` is not given. Non-positive
         components are replaced by the largest one.
+    unknown_groups() -> ndarray of shape (m,) or None
+        Labels of unknowns sharing a unit (e.g. one degree of freedom's
+        harmonic coefficients): with ``AUTO`` scaling and no explicit scale,
+        groups whose magnitudes at the start are more than ``GROUP_SPREAD``
+        apart are scaled separately.
 
     Numerical failures inside these methods should show up as non-finite
     values or as ``ArithmeticError`` / ``numpy.linalg.LinAlgError``; the
@@ -290,8 +295,11 @@ class ContinuationOptions:
 _ILL_RCOND = 1e-15
 
 
-#: Growth of ``||u||_inf`` over the automatic scalar scale that updates it.
+#: Growth of ``||u||_inf`` (of a group) over its automatic scale that updates the scale.
 RESCALE_FACTOR = 100.0
+
+#: Spread of the groups' magnitudes at the start beyond which each group gets its own scale.
+GROUP_SPREAD = 1e3
 
 #: Growth of the scaled Jacobian since the start that a stop message points out.
 JACOBIAN_GROWTH = 1e3
@@ -415,6 +423,7 @@ class _Engine:
         self.n_newton = 0
         self.n_backtracked = 0  # correctors retried with step halving
         self.adaptive_scale = False
+        self.groups = np.zeros(u0.size, dtype=np.intp)
         self.rescalings: list = []  # (parameter, old scale, new scale)
         self.min_rcond = math.inf
         self.min_rcond_index = -1
@@ -459,9 +468,38 @@ class _Engine:
                 norm = float(np.max(np.abs(u))) if m else 0.0
                 su = np.full(m, max(norm, 1e-12) if norm > 0 else 1.0)
                 self.adaptive_scale = True  # a guess from one point: updated as the unknowns grow
+                self.groups = np.zeros(m, dtype=np.intp)
+                grouped = self._grouped_scale(u, norm)
+                if grouped is not None:
+                    su = grouped
         else:
             su = np.ones(m)
         return su, float(sl)
+
+    def _grouped_scale(self, u: np.ndarray, norm: float):
+        """One scale per group of unknowns when their magnitudes are far apart, else None.
+
+        ``problem.unknown_groups()`` (optional) labels the unknowns that share
+        a unit (for harmonic balance, the coefficients of one degree of
+        freedom). When the groups' magnitudes at the start span more than
+        ``GROUP_SPREAD``, a single scale would make the small ones invisible
+        to the step control (a fold of a dof measured in micrometres next
+        to one in kilometres is passed blindly), so each group gets its own.
+        """
+        getter = getattr(self.problem, "unknown_groups", None)
+        groups = getter() if callable(getter) else None
+        if groups is None or not norm > 0:
+            return None
+        groups = np.asarray(groups)
+        if groups.shape != (self.m,):
+            raise ValueError(f"problem.unknown_groups() must return {self.m} labels")
+        _, groups = np.unique(groups, return_inverse=True)
+        mags = np.zeros(groups.max() + 1)
+        np.maximum.at(mags, groups, np.abs(u))
+        if mags.size < 2 or not np.all(mags > 0) or norm <= GROUP_SPREAD * mags.min():
+            return None
+        self.groups = groups
+        return mags[groups]
 
     def _monitor(self, u, lam, Ju, Jlam) -> dict:
         data: dict[str, Any] = {}
@@ -980,9 +1018,9 @@ class _Engine:
         return cand
 
     def _maybe_rescale(self):
-        """Grow the scalar unknown scale with the unknowns.
+        """Grow the automatic unknown scale (of each group) with the unknowns.
 
-        The automatic scalar scale comes from the start point alone. A lightly
+        The automatic scale comes from the start point alone. A lightly
         damped resonance starting from a tiny response (1e-6 at the start,
         0.5 at the peak) would otherwise need millions of steps of at most
         ``ds_max``. So the scale follows ``||u||_inf`` whenever it has grown
@@ -994,13 +1032,19 @@ class _Engine:
         """
         if not self.adaptive_scale:
             return
-        su = float(self.sp.su[0])
-        norm = float(np.max(np.abs(self.u), initial=0.0))
-        if not norm > RESCALE_FACTOR * su:
+        su = self.sp.su
+        mags = np.zeros(self.groups.max() + 1)
+        np.maximum.at(mags, self.groups, np.abs(self.u))
+        cur = np.zeros_like(mags)
+        np.maximum.at(cur, self.groups, su)
+        grow = mags > RESCALE_FACTOR * cur
+        if not grow.any():
             return
-        f = norm / su
+        new = np.where(grow, mags, cur)
+        f = (new / cur)[self.groups]
         m = self.m
-        self.sp.su[:] = norm
+        old_su = su.copy()
+        self.sp.su[:] = new[self.groups]
 
         def convert_point(x):
             x = x.copy()
@@ -1019,7 +1063,7 @@ class _Engine:
         self.t_start = convert_direction(self.t_start)
         self.info.tangent = self.t
         self.turns.clear()
-        self.rescalings.append((self.lam, su, norm))
+        self.rescalings.append((self.lam, float(old_su.max()), float(self.sp.su.max())))
 
     def _oriented(self, cand):
         """Orient the tangent beyond a corner along the secant (the bordered
