@@ -301,6 +301,13 @@ RESCALE_FACTOR = 100.0
 #: Spread of the groups' magnitudes at the start beyond which each group gets its own scale.
 GROUP_SPREAD = 1e3
 
+#: Slack (radians) and corrector accuracy (scaled length) of the chord test of
+#: :meth:`_Engine._secant_offset`.
+SECANT_SLACK = 2e-3
+SECANT_ACCURACY = 1e-8
+#: Smallest tangent component and chord fraction for the monotonicity test of the chord.
+SECANT_MONOTONE = 1e-3
+
 #: Growth of the scaled Jacobian since the start that a stop message points out.
 JACOBIAN_GROWTH = 1e3
 
@@ -792,7 +799,46 @@ class _Engine:
         if angle > self.opt.max_angle_deg:
             raise _StepFailed(f"tangent turned by {angle:.1f} deg > {self.opt.max_angle_deg:g} deg", rcond,
                               turn=(angle, ds, cand))
+        if not (landed or self.across):
+            off = self._secant_offset(x_new, t_new, math.radians(angle))
+            if off is not None:
+                raise _StepFailed(off, rcond)
         return cand
+
+    def _secant_offset(self, x_new, t_new, theta):
+        """Why the chord to ``x_new`` is not an arc of the branch, or None.
+
+        Along a smooth arc whose tangent turns by ``theta`` the chord lies
+        between the end tangents (along their bisector for a circular arc).
+        A corrector that landed on a neighbouring sheet (two branches closer
+        than one step, as beside the backbone of a lightly damped resonance)
+        has both end tangents nearly parallel yet a chord leaning sideways:
+        the angle between the chord and the bisector exceeds
+        ``2 theta`` plus a slack for the corrector's accuracy.
+        """
+        d = x_new - self.x
+        L = float(np.linalg.norm(d))
+        b = self.t + t_new
+        nb = float(np.linalg.norm(b))
+        if L == 0.0 or nb == 0.0:
+            return None
+        phi = math.acos(float(np.clip(abs(d @ b) / (L * nb), -1.0, 1.0)))
+        if phi > 2.0 * theta + SECANT_SLACK + SECANT_ACCURACY / L:
+            return (f"the chord leans {math.degrees(phi):.2f} deg off the tangents, which turned by "
+                    f"{math.degrees(theta):.2f} deg (a jump to a neighbouring branch?)")
+        # a variable that both end tangents say increases (by a clear margin) cannot decrease
+        # along a resolved arc: either the step holds two turning points of that variable, or
+        # it jumped across a gap between two sheets (beside the backbone of a lightly damped
+        # resonance: the response sheets on either side of a1 = 0); a shorter step tells which
+        # (when the tangent turns along a great circle, as over a short arc, each component
+        # stays between its end values: same signs at both ends, the same sign all along)
+        against = (self.t * t_new > 0) & (np.minimum(np.abs(self.t), np.abs(t_new)) >= SECANT_MONOTONE) \
+            & (d * self.t < 0) & (np.abs(d) >= SECANT_MONOTONE * L + SECANT_ACCURACY)
+        if against.any():
+            i = int(np.flatnonzero(against)[0])
+            what = self.name if i == self.m else f"unknown {i}"
+            return f"{what} moved against both end tangents over the step (a jump, or two turns in one step)"
+        return None
 
     def _step(self, ds: float) -> _Candidate:
         xp = self.x + ds * self.t
@@ -912,6 +958,14 @@ class _Engine:
             self._maybe_rescale()
             if self._closed(cand):
                 self.builder.finish(BranchStatus.CLOSED_LOOP, f"the branch returned to its start point {self.fmt(self.branch.parameter[0])}")
+                return self.branch
+            k = self._revisited(cand)
+            if k is not None:
+                self.builder.finish(
+                    BranchStatus.CLOSED_LOOP,
+                    f"the branch passed again through its point {k} at {self.fmt(self.branch.parameter[k])}, in the "
+                    f"same direction, at {self.fmt(self.lam)}: it retraces itself (a loop not through the start; if "
+                    "the problem has none there, a step jumped onto an earlier part of the branch: lower ds_max)")
                 return self.branch
             if cand.iterations <= opt.newton_easy:
                 ds = min(ds * opt.grow, opt.ds_max)
@@ -1189,6 +1243,43 @@ class _Engine:
                     point_data={k: np.array(v) for k, v in p.data.items()},
                 )
             )
+
+    def _revisited(self, cand: _Candidate) -> int | None:
+        """Index of an earlier stored point (not the start, not the last few) that the
+        last chord passes through in the same direction, or None.
+
+        Without it, a branch that jumped back onto an earlier part of itself
+        would go round the same loop until ``max_points``.
+        """
+        b = self.branch
+        n = len(b) - 1  # the new point is stored
+        if n < 6:
+            return None
+        a, x1 = self.prev_x, cand.x
+        seg = x1 - a
+        L = float(np.linalg.norm(seg))
+        if L == 0.0:
+            return None
+        m = self.m
+        X = np.empty((n - 3, m + 1))  # points 1 .. n-3 in the current scales
+        X[:, :m] = b.unknowns[1:n - 2] / self.sp.su
+        X[:, m] = b.parameter[1:n - 2] / self.sp.sl
+        p = (X - a) @ seg / (L * L)
+        near = (p >= 0.0) & (p <= 1.0)
+        if not near.any():
+            return None
+        dist = np.linalg.norm(a + np.outer(p, seg) - X, axis=1)
+        cand_idx = np.flatnonzero(near & (dist <= 0.1 * L))
+        cos_min = math.cos(math.radians(min(2 * self.opt.max_angle_deg, 89.0)))
+        for j in cand_idx:
+            k = int(j) + 1
+            d = np.empty(m + 1)
+            d[:m] = (b.unknowns[k + 1] - b.unknowns[k]) / self.sp.su
+            d[m] = (b.parameter[k + 1] - b.parameter[k]) / self.sp.sl
+            nd = float(np.linalg.norm(d))
+            if nd > 0 and float(d @ seg) >= cos_min * nd * L:
+                return k
+        return None
 
     def _closed(self, cand: _Candidate) -> bool:
         """Did the last step pass the start point (after having gone away)?"""

@@ -80,34 +80,38 @@ def duffing_folds(F, c):
     """Folds in ``w`` of the ``H = 1`` Duffing amplitude equation
     ``[(1 - w^2 + 3/4 A^2)^2 + (c w)^2] A^2 = F^2`` (x'' + c x' + x + x^3 = F cos w t).
 
-    A fold is a double root in ``rho = A^2``: ``G = 0`` and ``dG/drho = 0``. With
-    ``a = 1 - w^2``, ``dG/drho = 0`` is the quadratic ``a^2 + (3 rho - c^2) a +
-    27/16 rho^2 + c^2 = 0`` in ``a``; on it ``F^2 = G + F^2`` is a function of ``rho``
-    whose extremum is the cusp. Each fold is a root of ``F^2(rho) = F^2`` (found
-    in ``rho``, where the two folds near the cusp are ``sqrt(F - F_c)`` apart rather
-    than ``(F - F_c)^(3/2)`` as in ``w``).
+    In ``rho = A^2`` the equation is the cubic ``p rho^3 + 3/2 a rho^2 + (a^2 +
+    c^2 w^2) rho - F^2`` (``p = 9/16``, ``a = 1 - w^2``); at a fold it has a double
+    root ``r`` and a simple root ``s``: ``p (rho - r)^2 (rho - s)``. Matching the
+    coefficients gives ``s = F^2 / (p r^2)``, ``a = -3/8 (2 r + s)`` and, after the
+    ``r^2`` terms cancel exactly on paper,
+
+        g(r) = r s - s^2 / 4 - c^2 w^2 / p = 0,
+
+    a well-conditioned equation in ``r`` alone (forming the cubic's
+    discriminant instead cancels terms of size ``rho^3`` down to ``F^2``: useless
+    for ``F = 1e-5``). Each root of ``g`` is one fold; near the cusp the two
+    roots are ``~sqrt(F - F_c)`` apart in ``r``.
     """
+    p = 9 / 16
 
-    def a_of(rho, sign):
-        b, cc = 3 * rho - c * c, 27 / 16 * rho**2 + c * c
-        disc = b * b - 4 * cc
-        if disc < 0:
-            return None
-        a = (-b + sign * math.sqrt(disc)) / 2
-        return a if a < 1 else None  # w^2 = 1 - a > 0
+    def parts(r):
+        s = F * F / (p * r * r)
+        a = -0.375 * (2 * r + s)
+        return s, a
 
-    def F2(rho, sign):
-        a = a_of(rho, sign)
-        return 9 / 16 * rho**3 + 1.5 * a * rho**2 + (a * a + c * c * (1 - a)) * rho
+    def g(r):
+        s, a = parts(r)
+        return (r * s - s * s / 4 - c * c * (1 - a) / p) / (r * s)
 
+    grid = np.geomspace(1e-14, 1e4, 400001)
+    vals = g(grid)
     out = []
-    grid = np.geomspace(1e-8, 100.0, 20001)
-    for sign in (-1.0, 1.0):
-        ok = np.array([a_of(r, sign) is not None for r in grid])
-        vals = np.array([F2(r, sign) - F * F if k else np.nan for r, k in zip(grid, ok)])
-        for i in np.flatnonzero(ok[1:] & ok[:-1] & (np.sign(vals[1:]) != np.sign(vals[:-1]))):
-            rho = brentq(lambda r: F2(r, sign) - F * F, grid[i], grid[i + 1], xtol=1e-18, rtol=1e-15)
-            out.append(math.sqrt(1 - a_of(rho, sign)))
+    for i in np.flatnonzero(np.sign(vals[1:]) != np.sign(vals[:-1])):
+        r = brentq(g, grid[i], grid[i + 1], xtol=1e-300, rtol=1e-15)
+        s, a = parts(r)
+        if a < 1:  # a real frequency
+            out.append(math.sqrt(1 - a))
     return sorted(out)
 
 
