@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 from scipy.integrate import solve_ivp
-from scipy.optimize import brentq, fsolve
+from scipy.optimize import brentq
 
 from contin.elements import GapForce
 from contin.model import Monomial
@@ -22,7 +22,7 @@ def clearance_oscillator(kc: float, c: float = 0.05, F: float = 0.03, g: float =
     return m
 
 
-def clearance_orbit(w, kc, c=0.05, F=0.03, g=0.5, z0=(0.0, 0.0)):
+def clearance_orbit(w, kc, c=0.05, F=0.03, g=0.5, z0=(0.0, 0.0), tol=1e-11, max_iter=40):
     """Periodic orbit of :func:`clearance_oscillator` by shooting on event-located integration.
 
     Each smooth piece (free, or in contact) is integrated with DOP853 at
@@ -46,10 +46,15 @@ def clearance_orbit(w, kc, c=0.05, F=0.03, g=0.5, z0=(0.0, 0.0)):
     def contact(t, z):
         return [z[1], F * math.cos(w * t) - c * z[1] - z[0] - kc * (z[0] - g)]
 
-    def surface(t, z):
+    def enter(t, z):
         return z[0] - g
 
-    surface.terminal = True
+    def leave(t, z):
+        return z[0] - g
+
+    # one crossing direction per piece: a piece that starts on the surface does not stop at once
+    enter.terminal, enter.direction = True, 1.0
+    leave.terminal, leave.direction = True, -1.0
 
     def period_map(z0, keep=False):
         t, z = 0.0, np.array(z0, dtype=float)
@@ -57,16 +62,33 @@ def clearance_orbit(w, kc, c=0.05, F=0.03, g=0.5, z0=(0.0, 0.0)):
         inside = z[0] > g
         while t < T * (1 - 1e-14):
             sol = solve_ivp(contact if inside else free, (t, T), z, method="DOP853", rtol=1e-12, atol=1e-14,
-                            events=surface, dense_output=keep)
+                            events=leave if inside else enter, dense_output=keep)
             if keep:
                 xs.append(sol.sol(np.linspace(sol.t[0], sol.t[-1], 4000))[0])
             t, z = float(sol.t[-1]), sol.y[:, -1].copy()
             if sol.status == 1:
                 t, z = float(sol.t_events[0][0]), sol.y_events[0][0].copy()
-                inside = z[1] > 0  # entering the contact when moving outwards
+                inside = not inside
         return z, (np.concatenate(xs) if keep else None)
 
-    z = fsolve(lambda z: period_map(z)[0] - z, np.asarray(z0, dtype=float), xtol=1e-13)
+    # shooting: Newton on P(z) - z with a central-difference Jacobian of the period map (2 x 2);
+    # the orbit near grazing is often unstable, so iterating the map would not find it
+    z = np.asarray(z0, dtype=float)
+    for _ in range(max_iter):
+        r = period_map(z)[0] - z
+        if np.abs(r).max() <= tol:
+            break
+        J = np.empty((2, 2))
+        for j in range(2):
+            e = np.zeros(2)
+            e[j] = 1e-7 * max(1.0, abs(z[j]))
+            J[:, j] = (period_map(z + e)[0] - period_map(z - e)[0]) / (2 * e[j])
+        J -= np.eye(2)
+        dz = np.linalg.solve(J, -r)
+        lam = 1.0
+        while lam > 1e-3 and np.abs(period_map(z + lam * dz)[0] - z - lam * dz).max() > np.abs(r).max():
+            lam *= 0.5
+        z = z + lam * dz
     zT, xs = period_map(z, keep=True)
     return z, float(xs.max()), float(xs.min()), float(np.abs(zT - z).max())
 
