@@ -28,6 +28,21 @@ Method
   more than half as large, the step is accepted and a ``kink`` special point
   is recorded (``corners=True``); otherwise the step keeps shrinking.
 - Range ends are landed on exactly (Newton at fixed ``lam = end``).
+- Against jumps between neighbouring sheets closer than one step (a lightly
+  damped resonance beside its backbone), a converged step is also rejected
+  when its chord leans off the bisector of its end tangents by more than
+  twice their turn, or when a variable moves against both end tangents; a
+  branch that passes again through one of its earlier points, in the same
+  direction, stops with ``CLOSED_LOOP`` and says so.
+- Scaling: the automatic scalar scale follows the unknowns when they grow
+  100-fold; dofs whose magnitudes differ by more than ``GROUP_SPREAD`` are
+  scaled separately (``problem.unknown_groups()``).
+- Newton that cycles between two pieces of a piecewise-smooth residual is
+  retried with step halving (:meth:`_Engine._newton`).
+- ``Branch.info`` reports ``max_condition`` (where: ``max_condition_parameter``)
+  and ``last_condition``, LAPACK ``gecon`` estimates of the scaled bordered
+  Jacobian, ``n_backtracked`` and ``rescalings``;
+  :func:`connection_report` checks a finished branch for jumps.
 """
 
 from __future__ import annotations
