@@ -47,6 +47,7 @@ Method
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 import difflib
 import enum
@@ -187,6 +188,10 @@ class ContinuationOptions:
         ``kink`` special point; False stops the branch there instead.
     corner_ratio : float
         Step reduction (> 1) over which a turn must persist to be a corner.
+    stall_points : int
+        The branch stops with ``STEP_TOO_SMALL`` when this many consecutive
+        stored points together advanced less than ``ds_max`` (a crawl at a
+        point the steps cannot pass, for example a tangential contact).
     """
 
     ds: float = 0.02
@@ -209,6 +214,7 @@ class ContinuationOptions:
     detect_branch_points: bool = True
     corners: bool = True
     corner_ratio: float = 8.0
+    stall_points: int = 50
 
     def __post_init__(self):
         def bad(field, requirement, value):
@@ -226,6 +232,8 @@ class ContinuationOptions:
             bad("ds_max", "finite and >= ds", self.ds_max)
         if not _is_int(self.max_points) or self.max_points < 1:
             bad("max_points", "an integer >= 1", self.max_points)
+        if not _is_int(self.stall_points) or self.stall_points < 2:
+            bad("stall_points", "an integer >= 2", self.stall_points)
         positive("newton_tol")
         if not _is_int(self.newton_max_iter) or self.newton_max_iter < 1:
             bad("newton_max_iter", "an integer >= 1", self.newton_max_iter)
@@ -266,7 +274,7 @@ class ContinuationOptions:
             if not isinstance(v, (bool, np.bool_)):
                 bad(field, "a bool", v)
             object.__setattr__(self, field, bool(v))
-        for field in ("max_points", "newton_max_iter", "newton_easy", "locate_max_iter", "direction"):
+        for field in ("max_points", "newton_max_iter", "newton_easy", "locate_max_iter", "direction", "stall_points"):
             object.__setattr__(self, field, int(getattr(self, field)))
         for field in ("ds", "ds_min", "ds_max", "newton_tol", "grow", "shrink", "max_angle_deg", "locate_tol",
                       "corner_ratio"):
@@ -921,6 +929,7 @@ class _Engine:
     def run(self) -> Branch:
         opt = self.opt
         ds = opt.ds
+        recent = collections.deque(maxlen=opt.stall_points)  # steps of the last stored points
         while True:
             if len(self.branch) >= opt.max_points:
                 self.builder.finish(BranchStatus.MAX_POINTS, f"stored max_points={opt.max_points} points; last at {self.fmt(self.lam)}")
@@ -964,6 +973,13 @@ class _Engine:
             if not self.turns or cand.kink is not None or ds >= self.turns[0][1] / opt.corner_ratio:
                 self.turns.clear()  # healthy again (or past the corner): forget the failures
             if not self._accept(cand):
+                return self.branch
+            recent.append(ds)
+            if len(recent) == opt.stall_points and sum(recent) < opt.ds_max:
+                self.builder.finish(
+                    BranchStatus.STEP_TOO_SMALL,
+                    f"the branch crawled: {opt.stall_points} points advanced {sum(recent):.2g} in all "
+                    f"(ds_max={opt.ds_max:g}) up to {self.fmt(self.lam)}; last failure: {self.last_failure}")
                 return self.branch
             if cand.kink is not None:
                 self._record_kink(cand)

@@ -24,11 +24,14 @@ from dataclasses import dataclass
 import numba as nb
 import numpy as np
 
-from contin import aft
-from contin.harmonics import coefficient_blocks, default_samples, sample_phases
+from contin import aft, contact_quadrature, crossings
+from contin.harmonics import coefficient_blocks, default_samples, derivative_coefficients, sample_phases
 from contin.model import Model, suggest
 
-__all__ = ["HBOptions", "HarmonicBalance", "linear_operator"]
+__all__ = ["HBOptions", "HarmonicBalance", "linear_operator", "CROSSINGS"]
+
+#: values of :attr:`HBOptions.crossings`
+CROSSINGS = ("exact", "interval", "none")
 
 
 @dataclass(frozen=True)
@@ -47,11 +50,22 @@ class HBOptions:
         AFT sample count ``N`` per period (>= 2H+1). ``None`` takes
         :func:`contin.harmonics.default_samples` for the model's degree
         (``4H+1`` for cubic forces) and at least the model's ``min_samples``.
+    crossings : {'exact', 'interval', 'none'}
+        How the harmonic balance integrates contact laws that switch (force
+        elements with switching data, :class:`contin.model.Switching`):
+        ``'exact'`` locates the contact and flight arcs on the series and
+        integrates the law over them by Gauss quadrature
+        (:mod:`contin.contact_quadrature`: smooth through contact onset and
+        tangential touches); ``'interval'`` resolves each switch inside its
+        sample interval by linear interpolation (:mod:`contin.crossings`:
+        continuous, second order); ``'none'`` samples the law plainly, whose
+        residual jumps when a sample crosses the surface if the law jumps.
     """
 
     harmonics: int = 5
     subharmonic: int = 1
     samples: int | None = None
+    crossings: str = "exact"
 
     def __post_init__(self):
         for name, lo in (("harmonics", 0), ("subharmonic", 1)):
@@ -64,6 +78,8 @@ class HBOptions:
                 raise ValueError(
                     f"HBOptions.samples must be an integer >= 2*harmonics+1 = {2 * self.harmonics + 1}, got {s!r}"
                 )
+        if self.crossings not in CROSSINGS:
+            raise ValueError(f"HBOptions.crossings must be one of {list(CROSSINGS)}, got {self.crossings!r}")
 
     @classmethod
     def from_dict(cls, d: dict) -> "HBOptions":
@@ -190,6 +206,15 @@ class HarmonicBalance:
             np.zeros((self.N, self.n, self.n)),
             np.zeros((self.N, self.n, self.n)),
         )
+        # elements whose switches are resolved between samples (their law may jump on the surface)
+        self._switching = []
+        if options.crossings != "none" and self.H > 0:
+            for el in model.forces:
+                sw = el.switching_functions(np.zeros((0, self.n)), np.zeros((0, self.n)), np.zeros(0), self.p0)
+                if sw is not None and sw.difference_x is not None:
+                    self._switching.append(el)
+        self._crossings = []
+        self._laws = []
         self.evaluations = 0
 
     # -- parameters -------------------------------------------------------
@@ -291,17 +316,81 @@ class HarmonicBalance:
         dfdx, dfdxd : ndarray, shape (N, n, n)
         """
         x, xd, _ = self.samples_of(u, lam)
-        return tuple(a.copy() for a in self._forces_at(x, xd, self.params_at(lam)))
+        return tuple(a.copy() for a in self._forces_at(x, xd, self.params_at(lam), u))
 
-    def _forces_at(self, x, xd, p):
-        """Nonlinear force and its derivatives at the samples, in the reused work arrays."""
+    def _forces_at(self, x, xd, p, u):
+        """Nonlinear force and its derivatives at the samples, in the reused work arrays.
+
+        Switching laws integrated exactly leave their arcs' part in ``self._laws``
+        (coefficient space); see :meth:`_law_coefficients`.
+        """
         f, dfdx, dfdxd = self._work
         f[:] = 0.0
         dfdx[:] = 0.0
         dfdxd[:] = 0.0
+        exact = self.options.crossings == "exact"
         for el in self.model.forces:
-            el.evaluate(x, xd, self.tau, p, f, dfdx, dfdxd)
+            if not (exact and el in self._switching):
+                el.evaluate(x, xd, self.tau, p, f, dfdx, dfdxd)
+        self._crossings = []
+        self._laws = []
+        if not self._switching:
+            return f, dfdx, dfdxd
+        U = np.ascontiguousarray(coefficient_blocks(u, self.n))
+        Omega = p[self.kw] / self.nu
+        if exact:
+            xp, xpp = aft.synthesize(np.ascontiguousarray(derivative_coefficients(U)), self.N)
+        for el in self._switching:
+            sw = el.switching_functions(x, xd, self.tau, p)
+            if not exact:
+                cr = crossings.locate_crossings(el, U, Omega, self.theta, sw.value, p)
+                if cr.t.size:
+                    coef = crossings.apply_crossings(cr.intervals, cr.sign, cr.t, sw.difference, sw.difference_x,
+                                                     sw.difference_xd, f, dfdx, dfdxd)
+                    self._crossings.append((el, sw, cr, coef))
+                continue
+            for i in range(sw.value.shape[1]):
+                slope = np.einsum("jq,jq->j", sw.grad_x[:, i], xp) + Omega * np.einsum("jq,jq->j", sw.grad_xd[:, i], xpp)
+                law = contact_quadrature.LawIntegral(el, i, U, Omega, self.nu, self.theta, sw.value[:, i], slope, p)
+                if law.quad.full:  # the trapezoidal rule of the law over the whole period, minus the flights
+                    f += sw.difference[:, i]
+                    dfdx += sw.difference_x[:, i]
+                    dfdxd += sw.difference_xd[:, i]
+                self._laws.append((el, i, law))
         return f, dfdx, dfdxd
+
+    def _law_coefficients(self) -> np.ndarray:
+        """The arcs' part of the exactly integrated laws, shape (size,)."""
+        out = np.zeros((2 * self.H + 1, self.n))
+        for _, _, law in self._laws:
+            out += law.coefficients
+        return out.reshape(-1)
+
+    def _law_terms(self, x, xd, p, J, Jlam, dfdp):
+        """Jacobian and lambda derivative of the exactly integrated laws (arcs into J, Jlam; samples into dfdp)."""
+        for el, i, law in self._laws:
+            law.add_jacobian(J)
+            dep = el.depends_on(self.k)
+            Jlam += law.lam_derivative(self.k == self.kw, self.k if dep else None).reshape(-1)
+            if dep and law.quad.full:
+                _, Lp = el.switching_dp(x, xd, self.tau, p, self.k)
+                dfdp += Lp[:, i]
+
+    def _crossing_terms(self, x, xd, p, J, dfdp):
+        """Crossing terms of ``J`` and ``dfdp`` (see :mod:`contin.crossings`)."""
+        Omega = p[self.kw] / self.nu
+        for el, sw, cr, coef in self._crossings:
+            dtdU = crossings.crossing_gradients(cr.phi, cr.gx, cr.gxd, cr.slope, Omega, self.H)
+            crossings.add_crossing_jacobian(cr.intervals, coef, sw.difference, self.theta, dtdU, J)
+            dt = np.zeros(cr.t.size)
+            if self.k == self.kw:  # x' = (w/nu) dx/dtheta at the crossing
+                dt -= np.einsum("kq,kq->k", cr.gxd, cr.dx1) / self.nu / cr.slope
+            Lp = np.zeros((0, 1, 1))
+            if el.depends_on(self.k):
+                hp, Lp = el.switching_dp(x, xd, self.tau, p, self.k)
+                hpc, _ = el.switching_dp(cr.state[0], cr.state[1], cr.phi, p, self.k)
+                dt -= hpc[np.arange(cr.t.size), cr.intervals[:, 2]] / cr.slope
+            crossings.add_crossing_dp(cr.intervals, coef, sw.difference, Lp, dt, dfdp)
 
     # -- residual and Jacobian -------------------------------------------
     def residual(self, u: np.ndarray, lam: float) -> np.ndarray:
@@ -313,8 +402,10 @@ class HarmonicBalance:
         R = linear_apply(M, C, K, p[self.kw] / self.nu, U).reshape(-1) - fext
         if self.model.forces:
             x, xd, _ = self.samples_of(u, lam)
-            f, _, _ = self._forces_at(x, xd, p)
+            f, _, _ = self._forces_at(x, xd, p, u)
             R += aft.project(f, self.H).reshape(-1)
+            if self._laws:
+                R += self._law_coefficients()
         self.evaluations += 1
         return R
 
@@ -337,11 +428,17 @@ class HarmonicBalance:
         Jlam = -dfext if dAu is None else dAu - dfext
         if self.model.forces:
             x, xd, xp = self.samples_of(u, lam)
-            f, dfdx, dfdxd = self._forces_at(x, xd, p)
+            f, dfdx, dfdxd = self._forces_at(x, xd, p, u)
             dfdp = np.zeros((self.N, self.n))
+            exact = self.options.crossings == "exact"
             for el in self.model.forces:
-                if el.depends_on(self.k):
+                if el.depends_on(self.k) and not (exact and el in self._switching):
                     el.evaluate_dp(x, xd, self.tau, p, self.k, dfdp)
+            if self._crossings:
+                self._crossing_terms(x, xd, p, J, dfdp)
+            if self._laws:
+                R += self._law_coefficients()
+                self._law_terms(x, xd, p, J, Jlam, dfdp)
             # when lambda is w, the velocity xdot = (w/nu) x'(theta) depends on it too
             Rn, Jn = aft.nonlinear_terms(f, dfdx, dfdxd, dfdp, xp, p[self.kw] / self.nu, self.nu, self.H,
                                          self.k == self.kw, J)
@@ -381,6 +478,8 @@ class HarmonicBalance:
         if self.model.forces:
             _, _, dfdxd = self.sample_jacobians(u, lam)
             aft.multiplication_matrix(dfdxd, H, D1, 1.0)
+            for _, _, law in self._laws:  # contact laws integrated over their arcs
+                law.add_velocity_jacobian(D1)
         return D0, D1, D2
 
     def derivative_operator(self) -> np.ndarray:

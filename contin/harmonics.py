@@ -34,6 +34,7 @@ __all__ = [
     "n_coefficients",
     "index",
     "coefficient_blocks",
+    "derivative_coefficients",
     "harmonic_amplitudes",
     "default_samples",
     "sample_phases",
@@ -71,6 +72,16 @@ def index(dof: int, k: int, kind: str, n_dof: int) -> int:
 def coefficient_blocks(u: np.ndarray, n_dof: int) -> np.ndarray:
     """View ``u`` as the ``(2H+1, n)`` matrix ``U`` of the ordering table."""
     return np.asarray(u).reshape(-1, n_dof)
+
+
+def derivative_coefficients(U: np.ndarray) -> np.ndarray:
+    """Coefficients of ``d/dtheta`` of the series ``U`` (shape (2H+1, n)), same shape."""
+    U = np.asarray(U)
+    out = np.zeros_like(U, dtype=float)
+    k = np.arange(1, (U.shape[0] - 1) // 2 + 1)[:, None]
+    out[1::2] = k * U[2::2]
+    out[2::2] = -k * U[1::2]
+    return out
 
 
 def harmonic_amplitudes(u: np.ndarray, n_dof: int) -> np.ndarray:

@@ -125,11 +125,17 @@ class HBDerivatives:
     Parameters
     ----------
     hb : HarmonicBalance
+        Its contact laws are evaluated on the samples as they are
+        (``crossings='none'``); a problem built with another
+        :attr:`~contin.harmonic_balance.HBOptions.crossings` is taken with
+        ``'none'`` instead, so that all derivatives here belong to one residual.
     fd_step : float
         Relative step of the central differences (see the module docstring).
     """
 
     def __init__(self, hb: HarmonicBalance, fd_step: float = 1e-6):
+        if hb.options.crossings != "none" and hb._switching:
+            hb = hb.with_options(crossings="none")
         self.hb = hb
         self.model = hb.model
         self.n, self.H, self.nu, self.N = hb.n, hb.H, hb.nu, hb.N

@@ -196,6 +196,10 @@ class Switching:
         jump of ``f_nl`` is exact at a located crossing and exactly zero where
         the law is continuous across the surface (a clipped force reaching
         zero).
+    difference_x, difference_xd : ndarray, shape (N, m, n, n), optional
+        Derivatives of ``difference`` with respect to ``x`` and ``x'``; an
+        element that gives them has its crossings resolved inside the sample
+        intervals by the harmonic balance (:mod:`contin.crossings`).
     """
 
     value: np.ndarray
@@ -203,6 +207,8 @@ class Switching:
     grad_xd: np.ndarray
     difference: np.ndarray
     jump: np.ndarray
+    difference_x: np.ndarray | None = None
+    difference_xd: np.ndarray | None = None
 
 
 class ForceElement:
@@ -260,6 +266,18 @@ class ForceElement:
         Switching or None
         """
         return None
+
+    def switching_dp(self, x, xd, tau, p, k):
+        """Derivatives of the switching data with respect to parameter ``k``.
+
+        Returns
+        -------
+        value_p : ndarray, shape (N, m)
+            ``dh_i/dp_k``.
+        difference_p : ndarray, shape (N, m, n)
+            ``d(difference)/dp_k``.
+        """
+        raise NotImplementedError(f"force element '{self.kind}' gives no parameter derivative of its switching data")
 
     def describe(self, dof_names: Sequence[str], param_names: Sequence[str]) -> str:
         return self.kind

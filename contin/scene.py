@@ -47,7 +47,7 @@ def _load(text: str):
 CONTINUATION_KEYS = mapping()  # validated by ContinuationOptions.from_dict
 
 #: keys a further start (``analysis.starts``) may change; the others are shared
-START_KEYS = ("start", "start_from", "start_simulation", "subharmonic", "harmonics", "samples", "both_ways",
+START_KEYS = ("start", "start_from", "start_simulation", "subharmonic", "harmonics", "samples", "crossings", "both_ways",
               "guess", "stability_options", "switch", "continuation")
 
 FREQUENCY_RESPONSE = {
@@ -62,6 +62,7 @@ FREQUENCY_RESPONSE = {
     "subharmonic": Key("an integer from 1 to 64", lambda v: is_int(v) and 1 <= v <= 64, 1),
     "samples": Key("an integer from 2*harmonics+1 to 2**20, or null",
                    lambda v: v is None or (is_int(v) and 3 <= v <= 2**20), None),
+    "crossings": string("exact", ("exact", "interval", "none")),
     "stability": string("both", ("hill", "floquet", "both", "none")),
     "stability_options": mapping(),
     "switch": listing([], lambda x: x in ("pd", "bp"), "a list of bifurcation kinds among 'pd', 'bp'"),

@@ -13,6 +13,8 @@ parameter if the homotopy had to be done elsewhere.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from contin.continuation import ContinuationOptions, continuation
@@ -64,7 +66,15 @@ def homotopy_start(hb: HarmonicBalance, lam0: float, parameter: str, soft_value:
     params[hb.parameter] = at
     params[parameter] = soft_value
     easy = HarmonicBalance(model, parameter, hb.options, params)
-    res = solve_at_parameter(easy, np.asarray(guess, float), soft_value, opts)
+    guess = np.asarray(guess, float)
+    if hb.options.crossings != "none":
+        # Newton's path from a rough guess wanders through states with many contact switches; the plain
+        # sampled law gets there as reliably, and its solution is within O(1/N) of the resolved one
+        plain = HarmonicBalance(model, parameter, dataclasses.replace(hb.options, crossings="none"), params)
+        first = solve_at_parameter(plain, guess, soft_value, opts)
+        if first.converged:
+            guess = first.x
+    res = solve_at_parameter(easy, guess, soft_value, opts)
     if not res.converged:
         raise HomotopyFailed(f"the soft problem ({parameter}={soft_value:g}, {hb.parameter}={at:g}) did not "
                              f"converge: {res.message}")

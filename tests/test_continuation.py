@@ -568,3 +568,25 @@ def test_a_tight_smooth_turn_is_not_a_corner():
                       ContinuationOptions(ds=5e-4, ds_max=5e-4, scaling="none", max_points=200))
     kinds = [sp.kind for sp in br.special_points]
     assert SpecialKind.KINK not in kinds and kinds.count(SpecialKind.FOLD) >= 1
+
+
+class Line:
+    """R = u - lam: every step converges at once."""
+
+    def residual(self, u, lam):
+        return u - lam
+
+    def linearize(self, u, lam):
+        return u - lam, np.eye(1), -np.ones(1)
+
+
+def test_a_crawling_branch_stops_with_its_points_kept():
+    """Steps that never grow again (here: growth disabled) and cover less than ds_max over stall_points points."""
+    opts = ContinuationOptions(ds=1e-3, ds_max=1.0, grow=1.0, stall_points=5, scaling="none")
+    br = continuation(Line(), [0.0], 0.0, (0.0, 10.0), opts)
+    assert br.status is BranchStatus.STEP_TOO_SMALL
+    assert "crawled: 5 points advanced" in br.message
+    assert len(br) == 6 and np.all(np.isfinite(br.unknowns))
+    np.testing.assert_allclose(br.unknowns[:, 0], br.parameter, atol=1e-12)
+    with pytest.raises(ValueError, match="stall_points must be an integer >= 2"):
+        ContinuationOptions(stall_points=1)

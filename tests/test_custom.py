@@ -260,7 +260,8 @@ def test_gap_element_and_equivalent_expression_agree(rng):
     model_expr = custom(GAP.replace("{type: gap, dof: x, clearance: g, stiffness: kc, damping: 0, sides: SIDES}",
                                     '{dof: x, expr: "kc*max(abs(x) - g, 0)*sign(x)"}'))
     assert isinstance(model_gap.forces[0], GapForce) and model_expr.degree is None
-    h1 = HarmonicBalance(model_gap, "kc", HBOptions(harmonics=5, samples=512))
+    # both sampled alike (an expression force has no switching data, so its contact is not integrated exactly)
+    h1 = HarmonicBalance(model_gap, "kc", HBOptions(harmonics=5, samples=512, crossings="none"))
     h2 = HarmonicBalance(model_expr, "kc", HBOptions(harmonics=5, samples=512))
     u = 1.5 * rng.normal(size=h1.size)
     for a, b in zip(h1.linearize(u, 20.0), h2.linearize(u, 20.0)):

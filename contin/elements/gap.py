@@ -42,9 +42,10 @@ def _gap_kernel(x, xd, d, g, k, c, side, clip, f, dfdx, dfdxd, dp):
 
 
 @nb.njit(cache=True)
-def _gap_switching_kernel(x, xd, d, g, k, c, side, clip, val, gx, gxd, diff, jump):
+def _gap_switching_kernel(x, xd, d, g, k, c, side, clip, val, gx, gxd, diff, jump, dx, dxd, which):
     # two functions: 0 = side + (x - g), 1 = side - (-x - g); -1 for an absent side.
     # With clip: min(penetration, (signed force)/k), the law being active iff both are positive.
+    # which: 0 = values and derivatives; 1, 2, 3 = d/dg, d/dk, d/dc of h into val and of the law into diff
     N = x.shape[0]
     kref = k if k > 0.0 else 1.0
     for j in range(N):
@@ -53,16 +54,33 @@ def _gap_switching_kernel(x, xd, d, g, k, c, side, clip, val, gx, gxd, diff, jum
         for i in range(2):
             s = 1.0 if i == 0 else -1.0
             if (i == 0 and side < 0) or (i == 1 and side > 0):
-                val[j, i] = -1.0
+                val[j, i] = -1.0 if which == 0 else 0.0
                 continue
             pen = s * xj - g
             F = k * (xj - s * g) + c * vj  # the force of the active law
+            clipped = clip and s * F / kref < pen
+            if which == 1:
+                val[j, i] = -k / kref if clipped else -1.0
+                diff[j, i, d] = -s * k
+                continue
+            if which == 2:
+                dk = s * (xj - s * g) / kref - (s * F / (k * k) if k > 0.0 else 0.0)
+                val[j, i] = dk if clipped else 0.0
+                diff[j, i, d] = xj - s * g
+                continue
+            if which == 3:
+                val[j, i] = s * vj / kref if clipped else 0.0
+                diff[j, i, d] = vj
+                continue
             val[j, i] = pen
             gx[j, i, d] = s
-            if clip and s * F / kref < pen:
+            if clipped:
                 val[j, i] = s * F / kref
+                gx[j, i, d] = s * k / kref
                 gxd[j, i, d] = s * c / kref
             diff[j, i, d] = F
+            dx[j, i, d, d] = k
+            dxd[j, i, d, d] = c
             # on the surface: c v where x = +-g, zero where the clipped force vanishes
             jump[j, i, d] = F - s * k * val[j, i]
 
@@ -81,18 +99,35 @@ class _ContactForce(ForceElement):
     #: number of switching functions
     n_switch = 1
 
-    def _switch_kernel(self, x, xd, values, val, gx, gxd, diff, jump):
+    def _switch_kernel(self, x, xd, values, val, gx, gxd, diff, jump, dx, dxd, which):
         raise NotImplementedError
 
-    def switching_functions(self, x, xd, tau, p):
-        """The contact surfaces (see :class:`contin.model.Switching`); jumps of the damping term included."""
+    def _switching(self, x, xd, values, which):
         N, n = x.shape
         m = self.n_switch
         out = Switching(np.zeros((N, m)), np.zeros((N, m, n)), np.zeros((N, m, n)), np.zeros((N, m, n)),
-                        np.zeros((N, m, n)))
+                        np.zeros((N, m, n)), np.zeros((N, m, n, n)), np.zeros((N, m, n, n)))
         self._switch_kernel(np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(xd, dtype=float),
-                            self._values(p), out.value, out.grad_x, out.grad_xd, out.difference, out.jump)
+                            values, out.value, out.grad_x, out.grad_xd, out.difference, out.jump,
+                            out.difference_x, out.difference_xd, which)
         return out
+
+    def switching_functions(self, x, xd, tau, p):
+        """The contact surfaces (see :class:`contin.model.Switching`); jumps of the damping term included."""
+        return self._switching(x, xd, self._values(p), 0)
+
+    def switching_dp(self, x, xd, tau, p, k):
+        N, n = x.shape
+        hp = np.zeros((N, self.n_switch))
+        Lp = np.zeros((N, self.n_switch, n))
+        values = self._values(p)
+        for which, mono in ((1, self.clearance), (2, self.stiffness), (3, self.damping)):
+            dm = mono.derivative(p, k)
+            if dm != 0.0:
+                sw = self._switching(x, xd, values, which)
+                hp += dm * sw.value
+                Lp += dm * sw.difference
+        return hp, Lp
 
     def evaluate(self, x, xd, tau, p, f, dfdx, dfdxd):
         self._kernel(x, xd, self._values(p), f, dfdx, dfdxd, 0)
@@ -145,9 +180,10 @@ class GapForce(_ContactForce):
         g, k, c = values
         _gap_kernel(x, xd, self.dof, g, k, c, self.side, self.clip, f, dfdx, dfdxd, which)
 
-    def _switch_kernel(self, x, xd, values, val, gx, gxd, diff, jump):
+    def _switch_kernel(self, x, xd, values, val, gx, gxd, diff, jump, dx, dxd, which):
         g, k, c = values
-        _gap_switching_kernel(x, xd, self.dof, g, k, c, self.side, self.clip, val, gx, gxd, diff, jump)
+        _gap_switching_kernel(x, xd, self.dof, g, k, c, self.side, self.clip, val, gx, gxd, diff, jump, dx, dxd,
+                              which)
 
     def describe(self, dof_names, param_names):
         return (f"{self.label}: contact on {dof_names[self.dof]} beyond clearance (sides {self.sides}), "
@@ -206,8 +242,9 @@ def _radial_kernel(x, xd, ix, iy, delta, k, c, clip, f, dfdx, dfdxd, dp):
 
 
 @nb.njit(cache=True)
-def _radial_switching_kernel(x, xd, ix, iy, delta, k, c, clip, val, gx, gxd, diff, jump):
-    # h = r - delta; with clip: min(r - delta, Fn/k), the law being active iff both are positive
+def _radial_switching_kernel(x, xd, ix, iy, delta, k, c, clip, val, gx, gxd, diff, jump, dx, dxd, which):
+    # h = r - delta; with clip: min(r - delta, Fn/k), the law being active iff both are positive.
+    # which: 0 = values and derivatives; 1, 2, 3 = d/ddelta, d/dk, d/dc of h into val and of the law into diff
     N = x.shape[0]
     kref = k if k > 0.0 else 1.0
     for j in range(N):
@@ -215,7 +252,7 @@ def _radial_switching_kernel(x, xd, ix, iy, delta, k, c, clip, val, gx, gxd, dif
         Y = x[j, iy]
         r = np.sqrt(X * X + Y * Y)
         if r == 0.0:
-            val[j, 0] = -delta  # at the centre, away from the surface
+            val[j, 0] = -delta if which == 0 else 0.0  # at the centre, away from the surface
             continue
         ex = X / r
         ey = Y / r
@@ -223,20 +260,48 @@ def _radial_switching_kernel(x, xd, ix, iy, delta, k, c, clip, val, gx, gxd, dif
         vy = xd[j, iy]
         vn = vx * ex + vy * ey
         Fn = k * (r - delta) + c * vn
+        clipped = clip and Fn / kref < r - delta
+        if which != 0:
+            if which == 1:
+                hp = -k / kref if clipped else -1.0
+                Lp = -k
+            elif which == 2:
+                hp = ((r - delta) / kref - (Fn / (k * k) if k > 0.0 else 0.0)) if clipped else 0.0
+                Lp = r - delta
+            else:
+                hp = vn / kref if clipped else 0.0
+                Lp = vn
+            val[j, 0] = hp
+            diff[j, 0, ix] = Lp * ex
+            diff[j, 0, iy] = Lp * ey
+            continue
+        # d vn / d(X, Y): the radial direction turns with the position
+        dexdx = ey * ey / r
+        dexdy = -ex * ey / r
+        deydy = ex * ex / r
+        dvndx = vx * dexdx + vy * dexdy
+        dvndy = vx * dexdy + vy * deydy
         val[j, 0] = r - delta
         gx[j, 0, ix] = ex
         gx[j, 0, iy] = ey
-        if clip and Fn / kref < r - delta:
+        if clipped:
             val[j, 0] = Fn / kref
-            # d vn / d(X, Y): the radial direction turns with the position
-            dvndx = (vx * ey * ey - vy * ex * ey) / r
-            dvndy = (vy * ex * ex - vx * ex * ey) / r
             gx[j, 0, ix] = (k * ex + c * dvndx) / kref
             gx[j, 0, iy] = (k * ey + c * dvndy) / kref
             gxd[j, 0, ix] = c * ex / kref
             gxd[j, 0, iy] = c * ey / kref
         diff[j, 0, ix] = Fn * ex
         diff[j, 0, iy] = Fn * ey
+        dFndx = k * ex + c * dvndx
+        dFndy = k * ey + c * dvndy
+        dx[j, 0, ix, ix] = dFndx * ex + Fn * dexdx
+        dx[j, 0, ix, iy] = dFndy * ex + Fn * dexdy
+        dx[j, 0, iy, ix] = dFndx * ey + Fn * dexdy
+        dx[j, 0, iy, iy] = dFndy * ey + Fn * deydy
+        dxd[j, 0, ix, ix] = c * ex * ex
+        dxd[j, 0, ix, iy] = c * ex * ey
+        dxd[j, 0, iy, ix] = c * ey * ex
+        dxd[j, 0, iy, iy] = c * ey * ey
         # on the surface: c vn e where r = delta, zero where the clipped Fn vanishes
         Fs = Fn - k * val[j, 0]
         jump[j, 0, ix] = Fs * ex
@@ -273,9 +338,10 @@ class RadialGapForce(_ContactForce):
         d, k, c = values
         _radial_kernel(x, xd, self.ix, self.iy, d, k, c, self.clip, f, dfdx, dfdxd, which)
 
-    def _switch_kernel(self, x, xd, values, val, gx, gxd, diff, jump):
+    def _switch_kernel(self, x, xd, values, val, gx, gxd, diff, jump, dx, dxd, which):
         d, k, c = values
-        _radial_switching_kernel(x, xd, self.ix, self.iy, d, k, c, self.clip, val, gx, gxd, diff, jump)
+        _radial_switching_kernel(x, xd, self.ix, self.iy, d, k, c, self.clip, val, gx, gxd, diff, jump, dx, dxd,
+                                 which)
 
     def describe(self, dof_names, param_names):
         return (f"{self.label}: radial contact of ({dof_names[self.ix]}, {dof_names[self.iy]}) beyond a clearance, "

@@ -99,7 +99,7 @@ def test_gap_oscillator_is_linear_inside_the_clearance_and_folds_beyond(tmp_path
     assert free.sum() > 10
     linear = F / np.sqrt((1 - w[free] ** 2) ** 2 + (c * w[free]) ** 2)
     np.testing.assert_allclose(rows["h1_x"][free], linear, rtol=1e-9)
-    np.testing.assert_allclose(rows["h3_x"][free], 0.0, atol=1e-12)
+    np.testing.assert_allclose(rows["h3_x"][free], 0.0, atol=1e-10)  # the Newton tolerance
     # beyond the clearance the stops harden the resonance: a jump region with two folds above w = 1
     folds = np.sort(sp["w"][sp["kind"] == "fold"])
     assert len(folds) == 2 and 1.0 < folds[0] < folds[1]

@@ -185,23 +185,32 @@ def test_impacting_rotor_monodromy_equals_the_simulated_flow_map():
 
 
 def test_hill_misses_the_saltation_and_both_reports_the_monodromy(gap_orbit):
-    """Hill's matrices come from the sampled Jacobian, which cannot hold the jump of the force (a delta at the
+    """Hill's matrices from the plain sampled Jacobian cannot hold the jump of the force (a delta at the
     surface): with the clipped law its multipliers are those of the monodromy without saltation, 0.27 off
-    the flow map's, whatever its selection quality says. Method 'both' reports the monodromy there and
-    'hill' flags the point."""
-    clip, _, hb, u, w, Phi = gap_orbit
+    the flow map's, whatever its selection quality says. With the crossings resolved between samples
+    (``crossings: interval``, :mod:`contin.crossings`) dR/du holds the jump through the crossing's dependence
+    on the orbit, and Hill lands on the flow map's multipliers. With the exact arcs (the default) dR/du holds
+    it as Leibniz terms at the arc ends, which do not make a Hill matrix of the same kind; its selection
+    quality drops. Method 'both' reports the monodromy there and 'hill' flags the point every way."""
+    clip, model, hb, u, w, Phi = gap_orbit
     truth = multipliers(Phi)
     both = floquet_multipliers(hb, u, w, StabilityOptions(method="both", steps_per_period=4096))
     assert both.method is StabilityMethod.FLOQUET and both.confirmed
     assert np.abs(np.sort_complex(both.multipliers) - truth).max() < 1e-3
-    with pytest.warns(RuntimeWarning, match="saltation"):
-        hill = floquet_multipliers(hb, u, w, StabilityOptions(method="hill"))
-    assert hill.ambiguous
-    if clip:
-        bare = multipliers(monodromy_rk4(hb, u, w, 4096, switches="piecewise").matrix)
-        assert hill.quality > 0.9  # the selection itself looks fine
-        assert np.abs(np.sort_complex(hill.multipliers) - truth).max() > 0.1  # measured 0.27
-        assert np.abs(np.sort_complex(hill.multipliers) - bare).max() < 0.02  # measured 6e-3
+    for mode in ("none", "interval", "exact"):
+        problem = HarmonicBalance(model, "w", HBOptions(harmonics=40, samples=2048, crossings=mode))
+        with pytest.warns(RuntimeWarning, match="saltation"):
+            hill = floquet_multipliers(problem, u, w, StabilityOptions(method="hill"))
+        assert hill.ambiguous
+        if clip and mode != "exact":
+            err = np.abs(np.sort_complex(hill.multipliers) - truth).max()
+            assert hill.quality > 0.9  # the selection itself looks fine
+            if mode == "none":
+                bare = multipliers(monodromy_rk4(hb, u, w, 4096, switches="piecewise").matrix)
+                assert err > 0.1  # measured 0.27
+                assert np.abs(np.sort_complex(hill.multipliers) - bare).max() < 0.02  # measured 6e-3
+            else:
+                assert err < 1e-3  # measured 2.2e-4
 
 
 def test_switches_are_located_to_rounding_on_the_hb_orbit(gap_orbit):
