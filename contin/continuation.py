@@ -979,7 +979,8 @@ class _Engine:
                 self.builder.finish(
                     BranchStatus.STEP_TOO_SMALL,
                     f"the branch crawled: {opt.stall_points} points advanced {sum(recent):.2g} in all "
-                    f"(ds_max={opt.ds_max:g}) up to {self.fmt(self.lam)}; last failure: {self.last_failure}")
+                    f"(ds_max={opt.ds_max:g}) up to {self.fmt(self.lam)}; last failure: {self.last_failure}"
+                    f"{self._diagnosis()}")
                 return self.branch
             if cand.kink is not None:
                 self._record_kink(cand)
