@@ -28,6 +28,21 @@ Method
   more than half as large, the step is accepted and a ``kink`` special point
   is recorded (``corners=True``); otherwise the step keeps shrinking.
 - Range ends are landed on exactly (Newton at fixed ``lam = end``).
+- Against jumps between neighbouring sheets closer than one step (a lightly
+  damped resonance beside its backbone), a converged step is also rejected
+  when its chord leans off the bisector of its end tangents by more than
+  twice their turn, or when a variable moves against both end tangents; a
+  branch that passes again through one of its earlier points, in the same
+  direction, stops with ``CLOSED_LOOP`` and says so.
+- Scaling: the automatic scalar scale follows the unknowns when they grow
+  100-fold; dofs whose magnitudes differ by more than ``GROUP_SPREAD`` are
+  scaled separately (``problem.unknown_groups()``).
+- Newton that cycles between two pieces of a piecewise-smooth residual is
+  retried with step halving (:meth:`_Engine._newton`).
+- ``Branch.info`` reports ``max_condition`` (where: ``max_condition_parameter``)
+  and ``last_condition``, LAPACK ``gecon`` estimates of the scaled bordered
+  Jacobian, ``n_backtracked`` and ``rescalings``;
+  :func:`connection_report` checks a finished branch for jumps.
 """
 
 from __future__ import annotations
@@ -53,7 +68,7 @@ from .events import (
 )
 from .newton import NUMERICAL_ERRORS, LUFactor, SingularMatrixError, factorize, newton
 
-__all__ = ["ContinuationOptions", "Monitor", "Problem", "Scaling", "continuation"]
+__all__ = ["ContinuationOptions", "Monitor", "Problem", "Scaling", "connection_report", "continuation"]
 
 
 @runtime_checkable
@@ -76,6 +91,11 @@ class Problem(Protocol):
         ``ContinuationOptions.scaling`` is ``AUTO`` and
         ``ContinuationOptions.unknown_scale`` is not given. Non-positive
         components are replaced by the largest one.
+    unknown_groups() -> ndarray of shape (m,) or None
+        Labels of unknowns sharing a unit (e.g. one degree of freedom's
+        harmonic coefficients): with ``AUTO`` scaling and no explicit scale,
+        groups whose magnitudes at the start are more than ``GROUP_SPREAD``
+        apart are scaled separately.
 
     Numerical failures inside these methods should show up as non-finite
     values or as ``ArithmeticError`` / ``numpy.linalg.LinAlgError``; the
@@ -298,6 +318,36 @@ class ContinuationOptions:
 _ILL_RCOND = 1e-15
 
 
+#: Growth of ``||u||_inf`` (of a group) over its automatic scale that updates the scale.
+RESCALE_FACTOR = 100.0
+
+#: Spread of the groups' magnitudes at the start beyond which each group gets its own scale.
+GROUP_SPREAD = 1e3
+
+#: Slack (radians) and corrector accuracy (scaled length) of the chord test of
+#: :meth:`_Engine._secant_offset`.
+SECANT_SLACK = 2e-3
+SECANT_ACCURACY = 1e-8
+#: Smallest tangent component and chord fraction for the monotonicity test of the chord.
+SECANT_MONOTONE = 1e-3
+
+#: Growth of the scaled Jacobian since the start that a stop message points out.
+JACOBIAN_GROWTH = 1e3
+
+
+def _condition(rcond: float) -> float:
+    """Condition estimate from a reciprocal one (``inf`` for a singular matrix, NaN if none)."""
+    if not math.isfinite(rcond):
+        return math.nan
+    return math.inf if rcond <= 0 else 1.0 / rcond
+
+
+def _cycles(history) -> bool:
+    """Whether a residual history went up at least twice (Newton cycling, not slow convergence)."""
+    h = np.asarray(history, dtype=float)
+    return h.size >= 4 and int(np.count_nonzero(h[1:] > h[:-1])) >= 2
+
+
 class _Failure(Exception):
     """Internal: a numerical failure ending the branch with a status."""
 
@@ -401,8 +451,13 @@ class _Engine:
         self.turns: list = []  # (angle or None, ds) of the failed steps from the current point
         self.across = False  # a fixed-parameter step across a corner is being tried
         self.n_newton = 0
+        self.n_backtracked = 0  # correctors retried with step halving
+        self.adaptive_scale = False
+        self.groups = np.zeros(u0.size, dtype=np.intp)
+        self.rescalings: list = []  # (parameter, old scale, new scale)
         self.min_rcond = math.inf
         self.min_rcond_index = -1
+        self.last_rcond = math.nan
         self.last_failure = ""
         self._options_dict = options.to_dict()
         self._e_last = np.zeros(self.m + 1)
@@ -442,9 +497,39 @@ class _Engine:
             if su is None:
                 norm = float(np.max(np.abs(u))) if m else 0.0
                 su = np.full(m, max(norm, 1e-12) if norm > 0 else 1.0)
+                self.adaptive_scale = True  # a guess from one point: updated as the unknowns grow
+                self.groups = np.zeros(m, dtype=np.intp)
+                grouped = self._grouped_scale(u, norm)
+                if grouped is not None:
+                    su = grouped
         else:
             su = np.ones(m)
         return su, float(sl)
+
+    def _grouped_scale(self, u: np.ndarray, norm: float):
+        """One scale per group of unknowns when their magnitudes are far apart, else None.
+
+        ``problem.unknown_groups()`` (optional) labels the unknowns that share
+        a unit (for harmonic balance, the coefficients of one degree of
+        freedom). When the groups' magnitudes at the start span more than
+        ``GROUP_SPREAD``, a single scale would make the small ones invisible
+        to the step control (a fold of a dof measured in micrometres next
+        to one in kilometres is passed blindly), so each group gets its own.
+        """
+        getter = getattr(self.problem, "unknown_groups", None)
+        groups = getter() if callable(getter) else None
+        if groups is None or not norm > 0:
+            return None
+        groups = np.asarray(groups)
+        if groups.shape != (self.m,):
+            raise ValueError(f"problem.unknown_groups() must return {self.m} labels")
+        _, groups = np.unique(groups, return_inverse=True)
+        mags = np.zeros(groups.max() + 1)
+        np.maximum.at(mags, groups, np.abs(u))
+        if mags.size < 2 or not np.all(mags > 0) or norm <= GROUP_SPREAD * mags.min():
+            return None
+        self.groups = groups
+        return mags[groups]
 
     def _monitor(self, u, lam, Ju, Jlam) -> dict:
         data: dict[str, Any] = {}
@@ -487,7 +572,25 @@ class _Engine:
             A[:m] = Jh
             return F, A
 
-        res = newton(fun_and_jac, guess, self.opt.newton_tol, self.opt.newton_max_iter, factor_final=True)
+        return self._newton(fun_and_jac, guess, factor_final=True)
+
+    def _newton(self, fun_and_jac, guess, **kw):
+        """Newton, retried with step halving when plain Newton cycles.
+
+        A residual that is only piecewise smooth (stiff contact sampled by the
+        AFT: the Jacobian jumps where a sample crosses the clearance) makes
+        full Newton alternate between two pieces, the residual going up and
+        down without converging; halving the updates breaks most cycles.
+        Smooth problems never pay for it: the retry happens only after such
+        a failure.
+        """
+        opt = self.opt
+        res = newton(fun_and_jac, guess, opt.newton_tol, opt.newton_max_iter, **kw)
+        self.n_newton += res.iterations
+        if res.converged or res.singular or not _cycles(res.residual_history):
+            return res
+        self.n_backtracked += 1
+        res = newton(fun_and_jac, guess, opt.newton_tol, 2 * opt.newton_max_iter, backtrack=8, **kw)
         self.n_newton += res.iterations
         return res
 
@@ -498,9 +601,7 @@ class _Engine:
             R, Ju, _ = sp.evaluate(u, lam)
             return R, Ju
 
-        res = newton(fun_and_jac, u_guess, self.opt.newton_tol, self.opt.newton_max_iter)
-        self.n_newton += res.iterations
-        return res
+        return self._newton(fun_and_jac, u_guess)
 
     def _point_info(self, cand_u, lam, tangent, lu, Ju, Jlam, s, data) -> PointInfo:
         return PointInfo(
@@ -587,6 +688,7 @@ class _Engine:
         self.s = 0.0
         self.x_start = x.copy()
         self.t_start = t.copy()
+        self.jac_norm_start = float(np.max(np.abs(Ju * su), initial=0.0))
         self.max_dist = 0.0
         try:
             data = self._monitor(self.u, self.lam, Ju, Jlam)
@@ -602,6 +704,20 @@ class _Engine:
                          located=True, message="start point", event="start", tangent=t.copy())
         )
         return self._after_store()
+
+    def _diagnosis(self) -> str:
+        """What the last stored point says about a stop: condition and growth of the Jacobian."""
+        parts = []
+        try:
+            norm = float(np.max(np.abs(self.info.Ju * self.sp.su)))
+        except (AttributeError, ValueError):
+            return ""
+        if self.jac_norm_start > 0 and norm > JACOBIAN_GROWTH * self.jac_norm_start:
+            parts.append(f"the scaled Jacobian grew {norm / self.jac_norm_start:.1e}-fold since the start "
+                         "(the model blows up there?)")
+        if math.isfinite(self.info.rcond):
+            parts.append(f"condition estimate {_condition(self.info.rcond):.1e}")
+        return "; " + "; ".join(parts) if parts else ""
 
     def _start_failed(self, message: str) -> bool:
         self.builder.finish(BranchStatus.START_FAILED, message)
@@ -644,6 +760,7 @@ class _Engine:
         if info.rcond < self.min_rcond:
             self.min_rcond = info.rcond
             self.min_rcond_index = index
+        self.last_rcond = info.rcond
         return index
 
     def _after_store(self) -> bool:
@@ -665,8 +782,16 @@ class _Engine:
             lam_range=(self.lo, self.hi),
             min_rcond=self.min_rcond,
             min_rcond_index=self.min_rcond_index,
+            # 1-norm condition estimates (LAPACK gecon on the LU each corrector makes anyway) of
+            # the scaled, row-equilibrated bordered Jacobian [[Ju su, Jlam sl], [t]]
+            max_condition=_condition(self.min_rcond),
+            max_condition_parameter=(float(b.parameter[self.min_rcond_index])
+                                     if 0 <= self.min_rcond_index < len(b) else math.nan),
+            last_condition=_condition(self.last_rcond),
             n_rejected_steps=self.n_rejected,
             n_newton_iterations=self.n_newton,
+            n_backtracked=self.n_backtracked,
+            rescalings=list(self.rescalings),
             n_linearizations=self.sp.calls,
             last_failure=self.last_failure,
             options=self._options_dict,
@@ -697,7 +822,46 @@ class _Engine:
         if angle > self.opt.max_angle_deg:
             raise _StepFailed(f"tangent turned by {angle:.1f} deg > {self.opt.max_angle_deg:g} deg", rcond,
                               turn=(angle, ds, cand))
+        if not (landed or self.across):
+            off = self._secant_offset(x_new, t_new, math.radians(angle))
+            if off is not None:
+                raise _StepFailed(off, rcond)
         return cand
+
+    def _secant_offset(self, x_new, t_new, theta):
+        """Why the chord to ``x_new`` is not an arc of the branch, or None.
+
+        Along a smooth arc whose tangent turns by ``theta`` the chord lies
+        between the end tangents (along their bisector for a circular arc).
+        A corrector that landed on a neighbouring sheet (two branches closer
+        than one step, as beside the backbone of a lightly damped resonance)
+        has both end tangents nearly parallel yet a chord leaning sideways:
+        the angle between the chord and the bisector exceeds
+        ``2 theta`` plus a slack for the corrector's accuracy.
+        """
+        d = x_new - self.x
+        L = float(np.linalg.norm(d))
+        b = self.t + t_new
+        nb = float(np.linalg.norm(b))
+        if L == 0.0 or nb == 0.0:
+            return None
+        phi = math.acos(float(np.clip(abs(d @ b) / (L * nb), -1.0, 1.0)))
+        if phi > 2.0 * theta + SECANT_SLACK + SECANT_ACCURACY / L:
+            return (f"the chord leans {math.degrees(phi):.2f} deg off the tangents, which turned by "
+                    f"{math.degrees(theta):.2f} deg (a jump to a neighbouring branch?)")
+        # a variable that both end tangents say increases (by a clear margin) cannot decrease
+        # along a resolved arc: either the step holds two turning points of that variable, or
+        # it jumped across a gap between two sheets (beside the backbone of a lightly damped
+        # resonance: the response sheets on either side of a1 = 0); a shorter step tells which
+        # (when the tangent turns along a great circle, as over a short arc, each component
+        # stays between its end values: same signs at both ends, the same sign all along)
+        against = (self.t * t_new > 0) & (np.minimum(np.abs(self.t), np.abs(t_new)) >= SECANT_MONOTONE) \
+            & (d * self.t < 0) & (np.abs(d) >= SECANT_MONOTONE * L + SECANT_ACCURACY)
+        if against.any():
+            i = int(np.flatnonzero(against)[0])
+            what = self.name if i == self.m else f"unknown {i}"
+            return f"{what} moved against both end tangents over the step (a jump, or two turns in one step)"
+        return None
 
     def _step(self, ds: float) -> _Candidate:
         xp = self.x + ds * self.t
@@ -802,7 +966,7 @@ class _Engine:
                     raise _Failure(
                         BranchStatus.STEP_TOO_SMALL,
                         f"step size fell below ds_min={opt.ds_min:g} at {self.fmt(self.lam)}; "
-                        f"last failure: {cand.reason}",
+                        f"last failure: {cand.reason}{self._diagnosis()}",
                     )
                 ds = max(ds * opt.shrink, opt.ds_min)
                 continue
@@ -815,15 +979,25 @@ class _Engine:
                 self.builder.finish(
                     BranchStatus.STEP_TOO_SMALL,
                     f"the branch crawled: {opt.stall_points} points advanced {sum(recent):.2g} in all "
-                    f"(ds_max={opt.ds_max:g}) up to {self.fmt(self.lam)}; last failure: {self.last_failure}")
+                    f"(ds_max={opt.ds_max:g}) up to {self.fmt(self.lam)}; last failure: {self.last_failure}"
+                    f"{self._diagnosis()}")
                 return self.branch
             if cand.kink is not None:
                 self._record_kink(cand)
             if cand.landed:
                 self._finish_range_end(len(self.branch) - 1)
                 return self.branch
+            self._maybe_rescale()
             if self._closed(cand):
                 self.builder.finish(BranchStatus.CLOSED_LOOP, f"the branch returned to its start point {self.fmt(self.branch.parameter[0])}")
+                return self.branch
+            k = self._revisited(cand)
+            if k is not None:
+                self.builder.finish(
+                    BranchStatus.CLOSED_LOOP,
+                    f"the branch passed again through its point {k} at {self.fmt(self.branch.parameter[k])}, in the "
+                    f"same direction, at {self.fmt(self.lam)}: it retraces itself (a loop not through the start; if "
+                    "the problem has none there, a step jumped onto an earlier part of the branch: lower ds_max)")
                 return self.branch
             if cand.iterations <= opt.newton_easy:
                 ds = min(ds * opt.grow, opt.ds_max)
@@ -838,7 +1012,10 @@ class _Engine:
         whose Newton iterates straddle the corner, fails; then a step at
         fixed parameter (``lam`` advanced by ``ds``, in scaled units, in the
         tangent's direction) is tried, as across a corner the branch is
-        locally a graph over ``lam`` unless the corner is a fold.
+        locally a graph over ``lam`` unless the corner is a fold; then one
+        at a fixed value of the unknown dominating the tangent (a corner
+        that is also a fold). A turned candidate at a step within
+        ``corner_ratio`` of ``ds_min`` is a corner as well.
         """
         angle = failed.turn[0] if failed.turn is not None else None
         if not self.turns:
@@ -853,6 +1030,25 @@ class _Engine:
             cand = self._oriented(failed.turn[2])
             cand.kink = (angle, ds, first_angle or angle, first_ds)
             return cand
+        cand = self._across_fixed_parameter(ds)
+        if cand is None:
+            cand = self._across_fixed_component(ds)
+        if cand is None:
+            if angle is not None and ds <= self.opt.corner_ratio * self.opt.ds_min:
+                # a turn beyond max_angle_deg over a step this short would need a radius of
+                # curvature below the smallest step: the step control cannot resolve it, so
+                # it is a corner (the candidate lies within ds of the current point)
+                cand = self._oriented(failed.turn[2])
+                cand.kink = (angle, ds, first_angle or angle, first_ds)
+            return cand
+        cand = self._oriented(cand)
+        turn = math.degrees(math.acos(float(np.clip(self.t @ cand.tangent, -1.0, 1.0))))
+        if turn > self.opt.max_angle_deg:
+            cand.kink = (turn, ds, first_angle or turn, first_ds)
+        return cand
+
+    def _across_fixed_parameter(self, ds: float):
+        """A step at fixed ``lam`` advanced by ``ds`` (scaled), or None."""
         sl, t_lam = self.sp.sl, self.t[-1]
         if abs(t_lam) < 1e-3:
             return None  # a vertical tangent: not a graph over lam
@@ -869,11 +1065,91 @@ class _Engine:
             self.across = False
         if not (self.lo <= cand.lam <= self.hi):
             return None
-        cand = self._oriented(cand)
-        turn = math.degrees(math.acos(float(np.clip(self.t @ cand.tangent, -1.0, 1.0))))
-        if turn > self.opt.max_angle_deg:
-            cand.kink = (turn, ds, first_angle or turn, first_ds)
         return cand
+
+    def _across_fixed_component(self, ds: float):
+        """A step with the unknown of the largest tangent component advanced by ``ds``, or None.
+
+        At a corner that is also a fold of the discretised problem (near a
+        fold the tangent is so sensitive to the Jacobian that one AFT sample
+        entering the contact can turn the branch back), there is no
+        solution beyond the corner at fixed ``lam``; the branch is still a
+        graph over the unknown that dominates the tangent.
+        """
+        i = int(np.argmax(np.abs(self.t[:-1])))
+        ti = float(self.t[i])
+        if abs(ti) < 0.1:
+            return None
+        normal = np.zeros(self.m + 1)
+        normal[i] = 1.0
+        offset = math.copysign(ds, ti)
+        guess = self.x.copy()
+        guess[i] += offset
+        self.across = True
+        try:
+            res = self._bordered_solve(guess, self.x, normal, offset)
+            if not res.converged:
+                return None
+            cand = self._check_new(res.x, guess, ds / abs(ti), res.lu, res.rcond, res.iterations)
+        except _StepFailed as exc:
+            if exc.turn is None:
+                return None
+            cand = exc.turn[2]
+        except NUMERICAL_ERRORS:
+            return None
+        finally:
+            self.across = False
+        if not (self.lo <= cand.lam <= self.hi):
+            return None
+        return cand
+
+    def _maybe_rescale(self):
+        """Grow the automatic unknown scale (of each group) with the unknowns.
+
+        The automatic scale comes from the start point alone. A lightly
+        damped resonance starting from a tiny response (1e-6 at the start,
+        0.5 at the peak) would otherwise need millions of steps of at most
+        ``ds_max``. So the scale follows ``||u||_inf`` whenever it has grown
+        by ``RESCALE_FACTOR``, and the current point, tangent and references
+        are converted (a positive diagonal change of variables keeps every
+        orientation and sign the events use). It never shrinks: a scale
+        following the response back down would magnify each small wiggle of
+        the branch (a contact's corners) into steps that jump.
+        """
+        if not self.adaptive_scale:
+            return
+        su = self.sp.su
+        mags = np.zeros(self.groups.max() + 1)
+        np.maximum.at(mags, self.groups, np.abs(self.u))
+        cur = np.zeros_like(mags)
+        np.maximum.at(cur, self.groups, su)
+        grow = mags > RESCALE_FACTOR * cur
+        if not grow.any():
+            return
+        new = np.where(grow, mags, cur)
+        f = (new / cur)[self.groups]
+        m = self.m
+        old_su = su.copy()
+        self.sp.su[:] = new[self.groups]
+
+        def convert_point(x):
+            x = x.copy()
+            x[:m] /= f
+            return x
+
+        def convert_direction(t):
+            t = convert_point(t)
+            return t / np.linalg.norm(t)
+
+        self.x = convert_point(self.x)
+        self.prev_x = convert_point(self.prev_x)
+        self.x_start = convert_point(self.x_start)
+        self.max_dist = float(np.linalg.norm(self.x - self.x_start))
+        self.t = convert_direction(self.t)
+        self.t_start = convert_direction(self.t_start)
+        self.info.tangent = self.t
+        self.turns.clear()
+        self.rescalings.append((self.lam, float(old_su.max()), float(self.sp.su.max())))
 
     def _oriented(self, cand):
         """Orient the tangent beyond a corner along the secant (the bordered
@@ -999,6 +1275,43 @@ class _Engine:
                     point_data={k: np.array(v) for k, v in p.data.items()},
                 )
             )
+
+    def _revisited(self, cand: _Candidate) -> int | None:
+        """Index of an earlier stored point (not the start, not the last few) that the
+        last chord passes through in the same direction, or None.
+
+        Without it, a branch that jumped back onto an earlier part of itself
+        would go round the same loop until ``max_points``.
+        """
+        b = self.branch
+        n = len(b) - 1  # the new point is stored
+        if n < 6:
+            return None
+        a, x1 = self.prev_x, cand.x
+        seg = x1 - a
+        L = float(np.linalg.norm(seg))
+        if L == 0.0:
+            return None
+        m = self.m
+        X = np.empty((n - 3, m + 1))  # points 1 .. n-3 in the current scales
+        X[:, :m] = b.unknowns[1:n - 2] / self.sp.su
+        X[:, m] = b.parameter[1:n - 2] / self.sp.sl
+        p = (X - a) @ seg / (L * L)
+        near = (p >= 0.0) & (p <= 1.0)
+        if not near.any():
+            return None
+        dist = np.linalg.norm(a + np.outer(p, seg) - X, axis=1)
+        cand_idx = np.flatnonzero(near & (dist <= 0.1 * L))
+        cos_min = math.cos(math.radians(min(2 * self.opt.max_angle_deg, 89.0)))
+        for j in cand_idx:
+            k = int(j) + 1
+            d = np.empty(m + 1)
+            d[:m] = (b.unknowns[k + 1] - b.unknowns[k]) / self.sp.su
+            d[m] = (b.parameter[k + 1] - b.parameter[k]) / self.sp.sl
+            nd = float(np.linalg.norm(d))
+            if nd > 0 and float(d @ seg) >= cos_min * nd * L:
+                return k
+        return None
 
     def _closed(self, cand: _Candidate) -> bool:
         """Did the last step pass the start point (after having gone away)?"""
@@ -1134,3 +1447,110 @@ def continuation(
         elif hasattr(eng, "sp"):
             branch.info.update(lam_range=(lo, hi), n_linearizations=eng.sp.calls, n_newton_iterations=eng.n_newton)
     return branch
+
+
+def connection_report(problem: Problem, branch: Branch, *, max_angle_deg: float = 45.0, midpoint: bool = True,
+                      max_offset: float = 0.5, newton_tol: float | None = None, skip_kinks: bool = True) -> dict:
+    """Check that consecutive stored points of a branch lie on one connected curve.
+
+    An invariant against silent branch jumping, computed from the problem
+    alone (not from the engine's own tangents):
+
+    - at each stored point the tangent is the null vector of the scaled
+      ``[Ju su, Jlam sl]`` (oriented along the secant); the angle between
+      the secant to the next point and the tangents at both ends must stay
+      below ``max_angle_deg`` (a smooth arc of curvature ``k`` and length
+      ``L`` gives about ``k L / 2``);
+    - with ``midpoint``, the problem is solved again on the hyperplane
+      through the chord's midpoint normal to the chord; the solution must
+      lie within ``max_offset * L`` of the midpoint, i.e. between the two
+      points, not on another sheet.
+
+    Steps across a recorded corner (``kink`` special point) are skipped with
+    ``skip_kinks``: the tangent jumps there by construction.
+
+    Parameters
+    ----------
+    problem : Problem
+    branch : Branch
+        Traced with ``problem``; its ``info`` holds the scales.
+    max_angle_deg, max_offset : float
+    midpoint : bool
+    newton_tol : float, optional
+        Tolerance of the midpoint solves (default: the branch's
+        ``newton_tol`` times 10, or 1e-9).
+    skip_kinks : bool
+
+    Returns
+    -------
+    dict
+        ``ok`` (bool), ``max_angle_deg``, ``max_offset`` (midpoint distance
+        over chord length), ``checked`` (number of steps checked) and
+        ``failures``: list of ``(index, reason)`` for the step from point
+        ``index`` to ``index + 1``.
+    """
+    n = len(branch)
+    m = branch.unknowns.shape[1] if n else 0
+    su = np.broadcast_to(np.asarray(branch.info.get("unknown_scale", 1.0), dtype=float), (m,))
+    sl = float(branch.info.get("parameter_scale", 1.0))
+    opts = branch.info.get("options") or {}
+    tol = newton_tol if newton_tol is not None else 10.0 * float(opts.get("newton_tol", 1e-10))
+    kinks = {sp.index for sp in branch.special_points if sp.kind == SpecialKind.KINK} if skip_kinks else set()
+    X = np.column_stack([branch.unknowns / su, branch.parameter / sl]) if n else np.zeros((0, m + 1))
+    failures: list = []
+    worst_angle, worst_offset, checked = 0.0, 0.0, 0
+
+    def jac(x):
+        R, Ju, Jlam = problem.linearize(x[:m] * su, float(x[m] * sl))
+        return np.asarray(R, dtype=float), np.column_stack([np.asarray(Ju, float) * su, np.asarray(Jlam, float) * sl])
+
+    def tangent(x, d):
+        _, Jh = jac(x)
+        A = np.vstack([Jh, d])
+        rhs = np.zeros(m + 1)
+        rhs[-1] = 1.0
+        try:
+            z = np.linalg.solve(A, rhs)
+        except np.linalg.LinAlgError:
+            return None
+        return z / np.linalg.norm(z)
+
+    def angle(a, b):
+        return math.degrees(math.acos(float(np.clip(abs(a @ b), -1.0, 1.0))))
+
+    for i in range(n - 1):
+        if i in kinks or (i + 1) in kinks:
+            continue
+        d = X[i + 1] - X[i]
+        L = float(np.linalg.norm(d))
+        if L == 0.0:
+            continue
+        d = d / L
+        checked += 1
+        ends = [tangent(X[i], d), tangent(X[i + 1], d)]
+        if any(t is None for t in ends):
+            failures.append((i, "singular Jacobian at a stored point"))
+            continue
+        a = max(angle(d, t) for t in ends)
+        worst_angle = max(worst_angle, a)
+        if a > max_angle_deg:
+            failures.append((i, f"secant and tangent differ by {a:.1f} deg"))
+            continue
+        if not midpoint:
+            continue
+        xm = 0.5 * (X[i] + X[i + 1])
+
+        def fun(x, xm=xm, d=d):
+            R, Jh = jac(x)
+            return np.concatenate([R, [d @ (x - xm)]]), np.vstack([Jh, d])
+
+        res = newton(fun, xm, tol, 30)
+        if not res.converged:
+            failures.append((i, f"no solution on the midpoint hyperplane ({res.message})"))
+            continue
+        off = float(np.linalg.norm(res.x - xm)) / L
+        worst_offset = max(worst_offset, off)
+        if off > max_offset:
+            failures.append((i, f"the midpoint solution lies {off:.2g} chord lengths away from the chord"))
+    return {"ok": not failures, "max_angle_deg": worst_angle, "max_offset": worst_offset, "checked": checked,
+            "failures": failures}

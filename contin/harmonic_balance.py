@@ -608,6 +608,11 @@ class HarmonicBalance:
         """No per-component scale: the engine scales ``u`` as a whole."""
         return None
 
+    def unknown_groups(self) -> np.ndarray:
+        """The degree of freedom of each unknown (harmonic-major layout): the
+        engine scales dofs separately when their magnitudes are far apart."""
+        return np.arange(self.size) % self.model.n_dof
+
     # -- starting points --------------------------------------------------
     def linear_solution(self, lam: float) -> np.ndarray:
         """Solution of the linear part alone (nonlinear forces dropped).

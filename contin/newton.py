@@ -280,6 +280,7 @@ def newton(
     equilibrate: bool = True,
     reuse_lu: bool = True,
     lu0: LUFactor | None = None,
+    backtrack: int = 0,
 ) -> NewtonResult:
     """Newton's method for ``F(x) = 0``.
 
@@ -349,6 +350,13 @@ def newton(
         not reduce the residual it is undone (one more evaluation, at ``x0``,
         restores the caller's state) and the iteration goes on as full Newton,
         so a poor ``lu0`` costs two evaluations, never convergence.
+    backtrack : int
+        Largest number of step halvings when a full update does not
+        decrease ``||F||_inf`` (0 = plain Newton). A residual that is only
+        piecewise smooth (a contact sampled by the AFT: the Jacobian jumps
+        whenever a sample crosses the clearance) can make full Newton cycle
+        between two pieces; halving the update breaks the cycle. An update
+        that no halving improves is taken in full, as in plain Newton.
 
     Returns
     -------
@@ -436,6 +444,7 @@ def newton(
                 chords = 0
                 continue
             return fail(f"singular Jacobian at iteration {k} (non-finite update)", best, F, J, k, True)
+        x_old, r_old = x.copy() if backtrack else None, r
         x += dx
         k += 1
         step_norm = _inf_norm(dx / scale)
@@ -452,6 +461,20 @@ def newton(
             if err is not None:  # pragma: no cover - evaluated fine a moment ago
                 return fail(f"evaluation failed at the initial guess ({err})", best, None, None, k)
             continue
+        halvings = 0
+        while (backtrack and halvings < backtrack and err is None
+               and not (np.all(np.isfinite(F)) and _inf_norm(F) < r_old)):
+            halvings += 1
+            dx *= 0.5
+            np.add(x_old, dx, out=x)
+            F2, J2, err2 = evaluate(x)
+            if err2 is None and np.all(np.isfinite(F2)) and _inf_norm(F2) < r_old:
+                F, J, err = F2, J2, None
+                step_norm = _inf_norm(dx / scale)
+                break
+            if halvings == backtrack:  # nothing better: the full update, as plain Newton would
+                x[:] = x_old + 2.0 ** backtrack * dx
+                F, J, err = evaluate(x)
         if err is not None:
             return fail(f"evaluation failed at iteration {k} ({err})", best, None, None, k)
         if not np.all(np.isfinite(F)):

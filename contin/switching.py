@@ -493,10 +493,21 @@ def switch_branch(problem, branch: Branch, point: SpecialPoint, lam_range=None, 
         br, mon = _run(st, lam_range, options, stability, branch.parameter_name, su, sl)
         br.info["origin"] = _origin(point, None, st)
         if mon is not None:
-            br.info["stability"] = mon.statistics()
+            _record_stability(br, mon)
         _annotate_problem(br, st.problem)
         out.append((br, st.problem))
     return out
+
+
+def _record_stability(br: Branch, mon) -> None:
+    """Store the monitor's statistics; say in the branch message where the monodromy replaced Hill."""
+    st = mon.statistics()
+    br.info["stability"] = st
+    where = sorted(st.get("fallbacks", []) + st.get("disagreements", []))
+    if where:
+        br.message = (f"{br.message}; stability: Hill's multipliers disagreed with the monodromy's at "
+                      f"{len(where)} point(s) (first at {br.parameter_name}={where[0]:.10g}), "
+                      "the monodromy's were used there")
 
 
 def _origin(point: SpecialPoint, parent: int | None, st: BranchStart) -> dict:
@@ -689,7 +700,7 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
                             monitors=monitors, callback=cb_for(0, problem))
     root.info.update(parent=None, origin=None, depth=0)
     if monitor is not None:
-        root.info["stability"] = monitor.statistics()
+        _record_stability(root, monitor)
     _annotate_problem(root, problem)
     diagram.branches.append(root)
     diagram.problems.append(problem)
@@ -731,7 +742,7 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
                     child, mon = _run(st, lam_range, options, stability, name, su, sl, cb_for(j, st.problem))
                 child.info.update(parent=i, origin=_origin(sp, i, st), depth=depth + 1)
                 if mon is not None:
-                    child.info["stability"] = mon.statistics()
+                    _record_stability(child, mon)
                 _annotate_problem(child, st.problem)
                 diagram.branches.append(child)
                 diagram.problems.append(st.problem)

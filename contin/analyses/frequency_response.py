@@ -283,7 +283,12 @@ def run(ctx) -> dict:
             "special_points": {k: sum(1 for s in branch.special_points if s.kind.value == k)
                                for k in ("fold", "bp", "pd", "ns", "kink", "stability")},
             "min_rcond": branch.info.get("min_rcond"),
+            "condition": _condition_summary(branch),
             "rejected_steps": branch.info.get("n_rejected_steps"),
+            "newton": {"iterations": branch.info.get("n_newton_iterations"),
+                       "retried_with_step_halving": branch.info.get("n_backtracked", 0)},
+            "rescalings": [list(r) for r in branch.info.get("rescalings", [])],
+            "stability": _stability_summary(branch),
         })
     ctx.timings["continuation"] = time.perf_counter() - t0
     interrupted = any(b.status == BranchStatus.INTERRUPTED for b, _ in results)
@@ -301,6 +306,35 @@ def run(ctx) -> dict:
         "special_points": len(rec.special_list),
         "failed_switches": rec.failed_switches,
     }
+
+
+def _finite_or_none(v):
+    return float(v) if v is not None and np.isfinite(v) else None
+
+
+def _condition_summary(branch) -> dict:
+    """Largest and last condition estimates of the scaled bordered Newton Jacobian (None if singular/absent)."""
+    info = branch.info
+    return {"max": _finite_or_none(info.get("max_condition")),
+            "max_at": _finite_or_none(info.get("max_condition_parameter")),
+            "last": _finite_or_none(info.get("last_condition"))}
+
+
+def _stability_summary(branch) -> dict | None:
+    """Where Hill's multipliers were replaced by the monodromy's, and why."""
+    st = branch.info.get("stability")
+    if not st:
+        return None
+    out = {"method": st.get("method"),
+           "hill_monodromy_gap": st.get("largest_hill_monodromy_gap"),
+           "fallbacks": len(st.get("fallbacks", [])),
+           "disagreements": len(st.get("disagreements", []))}
+    where = sorted(st.get("fallbacks", []) + st.get("disagreements", []))
+    if where:
+        out["first_fallback_at"] = where[0]
+        out["message"] = (f"Hill and the monodromy disagreed at {len(where)} points (first at {where[0]:.10g}): "
+                          "the monodromy's multipliers were used there")
+    return out
 
 
 def _plot(ctx, rec, hb):

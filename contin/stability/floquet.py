@@ -152,6 +152,16 @@ class StabilityOptions:
         Relative tolerance of the ``"dop853"`` integrator.
     eigenvectors : bool
         Keep Hill's coefficient-space eigenvectors in the results.
+    unit_check : float
+        Method BOTH: when a Hill multiplier lies within this distance of
+        ``+1`` or ``-1`` (where a fold, branch point or period doubling is
+        near, and where Hill's selection of the physical exponents among
+        their shifts is hardest), the monodromy is computed too and the two
+        multiplier sets are compared. In ``[0, 2]``; 0 disables the check.
+    agreement : float
+        Largest multiplier distance (:func:`multiplier_distance`) between
+        Hill and the monodromy accepted by that check; beyond it the
+        monodromy's multipliers are used (``fallback``). In ``(0, 1]``.
     """
 
     method: StabilityMethod = StabilityMethod.BOTH
@@ -163,6 +173,8 @@ class StabilityOptions:
     integrator: str = "rk4"
     rtol: float = 1e-11
     eigenvectors: bool = False
+    unit_check: float = 0.1
+    agreement: float = 1e-2
 
     def __post_init__(self):
         def bad(name, requirement, value):
@@ -191,6 +203,8 @@ class StabilityOptions:
             ("ambiguity_threshold", 0.0, 1.0, False),
             ("shift_tol", 0.0, 0.1, True),
             ("rtol", 0.0, 1e-3, True),
+            ("unit_check", 0.0, 2.0, False),
+            ("agreement", 0.0, 1.0, True),
         ):
             v = getattr(self, name)
             ok = _is_real(v) and math.isfinite(v) and (v > lo if lo_open else v >= lo) and v <= hi
@@ -268,6 +282,13 @@ class FloquetResult:
         threshold within the two methods' discrepancy, itself small
         (``<= 1e-3``): expected right at a bifurcation. False for a
         disagreement that is not.
+    fallback : bool
+        Hill's multipliers, close to ``+1`` or ``-1``, differed from the
+        monodromy's by more than ``StabilityOptions.agreement`` (whatever
+        the counts); the monodromy's are reported.
+    gap : float
+        The multiplier distance between the two methods when both were
+        computed (NaN otherwise).
     hill_multipliers, monodromy_multipliers : ndarray (2n,) complex or None
         Each method's multipliers when computed.
     eigenvectors : ndarray, shape (m, 2n) complex, or None
@@ -292,6 +313,8 @@ class FloquetResult:
     confirmed: bool = False
     disagreement: bool = False
     marginal: bool = False
+    fallback: bool = False
+    gap: float = float("nan")
     hill_multipliers: np.ndarray | None = None
     monodromy_multipliers: np.ndarray | None = None
     eigenvectors: np.ndarray | None = None
@@ -344,6 +367,7 @@ class FloquetResult:
             "confirmed": bool(self.confirmed),
             "disagreement": bool(self.disagreement and not self.marginal),
             "marginal_disagreement": bool(self.disagreement and self.marginal),
+            "hill_fallback": bool(self.fallback),
         }
 
 
@@ -497,20 +521,25 @@ def floquet_multipliers(hb, u: np.ndarray, lam: float, options: StabilityOptions
             return dataclasses.replace(hill, ambiguous=True)
         return hill
     prev = previous.counts if isinstance(previous, FloquetResult) else previous
-    if not (jumps or ambiguous or prev is None or tuple(prev) != hill.counts):
+    near_unit = bool(spec.multipliers.size) and options.unit_check > 0 and float(
+        np.min(np.minimum(np.abs(spec.multipliers - 1.0), np.abs(spec.multipliers + 1.0)))) <= options.unit_check
+    if not (jumps or ambiguous or near_unit or prev is None or tuple(prev) != hill.counts):
         return hill
     mono = _monodromy(hb, u, lam, options)
     mu = np.linalg.eigvals(mono.matrix)
     counts = classify_multipliers(mu, options.tolerance, options.real_angle_tol)
-    if counts == hill.counts and not jumps:
-        return dataclasses.replace(hill, confirmed=True, monodromy_multipliers=mu.copy())
-    # Hill and the monodromy disagree, or Hill misses a force jump: the time integration is trusted
     gap = multiplier_distance(spec.multipliers, mu)
+    # near +-1 the multipliers themselves are compared, not only the counts: a wrong
+    # selection among Hill's shifted exponents can keep the counts and still be wrong
+    fallback = bool(near_unit and not jumps and gap > options.agreement)
+    if counts == hill.counts and not jumps and not fallback:
+        return dataclasses.replace(hill, confirmed=True, monodromy_multipliers=mu.copy(), gap=gap)
+    # Hill and the monodromy disagree, or Hill misses a force jump: the time integration is trusted
     near = np.abs(np.abs(np.concatenate([spec.multipliers, mu])) - 1.0 - options.tolerance)
     ex = _log_exponents(mu, mono.period)
     return _result(
         mu, ex, StabilityMethod.FLOQUET, mono.period, options, ambiguous=ambiguous, quality=spec.quality,
-        confirmed=True, disagreement=counts != hill.counts,
+        confirmed=True, disagreement=counts != hill.counts, fallback=fallback, gap=gap,
         marginal=bool(counts != hill.counts and gap <= _MARGINAL_GAP and near.min() <= 2.0 * gap + options.tolerance),
         hill_multipliers=spec.multipliers.copy(), monodromy_multipliers=mu.copy(),
     )
@@ -578,6 +607,13 @@ class StabilityMonitor:
         threshold (at a bifurcation, within the methods' accuracy).
     ambiguous_points : list of float
         Parameter values where Hill's selection was ambiguous.
+    fallbacks : list of float
+        Parameter values where Hill's multipliers, near ``+1`` or ``-1``,
+        differed from the monodromy's beyond ``StabilityOptions.agreement``
+        and the monodromy's were used (the first one raises a
+        ``RuntimeWarning``).
+    largest_gap : float
+        Largest Hill-monodromy multiplier distance met where both were computed.
     last : FloquetResult or None
     """
 
@@ -591,6 +627,8 @@ class StabilityMonitor:
         self.disagreements: list[float] = []
         self.marginal_disagreements: list[float] = []
         self.ambiguous_points: list[float] = []
+        self.fallbacks: list[float] = []
+        self.largest_gap = 0.0
         self.last: FloquetResult | None = None
         self._last_key = None
 
@@ -611,6 +649,18 @@ class StabilityMonitor:
                     f"|mu|max={np.abs(res.monodromy_multipliers).max():.6g}); the monodromy verdict is used. "
                     "Check the harmonics H and steps_per_period (further disagreements are listed in "
                     "StabilityMonitor.disagreements without warning).",
+                    RuntimeWarning,
+                    stacklevel=2,
+                )
+        if math.isfinite(res.gap):
+            self.largest_gap = max(self.largest_gap, float(res.gap))
+        if res.fallback:
+            self.fallbacks.append(float(lam))
+            if len(self.fallbacks) == 1:
+                warnings.warn(
+                    f"Hill's multipliers near +-1 differ from the monodromy's by {res.gap:.2g} "
+                    f"(> agreement {self.options.agreement:g}) at {self.hb.parameter}={lam:.10g}: the monodromy's are "
+                    "used there and wherever this recurs (StabilityMonitor.fallbacks). Check the harmonics H.",
                     RuntimeWarning,
                     stacklevel=2,
                 )
@@ -635,6 +685,8 @@ class StabilityMonitor:
             "disagreements": list(self.disagreements),
             "marginal_disagreements": list(self.marginal_disagreements),
             "ambiguous_points": list(self.ambiguous_points),
+            "fallbacks": list(self.fallbacks),
+            "largest_hill_monodromy_gap": float(self.largest_gap),
             "method": self.options.method.value,
         }
 

@@ -1,0 +1,104 @@
+"""No silent branch jumping: consecutive stored points are connected.
+
+:func:`contin.continuation.connection_report` recomputes, from the problem
+alone, the tangent at every stored point and the solution on the hyperplane
+through each chord's midpoint; the secant-tangent angle must stay bounded and
+the midpoint solution must lie between the two points. Checked on every
+example scene with a frequency response (a representative subset runs by
+default, all of them with ``-m slow``), on random well-posed polynomial
+models (hypothesis), and shown to catch a constructed jump.
+"""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from contin.analyses.frequency_response import build_problem
+from contin.branch import BranchBuilder, BranchStatus
+from contin.catalog import build_model
+from contin.checkpoint import read_records, rebuild_branches
+from contin.cli import main
+from contin.continuation import connection_report, continuation
+from contin.harmonic_balance import HarmonicBalance, HBOptions
+from contin.models.polynomial import polynomial_model
+from contin.runner import build_model as scene_model
+from contin.scene import load_scene
+from contin.switching import doubled_problem
+
+pytestmark = pytest.mark.hard
+ROOT = Path(__file__).resolve().parents[2]
+SCENES = sorted(p.name for p in (ROOT / "scenes").glob("*.yaml")
+                if "type: frequency_response" in p.read_text())
+QUICK = {"duffing.yaml", "custom_duffing.yaml", "gap_oscillator.yaml", "mathieu.yaml", "mathieu_duffing_pd.yaml"}
+
+
+def test_the_report_catches_a_jump_between_sheets():
+    hb = HarmonicBalance(build_model("duffing", {"F": 0.5, "c": 0.1}), "w", HBOptions(harmonics=1))
+    br = continuation(hb, hb.linear_solution(0.5), 0.5, (0.5, 3.0), parameter_name="w")
+    assert connection_report(hb, br)["ok"]
+    # splice: the resonant branch up to w = 1.8, then straight onto the non-resonant one beyond 1.8
+    w = br.parameter
+    turn = int(np.flatnonzero(np.diff(w) < 0)[0])  # the upper fold
+    i = int(np.flatnonzero(w[:turn] <= 1.8)[-1])
+    low = turn + int(np.flatnonzero(np.diff(w[turn:]) > 0)[0])  # the lower fold
+    j = low + int(np.flatnonzero(w[low:] >= 1.8)[0])
+    fake = BranchBuilder("w", hb.size)
+    for k in list(range(i + 1)) + list(range(j, len(br))):
+        fake.append_point(br.unknowns[k], w[k], br.tangents[k], 0.0, 0, 0.0, 0.0)
+    fake.finish(BranchStatus.RANGE_END)
+    fake.branch.info.update(br.info)
+    rep = connection_report(hb, fake.branch)
+    assert not rep["ok"]
+    assert [f[0] for f in rep["failures"]] == [i]
+
+
+def scene_branches(name, tmp_path):
+    out = tmp_path / Path(name).stem
+    assert main(["run", str(ROOT / "scenes" / name), "-o", str(out), "-q"]) == 0
+    scene = load_scene(ROOT / "scenes" / name)
+    model = scene_model(scene)
+    hb = build_problem(scene, model)
+    branches = rebuild_branches(read_records(out / "state.jsonl"), hb.parameter)
+    for j, br in sorted(branches.items()):
+        nu = int(br.info["subharmonic"])
+        problem = hb if nu == hb.nu else doubled_problem(hb, nu // hb.nu)
+        assert problem.H == br.info["harmonics"]
+        yield j, problem, br
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=() if n in QUICK else pytest.mark.slow) for n in SCENES])
+def test_example_scene_branches_are_connected(name, tmp_path):
+    n = 0
+    for j, problem, br in scene_branches(name, tmp_path):
+        assert np.all(np.isfinite(br.unknowns)) and np.all(np.isfinite(br.parameter))
+        rep = connection_report(problem, br)
+        assert rep["ok"], f"{name} branch {j}: {rep['failures'][:3]}"
+        n += rep["checked"]
+    assert n > 10
+
+
+@st.composite
+def polynomial_systems(draw):
+    """Two coupled hardening oscillators, forced on the first dof."""
+    c1, c2 = draw(st.floats(0.02, 0.2)), draw(st.floats(0.02, 0.2))
+    k2, kc = draw(st.floats(0.5, 3.0)), draw(st.floats(0.05, 1.0))
+    g1, g2 = draw(st.floats(0.0, 2.0)), draw(st.floats(0.0, 2.0))
+    F = draw(st.floats(0.05, 0.5))
+    return polynomial_model(
+        ["x1", "x2"], {"w": 0.3}, [[1, 0], [0, 1]], [[c1, 0], [0, c2]], [[1 + kc, -kc], [-kc, k2 + kc]],
+        nonlinear=[{"dof": "x1", "coef": g1, "x": {"x1": 3}}, {"dof": "x2", "coef": g2, "x": {"x2": 3}}],
+        forcing=[{"dof": "x1", "amplitude": F}])
+
+
+@settings(max_examples=6, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
+@given(polynomial_systems())
+def test_random_polynomial_models_stay_on_their_branch(model):
+    hb = HarmonicBalance(model, "w", HBOptions(harmonics=3))
+    br = continuation(hb, hb.linear_solution(0.3), 0.3, (0.3, 3.0), {"max_points": 1500}, parameter_name="w")
+    assert br.status == BranchStatus.RANGE_END, br.message
+    assert np.all(np.isfinite(br.unknowns))
+    rep = connection_report(hb, br)
+    assert rep["ok"], rep["failures"][:3]
