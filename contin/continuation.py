@@ -1544,7 +1544,9 @@ def connection_report(problem: Problem, branch: Branch, *, max_angle_deg: float 
             R, Jh = jac(x)
             return np.concatenate([R, [d @ (x - xm)]]), np.vstack([Jh, d])
 
-        res = newton(fun, xm, tol, 30)
+        # Newton starts from the cubic Hermite midpoint of the two ends and their tangents (O(L^3) off the
+        # curve, where the chord midpoint is O(L^2) off: small basins, a stiff contact, need the former)
+        res = newton(fun, xm + 0.125 * L * (ends[0] - ends[1]), tol, 30)
         if not res.converged:
             failures.append((i, f"no solution on the midpoint hyperplane ({res.message})"))
             continue
