@@ -184,6 +184,20 @@ def _fill_velocity_block(Ghat, N, H, n, a, b, Omega, J):
 
 
 @nb.njit(cache=True)
+def _coupled(dfdx, dfdxd, a, b):
+    """Whether dofs ``a, b`` are coupled through ``df/dx`` and through ``df/dx'`` at any sample.
+
+    Uncoupled pairs (common for local contacts) are skipped; a NaN counts as coupled.
+    """
+    hx = False
+    hv = False
+    for j in range(dfdx.shape[0]):
+        hx = hx or dfdx[j, a, b] != 0.0
+        hv = hv or dfdxd[j, a, b] != 0.0
+    return hx, hv
+
+
+@nb.njit(cache=True)
 def assemble_jacobian(dfdx, dfdxd, Omega, H, J):
     """Accumulate ``d proj(f(x, xdot)) / du`` into ``J``.
 
@@ -205,12 +219,7 @@ def assemble_jacobian(dfdx, dfdxd, Omega, H, J):
     g = np.empty(N)
     for a in range(n):
         for b in range(n):
-            # skip uncoupled dof pairs (common for local contacts); a NaN counts as nonzero
-            hx = False
-            hv = False
-            for j in range(N):
-                hx = hx or dfdx[j, a, b] != 0.0
-                hv = hv or dfdxd[j, a, b] != 0.0
+            hx, hv = _coupled(dfdx, dfdxd, a, b)
             if hx:
                 for j in range(N):
                     g[j] = dfdx[j, a, b]
@@ -307,12 +316,7 @@ def odd_jacobian(dfdx, dfdxd, Omega2, H, B):
     g = np.empty(N)
     for a in range(n):
         for b in range(n):
-            # skip uncoupled dof pairs; a NaN counts as nonzero
-            hx = False
-            hv = False
-            for j in range(N):
-                hx = hx or dfdx[j, a, b] != 0.0
-                hv = hv or dfdxd[j, a, b] != 0.0
+            hx, hv = _coupled(dfdx, dfdxd, a, b)
             if hx:
                 for j in range(N):
                     g[j] = dfdx[j, a, b]
