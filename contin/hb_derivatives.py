@@ -42,17 +42,43 @@ finite differences of the residuals).
 Parameter derivatives of ``S`` are central differences of ``S`` itself in the
 parameter (exact to rounding for parameters that enter at most quadratically,
 as the frequency, stiffnesses, damping and force amplitudes do).
+
+Contact laws with their switches resolved
+-----------------------------------------
+A problem built with ``crossings='interval'`` or ``'exact'``
+(:class:`~contin.harmonic_balance.HBOptions`) integrates its contact laws
+over arcs whose ends move with ``u`` (:mod:`contin.crossings`,
+:mod:`contin.contact_quadrature`). The sample formulas above do not hold
+there, so everything is taken from the problems' own analytic linearisation
+(:meth:`HarmonicBalance.linearize`): ``R``, ``J`` and ``dR/dp_k`` of the
+order-``nu`` problem continued in ``p_k``; ``B`` as the flip block of the
+Jacobian of the order-``2 nu`` problem (``2H`` harmonics, ``2N`` samples) at
+the embedded solution; and for ``S = w^T Mx v`` the same symmetry argument on
+the whole residual,
+
+    dS/du = (D_v Mx)^T w,       dS/dp_k = w . D_v (dR/dp_k),
+
+with ``D_v`` a central difference along ``v`` of the analytic Jacobian and of
+``dR/dp_k`` (two linearisations per parameter; for ``B`` the difference is
+taken in the order-``2 nu`` space and restricted to the embedded
+coefficients). Where the law's arcs appear or vanish (a grazing touch) the
+residual is only once differentiable and the difference straddles the
+change; as above, this affects Newton's rate, not the converged curve. With
+the plain law, the bearing rotor's period-doubling curves stop where the
+orbit starts to leave its casing (the sampled residual jumps when a sample
+crosses the clearance); with the switches resolved they pass through.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import enum
 
 import numpy as np
 
 from contin import aft
 from contin.harmonic_balance import HarmonicBalance, linear_apply, linear_operator
-from contin.harmonics import coefficient_blocks
+from contin.harmonics import coefficient_blocks, embed
 
 __all__ = ["MatrixKind", "HBDerivatives", "flip_indices"]
 
@@ -125,17 +151,15 @@ class HBDerivatives:
     Parameters
     ----------
     hb : HarmonicBalance
-        Its contact laws are evaluated on the samples as they are
-        (``crossings='none'``); a problem built with another
-        :attr:`~contin.harmonic_balance.HBOptions.crossings` is taken with
-        ``'none'`` instead, so that all derivatives here belong to one residual.
+        With ``crossings='none'`` (or no switching force) the derivatives are
+        assembled from the samples; otherwise from the problem's own
+        linearisation (see "Contact laws with their switches resolved").
     fd_step : float
         Relative step of the central differences (see the module docstring).
     """
 
     def __init__(self, hb: HarmonicBalance, fd_step: float = 1e-6):
-        if hb.options.crossings != "none" and hb._switching:
-            hb = hb.with_options(crossings="none")
+        self.resolved = hb.options.crossings != "none" and bool(hb._switching)
         self.hb = hb
         self.model = hb.model
         self.n, self.H, self.nu, self.N = hb.n, hb.H, hb.nu, hb.N
@@ -146,6 +170,12 @@ class HBDerivatives:
         self.tau2 = np.ascontiguousarray(np.concatenate([hb.tau, hb.tau]))
         self.flip_idx = flip_indices(self.n, self.H)
         self.fd_step = float(fd_step)
+        # switches resolved between samples: everything comes from HarmonicBalance.linearize of the
+        # order-nu problem and of the order-2nu problem at the embedded solution (see _resolved_*)
+        self._flip_options = dataclasses.replace(hb.options, subharmonic=2 * self.nu, harmonics=2 * self.H,
+                                                 samples=2 * self.N)
+        self.embed_idx = embed(np.arange(1, self.size + 1, dtype=float), self.n, 2).nonzero()[0]
+        self._last = (None, None)
 
     # ------------------------------------------------------------ evaluation
     def _samples(self, u: np.ndarray, p: np.ndarray):
@@ -161,6 +191,50 @@ class HBDerivatives:
         for el in self.model.forces:
             el.evaluate(x, xd, tau, p, f, fx, fxd)
         return f, fx, fxd
+
+    # ------------------------------------------------------------ switches resolved between samples
+    def _problem(self, p: np.ndarray, k: int, flip: bool) -> HarmonicBalance:
+        """The order-``nu`` (or, with ``flip``, order-``2 nu``) problem at ``p``, continued in parameter ``k``."""
+        opts = self._flip_options if flip else self.hb.options
+        names = self.model.param_names
+        return HarmonicBalance(self.model, names[k], opts, dict(zip(names, (float(x) for x in p))))
+
+    def _linearized(self, base: np.ndarray, p: np.ndarray, k: int, flip: bool):
+        """``HarmonicBalance.linearize`` at ``base``, ``p`` in parameter ``k`` (the last call is kept)."""
+        key = (base.tobytes(), p.tobytes(), k, flip)
+        if self._last[0] != key:
+            self._last = (key, self._problem(p, k, flip).linearize(base, float(p[k])))
+        return self._last[1]
+
+    def _embedded(self, u: np.ndarray) -> np.ndarray:
+        """``u`` as an order-``2 nu`` vector with ``2H`` harmonics, shape (n(4H+1),)."""
+        return embed(np.asarray(u, float), self.n, 2)
+
+    def _resolved_bilinear(self, u, p, v, w, kind: MatrixKind, ks):
+        """:meth:`bilinear` from Jacobians with the switches resolved (module docstring)."""
+        flip = kind is MatrixKind.FLIP
+        if flip:
+            base = self._embedded(u)
+            vf, wf = np.zeros(base.size), np.zeros(base.size)
+            vf[self.flip_idx] = v
+            wf[self.flip_idx] = w
+        else:
+            base, vf, wf = np.asarray(u, float), v, w
+        ks = tuple(ks)
+        varied = [k for k in ks if self.enters_jacobian(k)] or [self.kw]
+        S = float(wf @ (self._linearized(base, p, varied[0], flip)[1] @ vf))
+        h = self.fd_step * max(float(np.max(np.abs(base), initial=0.0)), 1e-6) / max(float(np.max(np.abs(vf))), 1e-300)
+        S_u = None
+        S_p = np.zeros(len(ks))
+        for k in varied:
+            prob = self._problem(p, k, flip)
+            _, Jp, Jlp = prob.linearize(base + h * vf, float(p[k]))
+            _, Jm, Jlm = prob.linearize(base - h * vf, float(p[k]))
+            if S_u is None:
+                S_u = (wf @ Jp - wf @ Jm) / (2.0 * h)
+            if k in ks:  # d/dp (w^T Mx v) = D_v (w^T dR/dp) by the symmetry of second derivatives
+                S_p[ks.index(k)] = float(wf @ (Jlp - Jlm)) / (2.0 * h)
+        return S, (S_u[self.embed_idx] if flip else S_u), S_p
 
     def linearize_at(self, u: np.ndarray, p: np.ndarray, ks=()):
         """Residual, Jacobian and parameter derivatives at a full parameter vector.
@@ -179,6 +253,13 @@ class HBDerivatives:
         dR : ndarray, shape (len(ks), m)
             ``dR/dp_k`` (analytic, as in :meth:`HarmonicBalance.linearize`).
         """
+        if self.resolved:
+            ks = tuple(ks)
+            R, J, Jl = self._linearized(np.asarray(u, float), p, ks[0] if ks else self.kw, False)
+            dR = np.zeros((len(ks), self.size))
+            for i, k in enumerate(ks):
+                dR[i] = Jl if i == 0 else self._linearized(np.asarray(u, float), p, k, False)[2]
+            return R.copy(), J.copy(), dR
         model, n, H, nu, kw = self.model, self.n, self.H, self.nu, self.kw
         M, C, K = model.linear(p)
         Om = p[kw] / nu
@@ -232,6 +313,9 @@ class HBDerivatives:
         -------
         ndarray, shape (2nH, 2nH)
         """
+        if self.resolved:
+            J2 = self._linearized(self._embedded(u), p, self.kw, True)[1]
+            return J2[np.ix_(self.flip_idx, self.flip_idx)]
         M, C, K = self.model.linear(p)
         Om2 = p[self.kw] / (2 * self.nu)
         n = self.n
@@ -293,6 +377,8 @@ class HBDerivatives:
     def form(self, u, p, v, w, kind: MatrixKind | str) -> float:
         """``S = w^T Mx(u, p) v`` from samples (no matrix is formed)."""
         kind = MatrixKind(kind)
+        if self.resolved:
+            return float(w @ (self.linearize_at(u, p)[1] if kind is MatrixKind.JACOBIAN else self.flip_matrix(u, p)) @ v)
         V, Vd, W, lin = self._directions(v, w, kind, p)
         if not self.model.forces:
             return lin
@@ -325,6 +411,8 @@ class HBDerivatives:
             ``dS/dp_k`` (central differences of ``S``).
         """
         kind = MatrixKind(kind)
+        if self.resolved:
+            return self._resolved_bilinear(u, p, v, w, kind, ks)
         n, N, H = self.n, self.N, self.H
         V, Vd, W, lin = self._directions(v, w, kind, p)
         S_u = np.zeros(self.size)

@@ -66,6 +66,7 @@ BIFURCATION_CURVE = {
     "subharmonic": Key("an integer from 1 to 64", lambda v: is_int(v) and 1 <= v <= 64, 1),
     "samples": Key("an integer from 2*harmonics+1 to 2**20, or null",
                    lambda v: v is None or (is_int(v) and 3 <= v <= 2**20), None),
+    "crossings": string("exact", ("exact", "interval", "none")),
     "stability": string("none", ("hill", "floquet", "both", "none")),
     "stability_options": mapping(),
     "pd_test": string("flip", ("flip", "stability")),

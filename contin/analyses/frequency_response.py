@@ -39,9 +39,8 @@ def build_problem(scene, model) -> HarmonicBalance:
     if param not in model.parameters:
         raise scene.error("analysis.parameter", f"a parameter of the model {list(model.parameters)}", param)
     try:
-        # analyses without the key (two-parameter curves: contin.hb_derivatives samples contact laws plainly)
         opts = HBOptions(harmonics=a["harmonics"], subharmonic=a["subharmonic"], samples=a["samples"],
-                         crossings=a.get("crossings", "none"))
+                         crossings=a["crossings"])
         return HarmonicBalance(model, param, opts)
     except ValueError as exc:
         raise SceneError("analysis", "a discretisation the model can use", None, hint=f": {exc}") from None

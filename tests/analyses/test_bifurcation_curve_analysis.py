@@ -99,6 +99,7 @@ BAD = [
     ("analysis.curve_options={detekt: [cusp]}", "analysis.curve_options", "unknown option 'detekt'"),
     ("analysis.curve_continuation={ds_maxx: 1}", "analysis.curve_continuation", "did you mean 'ds_max'"),
     ("analysis.pd_test=stability", "analysis.pd_test", "a stability method (analysis.stability)"),
+    ("analysis.crossings=sampled", "analysis.crossings", "'exact'"),
 ]
 
 
