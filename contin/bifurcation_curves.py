@@ -57,8 +57,10 @@ curve, its tangent and the signs of the test functions unchanged.
 The second-derivative terms ``w^T Mx_u v`` come from
 :meth:`contin.hb_derivatives.HBDerivatives.bilinear` (a central difference of
 the analytic sample Jacobians along the sampled null vector, two extra force
-evaluations; exact for cubic forces); the residual ``(R, g)`` itself is
-analytic, so they affect Newton's rate, not the converged curve.
+evaluations; exact for cubic forces; with contact switches resolved, of the
+problem's whole analytic Jacobian along the null vector); the residual
+``(R, g)`` itself is analytic, so they affect Newton's rate, not the converged
+curve.
 
 Codimension-two points
 ----------------------

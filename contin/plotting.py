@@ -95,8 +95,8 @@ CODIM2_MARKERS = {"cusp": ("^", "k", 8), "fold_flip": ("*", "tab:green", 11), "e
                   "stop": ("X", "tab:brown", 8)}
 
 
-def two_parameter_diagram(curves, codim2, points, p1: str, p2: str, path: Path, *, lines=(), xlim=None, ylim=None,
-                          units=None, labels=None, title: str | None = None):
+def two_parameter_diagram(curves, codim2, points, p1: str, p2: str, path: Path, *, lines=(), reference=(),
+                          xlim=None, ylim=None, units=None, labels=None, title: str | None = None):
     """Fold and period-doubling curves in the plane of two parameters.
 
     A curve that turns in ``p2`` (a tongue or a wedge with a tip or a cusp:
@@ -120,6 +120,8 @@ def two_parameter_diagram(curves, codim2, points, p1: str, p2: str, path: Path, 
     path : Path
     lines : sequence of float
         Values of ``p2`` of the one-parameter runs.
+    reference : list of dict
+        Period doublings of the integrated flow (:mod:`contin.shooting`): ``x``, ``y``.
     xlim, ylim : (float, float), optional
         Axis limits. A non-negative ``p2`` spanning more than 50 times its
         smallest positive value is drawn on a symmetric-log axis.
@@ -151,9 +153,13 @@ def two_parameter_diagram(curves, codim2, points, p1: str, p2: str, path: Path, 
         ax.plot(q["x"], q["y"], m, color=color, mfc="none", ms=7, mew=1.3, label=key if key not in done else None,
                 zorder=7)
         done.add(key)
+    if len(reference):
+        ax.plot([q["x"] for q in reference], [q["y"] for q in reference], "o", color="k", ms=3.5, zorder=8,
+                label="period doubling of the integrated flow (shooting)")
     if xlim is not None:
         ax.set_xlim(*xlim)
-    ys = np.concatenate([np.asarray(c["y"], float).ravel() for c in curves] + [np.asarray(lines, float).ravel()])
+    ys = np.concatenate([np.asarray(c["y"], float).ravel() for c in curves] + [np.asarray(lines, float).ravel()]
+                        + [np.array([q["y"] for q in reference], float)])
     positive = ys[ys > 0]
     if ylim is not None and ylim[0] >= 0 and positive.size and ylim[1] > 50 * positive.min():
         # a second parameter over decades (a damping from 0.005 to 5): logarithmic above the smallest value

@@ -11,10 +11,13 @@ c2 = 0.05) and prints, for each case of Inagaki, Ishida & Hayashi (2005):
   no subharmonic);
 - c2 = 5.0: no period doubling (Fig. 8: only the stable harmonic solution);
 
-with the smallest f0 of the region (the tip of the tongue), where the curves end and why, and
-how far the period doublings located by the independent one-parameter runs lie from the curves.
+with the smallest f0 of the region (the tip of the tongue), where the curves end and why, how
+far the period doublings located by the independent one-parameter runs lie from the curves, and
+the period doublings of the integrated flow found by shooting (contin.shooting) at the scenes'
+`shooting` values: the region where the harmonic balance cannot follow the orbit (the bearing
+leaving its casing) and where it ends.
 
-    python scripts/rotor_entrainment.py            # both scenes in full, ~3 min on two cores
+    python scripts/rotor_entrainment.py            # both scenes in full, ~10 min on two cores
     python scripts/rotor_entrainment.py --quick    # short stretches of the curves, ~30 s
 """
 
@@ -35,8 +38,10 @@ from contin.scene import load_scene
 ROOT = Path(__file__).resolve().parents[1]
 
 QUICK = {
-    "f0": ["analysis.second_range=[0.45, 0.5]", "analysis.overlay=[]", "analysis.range=[2.1, 2.25]"],
-    "c2": ["analysis.second_range=[0.05, 0.1]", "analysis.overlay=[5.0]", "analysis.range=[2.1, 2.25]"],
+    "f0": ["analysis.second_range=[0.45, 0.5]", "analysis.overlay=[]", "analysis.range=[2.1, 2.25]",
+           "analysis.shooting=[]"],
+    "c2": ["analysis.second_range=[0.05, 0.1]", "analysis.overlay=[5.0]", "analysis.range=[2.1, 2.25]",
+           "analysis.shooting=[0.05]", "analysis.shooting_points=6", "analysis.shooting_refine=0"],
 }
 
 
@@ -81,6 +86,23 @@ def report(outdir: Path, name: str) -> dict:
             (f"w = {w[0]:.6g}" if w.size else "no period doubling in the speed range")
         extra = "" if dist is None else f"; distance to the curve {dist:.1e}"
         print(f"  one-parameter run at {name} = {value:g}: {span}{extra}")
+    shooting = summary["analysis"].get("shooting") or {}
+    if shooting:
+        spts = read_csv(outdir / "shooting_points.csv") if (outdir / "shooting_points.csv").stat().st_size else {}
+        print(f"  shooting on the integrated flow ({shooting['options']['steps_per_period']} RK4 steps per "
+              f"revolution, switches located):")
+        for run in shooting["runs"]:
+            value, ws = run[name], run.get("period_doublings", [])
+            near = ""
+            if ws and name in spts:
+                d = spts["distance"][spts[name] == value]
+                d = d[np.isfinite(d)] if d.dtype.kind == "f" else np.array([])
+                near = f"; harmonic-balance curve within {d.max():.1e}" if d.size else "; no harmonic-balance curve here"
+            span = f"w in [{ws[0]:.6f}, {ws[-1]:.6f}]" if len(ws) >= 2 else (f"w = {ws[0]:.6f}" if ws else "none")
+            print(f"    {name} = {value:g}: period doubling {span}{near}"
+                  + ("" if run["status"] == "complete" else f" ({run['message'][:80]})"))
+        for b in shooting["region_ends"]:
+            print(f"    the region ends between {name} = {b['inside']:.5g} (period doubling) and {b['outside']:.5g} (none)")
     return out
 
 

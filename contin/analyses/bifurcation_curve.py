@@ -31,6 +31,7 @@ keeps the curves traced so far. ``--resume`` reruns the analysis.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 
 import numpy as np
@@ -44,6 +45,8 @@ from contin.measures import measure_names, point_measures
 from contin.results import CsvStream
 from contin.runner import RunError
 from contin.schema import Key, SceneError, integer, is_int, is_number, listing, mapping, number, string
+from contin.shooting import ShootingOptions, period_doubling_scan, periodic_orbit
+from contin.stability import orbit_state
 
 __all__ = ["BIFURCATION_CURVE", "run"]
 
@@ -79,6 +82,10 @@ BIFURCATION_CURVE = {
     "start_simulation": mapping(),
     "guess": Key("a list of numbers (the harmonic coefficients) or null",
                  lambda v: v is None or (isinstance(v, list) and all(is_number(x) for x in v)), None),
+    "shooting": listing([], is_number, "a list of values of the second parameter"),
+    "shooting_points": Key("an integer from 3 to 10000", lambda v: is_int(v) and 3 <= v <= 10000, 41),
+    "shooting_refine": Key("an integer from 0 to 30", lambda v: is_int(v) and 0 <= v <= 30, 0),
+    "shooting_options": mapping(),
 }
 
 CURVE_POINT_KINDS = ("cusp", "fold_flip", "extremum", "start", "end")
@@ -171,8 +178,23 @@ def _checked(scene, model):
     for key, cls in (("continuation", ContinuationOptions), ("curve_continuation", ContinuationOptions),
                      ("curve_options", CurveOptions)):
         _options(scene, key, cls)
+    if a["shooting"]:
+        if "pd" not in a["curves"]:
+            raise scene.error("analysis.shooting", "period-doubling curves to check ('pd' in analysis.curves)",
+                              a["shooting"])
+        _shooting_options(scene)
     _one_parameter_setup(scene, hb)
     return hb, (lo, hi), lam0, (lo2, hi2), p2_value
+
+
+def _shooting_options(scene) -> ShootingOptions:
+    """``analysis.shooting_options``, with the orbit's period ``subharmonic`` forcing periods by default."""
+    d = {"subharmonic": scene.analysis["subharmonic"], **dict(scene.analysis["shooting_options"])}
+    try:
+        return ShootingOptions.from_dict(d)
+    except (ValueError, TypeError) as exc:
+        raise SceneError("analysis.shooting_options", "valid ShootingOptions fields", None,
+                         hint=f": {exc}") from None
 
 
 def describe(scene, model) -> str:
@@ -186,7 +208,9 @@ def describe(scene, model) -> str:
              f"  curves: {', '.join(a['curves'])} in ({p1}, {p2}), {p2} over [{lo2:g}, {hi2:g}]"
              + (f"; period doublings located by the {'flip test' if a['pd_test'] == 'flip' else 'multipliers'}"
                 if "pd" in a["curves"] else ""),
-             f"  overlaid one-parameter runs at {p2} = {', '.join(f'{v:g}' for v in a['overlay']) or 'none'}"]
+             f"  overlaid one-parameter runs at {p2} = {', '.join(f'{v:g}' for v in a['overlay']) or 'none'}",
+             f"  period doublings of the integrated flow (shooting) at {p2} = "
+             f"{', '.join(f'{v:g}' for v in a['shooting']) or 'none'}"]
     return "\n".join(lines)
 
 
@@ -291,11 +315,17 @@ def run(ctx) -> dict:
             if br is not None:
                 overlay.append((j, float(value), br))
         ctx.timings["overlay"] = time.perf_counter() - t2
+        t3 = time.perf_counter()
+        shooting = {}
+        if a["shooting"] and len(branch0) and not ctx.stop_requested:
+            shooting = _shooting_reference(ctx, problem0, branch0, curves, p1, p2, p2_value, (lo, hi))
+        ctx.timings["shooting"] = time.perf_counter() - t3
     finally:
         rec.close()
     checks = _write_one_parameter_points(ctx, [(0, p2_value, branch0)] + overlay, curves, kinds, p1, p2)
     ctx.interrupted = ctx.interrupted or ctx.stop_requested
-    ctx.plot = lambda: _plot(ctx, curves, checks, p1, p2, (lo, hi), (lo2, hi2), [v for _, v, _ in overlay] + [p2_value])
+    ctx.plot = lambda: _plot(ctx, curves, checks, p1, p2, (lo, hi), (lo2, hi2), [v for _, v, _ in overlay] + [p2_value],
+                             shooting.get("points", []))
     return {
         "parameters": [p1, p2],
         "range": [lo, hi],
@@ -309,7 +339,122 @@ def run(ctx) -> dict:
         "starts_on_earlier_curves": skipped,
         "one_parameter_points": len(checks),
         "max_distance_to_curves": max((c["distance"] for c in checks if c["distance"] is not None), default=None),
+        "shooting": {k: v for k, v in shooting.items() if k != "points"},
     }
+
+
+def _mutual_nearest(x: float, xs, crossing):
+    """``(curve, p1)`` of the curve crossing nearest to ``x`` if ``x`` is also the point of ``xs`` nearest to it."""
+    if not crossing:
+        return None
+    cid, q = min(crossing, key=lambda c: abs(c[1] - x))
+    return (cid, q) if min(xs, key=lambda y: abs(y - q)) == x else None
+
+
+def _orbit_towards(model, p1, p2, lam0, a, b, z, opt, max_halvings=6):
+    """The shooting orbit at ``p2 = b`` (``p1 = lam0``) from the one at ``p2 = a``, in smaller steps where needed."""
+    orb = None
+    for k in range(max_halvings + 1):
+        steps = 2 ** k
+        zz, ok = z, True
+        for v in np.linspace(a, b, steps + 1)[1:]:
+            orb = periodic_orbit(model, {p1: lam0, p2: float(v)}, zz, opt)
+            if not orb.converged:
+                ok = False
+                break
+            zz = orb.state
+        if ok:
+            return orb
+    return orb
+
+
+def _shooting_reference(ctx, problem0, branch0, curves, p1, p2, p2_value, range1) -> dict:
+    """Period doublings of the integrated flow (:mod:`contin.shooting`) at ``analysis.shooting`` values of ``p2``.
+
+    The orbit at the start of the first one-parameter run is followed in ``p2``
+    (outwards from the scene's value) and, at each value, over a grid of
+    ``shooting_points`` values of ``p1`` from that start to each end of
+    ``range``. Each period doubling is written to ``shooting_points.csv`` with
+    the nearest harmonic-balance curve and its distance. With
+    ``shooting_refine > 0``, where the period doublings vanish between two
+    values, the end of the region is bracketed by that many bisections in ``p2``.
+    """
+    a = ctx.scene.analysis
+    model = ctx.model
+    opt = _shooting_options(ctx.scene)
+    lam0 = float(branch0.parameter[0])
+    z0 = orbit_state(problem0, branch0.unknowns[0], lam0, 0.0)
+    lo, hi = range1
+    k = a["shooting_points"]
+    grids = [g for g in (np.linspace(lam0, hi, k), np.linspace(lam0, lo, k)) if abs(g[-1] - g[0]) > 0]
+    rows, runs, brackets = [], [], []
+
+    def scan_at(value, z):
+        found = []
+        for grid in grids:
+            sc = period_doubling_scan(model, {p2: value}, p1, grid, z, opt)
+            found += [(float(o.params[p1]), ok, o) for o, ok in zip(sc.points, sc.located)]
+            if sc.status != "complete":
+                return found, sc.message
+        return sorted(found, key=lambda t: t[0]), ""
+
+    def add_rows(value, found):
+        crossing = [(cid, q1) for cid, cur in enumerate(curves) if cur.kind.value == "pd"
+                    for q1, _ in cur.crossings(value)]
+        for w, ok, o in found:
+            near = _mutual_nearest(w, [x for x, _, _ in found], crossing)
+            rows.append({p2: value, p1: w, "located": ok, "max_multiplier": float(np.abs(o.multipliers).max()),
+                         "curve": None if near is None else near[0], f"curve_{p1}": None if near is None else near[1],
+                         "distance": None if near is None else abs(near[1] - w)})
+
+    values = sorted({float(v) for v in a["shooting"]})
+    found_at = {}
+    for side in ([v for v in values if v >= p2_value], [v for v in reversed(values) if v < p2_value]):
+        z, cur = z0, p2_value
+        for value in side:
+            if ctx.stop_requested:
+                break
+            ctx.progress.update(f"shooting at {p2}={value:.6g}")
+            orb = _orbit_towards(model, p1, p2, lam0, cur, value, z, opt)
+            if orb is None or not orb.converged:
+                runs.append({p2: value, "status": "failed", "message": f"the orbit at {p1} = {lam0:g} was lost "
+                             f"on the way from {p2} = {cur:g}: {orb.message if orb else ''}"})
+                break
+            z, cur = orb.state, value
+            found, why = scan_at(value, z)
+            found_at[value] = (found, z)
+            add_rows(value, found)
+            runs.append({p2: value, "status": "failed" if why else "complete", "message": why,
+                         "period_doublings": [w for w, ok, _ in found if ok]})
+    keys = sorted(found_at)
+    for u, v in zip(keys, keys[1:]):
+        if bool(found_at[u][0]) == bool(found_at[v][0]) or not a["shooting_refine"]:
+            continue
+        inside, outside = (u, v) if found_at[u][0] else (v, u)
+        z = found_at[inside][1]
+        for _ in range(a["shooting_refine"]):
+            mid = round(0.5 * (inside + outside), 12)
+            orb = _orbit_towards(model, p1, p2, lam0, inside, mid, z, opt)
+            if not orb.converged:
+                break
+            found, _ = scan_at(mid, orb.state)
+            add_rows(mid, found)  # the region narrowing towards its end
+            if found:
+                inside, z = mid, orb.state
+            else:
+                outside = mid
+        brackets.append({"inside": inside, "outside": outside})
+    out = CsvStream(ctx.outdir / "shooting_points.csv",
+                    [p2, p1, "located", "max_multiplier", "curve", f"curve_{p1}", "distance"])
+    try:
+        for r in rows:
+            out.write(r)
+    finally:
+        out.close()
+    dist = [r["distance"] for r in rows if r["distance"] is not None]
+    return {"options": dataclasses.asdict(opt), "runs": runs, "region_ends": brackets,
+            "max_distance_to_curves": max(dist, default=None),
+            "points": [{"kind": "pd", "x": r[p1], "y": r[p2]} for r in rows if r["located"]]}
 
 
 def _curve_summary(cid, cur, p1, p2) -> dict:
@@ -378,11 +523,12 @@ def _label(i: int, cur) -> str:
     return f"curve {i}: {what}"
 
 
-def _plot(ctx, curves, checks, p1, p2, range1, range2, lines) -> list:
+def _plot(ctx, curves, checks, p1, p2, range1, range2, lines, reference=()) -> list:
     from contin.plotting import two_parameter_diagram
 
     out = ctx.scene.output
     path = ctx.outdir / "bifurcation_curves.png"
+    ref_y = [q["y"] for q in reference]
     two_parameter_diagram(
         [{"kind": c.kind.value, "x": c.p1, "y": c.p2, "closed": c.closed,
           "label": _label(i, c)} for i, c in enumerate(curves)],
@@ -390,7 +536,8 @@ def _plot(ctx, curves, checks, p1, p2, range1, range2, lines) -> list:
          for c in curves for sp in c.special_points
          if (sp.kind.value in CURVE_POINT_KINDS[:3] and sp.located) or (sp.kind.value == "end" and not sp.located)],
         [{"kind": c["kind"], "x": c[p1], "y": c[p2]} for c in checks],
-        p1, p2, path, lines=sorted(set(lines)), xlim=range1, ylim=(min([range2[0]] + lines), max([range2[1]] + lines)),
+        p1, p2, path, lines=sorted(set(lines)), reference=reference, xlim=range1,
+        ylim=(min([range2[0]] + lines + ref_y), max([range2[1]] + lines + ref_y)),
         units=out["units"], labels=out["labels"],
         title=out["title"] or f"{ctx.model.name}: bifurcation curves in ({p1}, {p2})",
     )

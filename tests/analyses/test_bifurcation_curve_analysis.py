@@ -83,6 +83,35 @@ def test_mathieu_scene_curves_are_the_transition_curves(tmp_path):
     assert np.any(ends["delta"][landed] == -0.2)  # a curve leaves the delta range: it ends on the bound
 
 
+def test_shooting_reference_finds_the_transition_curves_and_the_curves(tmp_path):
+    """Period doublings of the integrated flow (contin.shooting) at eps = 0.2, 0.6: scipy's curves, on the HB curves."""
+    out = run("mathieu_pd_curve.yaml", tmp_path, "analysis.overlay=[]", "analysis.shooting=[0.2, 0.6]",
+              "analysis.shooting_points=21", "analysis.shooting_options={steps_per_period: 1024}")
+    pts = read_csv(out / "shooting_points.csv")
+    assert len(pts["eps"]) == 4 and np.all(pts["located"])
+    for e in (0.2, 0.6):
+        got = np.sort(pts["delta"][pts["eps"] == e])
+        np.testing.assert_allclose(got, sorted([mathieu_b(1, 2 * e) / 4, mathieu_a(1, 2 * e) / 4]), atol=1e-9)
+    assert pts["distance"].max() < 1e-8  # the harmonic-balance curves pass through them
+    sh = json.loads((out / "summary.json").read_text())["analysis"]["shooting"]
+    assert [r["status"] for r in sh["runs"]] == ["complete", "complete"]
+    assert sh["options"]["steps_per_period"] == 1024 and sh["max_distance_to_curves"] < 1e-8
+
+
+@pytest.mark.parametrize("override,key,message", [
+    (["analysis.shooting=[0.2]"], "analysis.shooting", "period-doubling curves to check ('pd' in analysis.curves)"),
+    (["analysis.shooting=[0.2]", "analysis.curves=[pd]", "analysis.shooting_options={steps: 8}"],
+     "analysis.shooting_options", "unknown option 'steps' of"),
+    (["analysis.shooting_points=2"], "analysis.shooting_points", "an integer from 3 to 10000"),
+])
+def test_bad_shooting_input_names_the_key(override, key, message, tmp_path, capsys):
+    sets = [x for o in override for x in ("--set", o)]
+    code = main(["run", str(ROOT / "scenes/duffing_fold_curve.yaml"), "-o", str(tmp_path / "x"), "-q"] + sets)
+    assert code == 2
+    err = capsys.readouterr().err
+    assert key in err and message in err, err
+
+
 @pytest.mark.parametrize("scene", ["rotor_entrainment_f0.yaml", "rotor_entrainment_c2.yaml"])
 def test_rotor_scenes_check(scene, capsys):
     assert main(["check", str(ROOT / "scenes" / scene)]) == 0

@@ -13,7 +13,8 @@ from contin.bifurcation_curves import FlipTestEvent, curve_from_point
 from contin.catalog import build_model
 from contin.continuation import ContinuationOptions, continuation
 from contin.harmonic_balance import HarmonicBalance, HBOptions
-from contin.stability import StabilityMonitor, StabilityOptions, floquet_multipliers, stability_events
+from contin.shooting import period_doubling_scan
+from contin.stability import StabilityMonitor, StabilityOptions, floquet_multipliers, orbit_state, stability_events
 
 OPTIONS = HBOptions(harmonics=40, samples=1024, crossings="none")  # plainly sampled contact: the cheapest form, exact enough in permanent contact
 F0S = (0.3, 0.4)
@@ -65,3 +66,28 @@ def test_one_parameter_period_doublings_lie_on_the_curve(rotor, f0):
     # (3) on the curve the monodromy has a multiplier -1 (fourth order: the bearing stays in contact)
     mu = floquet_multipliers(hb, u_curve, w_curve, StabilityOptions(method="floquet", steps_per_period=4096)).multipliers
     assert np.min(np.abs(mu + 1)) < 1e-7
+
+
+def test_tip_of_the_region_in_f0_by_shooting_and_by_harmonic_balance():
+    """Either side of the tongue's tip (f0 = 0.14045 on the curve of scenes/rotor_entrainment_f0.yaml).
+
+    At f0 = 0.145 both methods find the pair of period doublings (w = 2.18493 and 2.18785) to 1e-7
+    of each other; at f0 = 0.135 neither finds one. Shooting (contin.shooting) integrates the
+    equations of motion; its pair at 0.145 falls between two grid values (det(Phi + I) > 0 at all
+    three) and is found from the minimum of det(Phi + I).
+    """
+    model = build_model("bearing_rotor", {"f0": 0.5})
+    pairs = {}
+    for f0 in (0.145, 0.135):
+        hb = HarmonicBalance(model, "w", OPTIONS, {"f0": f0})
+        u0 = model.start(hb, 2.16)
+        br = continuation(hb, u0, 2.16, (2.16, 2.21), ContinuationOptions(ds=0.01, ds_max=0.02),
+                          events=[FlipTestEvent(hb)])
+        hb_pd = sorted(p.parameter for p in br.points_of_kind("pd"))
+        sc = period_doubling_scan(model, {"f0": f0}, "w", [2.16, 2.18, 2.20], orbit_state(hb, u0, 2.16, 0.0))
+        assert sc.status == "complete"
+        pairs[f0] = (hb_pd, sorted(p.params["w"] for p in sc.points))
+    hb_pd, sh_pd = pairs[0.145]
+    assert len(hb_pd) == 2 and len(sh_pd) == 2
+    np.testing.assert_allclose(sh_pd, hb_pd, atol=1e-7)
+    assert pairs[0.135] == ([], [])

@@ -1,0 +1,124 @@
+"""Shooting on the integrated flow: closed forms, scipy's Mathieu curves, and the rotor's harmonic balance.
+
+The shooting orbit and its monodromy come from the time integrator alone
+(contin.simulation); the references are a linear oscillator's closed-form
+steady state and matrix exponential, the Mathieu transition curves of
+scipy.special, and, for the rotor in permanent contact, the harmonic balance's
+flip test, a different method on a different discretisation.
+"""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.linalg import expm
+from scipy.special import mathieu_a, mathieu_b
+
+from contin.bifurcation_curves import FlipTestEvent
+from contin.catalog import build_model
+from contin.continuation import ContinuationOptions, continuation
+from contin.harmonic_balance import HarmonicBalance, HBOptions
+from contin.shooting import ShootingOptions, flow_map, period_doubling_scan, periodic_orbit
+from contin.stability import orbit_state
+
+
+def test_linear_oscillator_orbit_and_monodromy_are_the_closed_forms():
+    m, c, k, F, w = 1.0, 0.1, 1.0, 0.5, 1.3
+    model = build_model("duffing", {"m": m, "c": c, "k": k, "g": 0.0, "F": F, "w": w})
+    orb = periodic_orbit(model, {}, [0.0, 0.0], ShootingOptions(steps_per_period=2048))
+    X = F / (k - m * w**2 + 1j * c * w)  # x = Re(X e^{i w t})
+    assert orb.converged and orb.iterations <= 2  # linear: one step, a second for the differences' rounding
+    np.testing.assert_allclose(orb.state, [X.real, -w * X.imag], atol=1e-10)
+    A = np.array([[0.0, 1.0], [-k / m, -c / m]])
+    np.testing.assert_allclose(orb.monodromy, expm(A * 2 * math.pi / w), atol=1e-9)
+    assert orb.stable and orb.residual < 1e-12
+
+
+@pytest.mark.parametrize("eps", [0.2, 0.5])
+def test_mathieu_period_doublings_are_scipys_transition_curves(eps):
+    """x'' + (delta + eps cos t) x = 0: multiplier -1 on delta = b_1(2 eps)/4 and a_1(2 eps)/4."""
+    model = build_model("mathieu", {"eps": eps, "c": 0.0, "g": 0.0, "w": 1.0})
+    sc = period_doubling_scan(model, {"eps": eps}, "delta", np.arange(-0.1, 0.6, 0.05), [0.0, 0.0],
+                              ShootingOptions(steps_per_period=1024))
+    assert sc.status == "complete" and all(sc.located)
+    got = sorted(p.params["delta"] for p in sc.points)
+    want = sorted([mathieu_b(1, 2 * eps) / 4, mathieu_a(1, 2 * eps) / 4])
+    np.testing.assert_allclose(got, want, atol=1e-9)
+    # inside the tongue the flip test is negative: a real multiplier beyond -1
+    inside = (sc.values > want[0]) & (sc.values < want[1])
+    assert np.all(sc.flip[inside] < 0) and np.all(sc.flip[~inside] > 0)
+
+
+def test_a_pair_between_two_grid_values_is_found():
+    """The whole tongue of eps = 0.2 lies between two grid values: no sign change, a minimum of the flip test."""
+    model = build_model("mathieu", {"eps": 0.2, "c": 0.0, "g": 0.0, "w": 1.0})
+    grid = [-0.1, 0.05, 0.4, 0.7]
+    opt = ShootingOptions(steps_per_period=1024)
+    sc = period_doubling_scan(model, {}, "delta", grid, [0.0, 0.0], opt)
+    assert np.all(sc.flip > 0) and all(sc.located)
+    np.testing.assert_allclose([p.params["delta"] for p in sc.points],
+                               [mathieu_b(1, 0.4) / 4, mathieu_a(1, 0.4) / 4], atol=1e-9)
+    assert not period_doubling_scan(model, {}, "delta", grid, [0.0, 0.0], opt, hidden_pairs=False).points
+
+
+def test_rotor_period_doublings_match_the_harmonic_balance_in_permanent_contact():
+    """f0 = 0.5, paper's c2: the bearing stays on its casing, where H = 40 has converged.
+
+    Shooting (RK4, 4096 steps, switches located) and the harmonic balance's flip test are
+    independent; measured difference 5e-9 (the RK4 at 4096 and 8192 steps agree to 7e-10).
+    """
+    model = build_model("bearing_rotor", {"f0": 0.5})
+    hb = HarmonicBalance(model, "w", HBOptions(harmonics=40, samples=1024, crossings="none"))
+    u0 = model.start(hb, 2.12)
+    br = continuation(hb, u0, 2.12, (2.12, 2.22), ContinuationOptions(ds=0.02, ds_max=0.05),
+                      events=[FlipTestEvent(hb)])
+    hb_pd = sorted(p.parameter for p in br.points_of_kind("pd"))
+    sc = period_doubling_scan(model, {}, "w", np.arange(2.12, 2.2201, 0.02), orbit_state(hb, u0, 2.12, 0.0))
+    assert sc.status == "complete" and all(sc.located)
+    got = sorted(p.params["w"] for p in sc.points)
+    assert len(hb_pd) == 2 and len(got) == 2
+    np.testing.assert_allclose(got, hb_pd, atol=1e-7)
+    for p in sc.points:  # a multiplier -1 of the integrated flow, to the location's tolerance
+        assert np.min(np.abs(p.multipliers + 1.0)) < 1e-6
+        assert np.abs(flow_map(model, p.params, p.state) - p.state).max() < 1e-9
+
+
+# ------------------------------------------------------------------ failure paths
+@pytest.mark.parametrize("kw,match", [
+    ({"steps_per_period": 0}, "ShootingOptions.steps_per_period must be a positive integer"),
+    ({"max_iter": 2.5}, "ShootingOptions.max_iter must be a positive integer"),
+    ({"tol": 0.0}, r"ShootingOptions.tol must be a number in \(0, 0.01\]"),
+    ({"fd_step": "1e-6"}, "ShootingOptions.fd_step must be a number"),
+])
+def test_options_are_validated_naming_the_field(kw, match):
+    with pytest.raises(ValueError, match=match):
+        ShootingOptions(**kw)
+
+
+def test_unknown_option_is_named():
+    with pytest.raises(ValueError, match="unknown option 'steps' of ShootingOptions"):
+        ShootingOptions.from_dict({"steps": 10})
+
+
+def test_bad_arguments_raise():
+    model = build_model("duffing")
+    with pytest.raises(ValueError, match=r"z0 must have shape \(2,\)"):
+        periodic_orbit(model, {}, [0.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match="unknown parameter 'omega'"):
+        period_doubling_scan(model, {}, "omega", [1.0, 2.0], [0.0, 0.0])
+    with pytest.raises(ValueError, match="monotonic"):
+        period_doubling_scan(model, {}, "w", [1.0, 2.0, 1.5], [0.0, 0.0])
+
+
+def test_newton_that_does_not_converge_keeps_its_iterate_and_says_why():
+    model = build_model("duffing", {"g": 1.0, "F": 0.5, "w": 1.4})
+    orb = periodic_orbit(model, {}, [3.0, 0.0], ShootingOptions(max_iter=1, steps_per_period=512))
+    assert not orb.converged and "did not converge in 1 steps" in orb.message
+    assert np.all(np.isfinite(orb.state)) and np.all(np.isfinite(orb.monodromy))
+
+
+def test_a_lost_orbit_ends_the_scan_with_what_was_computed():
+    model = build_model("duffing", {"g": 1.0, "F": 0.5})
+    sc = period_doubling_scan(model, {}, "w", [0.5, 0.6, 0.7], [0.0, 0.0], ShootingOptions(max_iter=1))
+    assert sc.status == "failed" and "the orbit was lost at w = 0.5" in sc.message
+    assert sc.values.size == 0 and not sc.orbits
