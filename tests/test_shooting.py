@@ -18,7 +18,7 @@ from contin.bifurcation_curves import FlipTestEvent
 from contin.catalog import build_model
 from contin.continuation import ContinuationOptions, continuation
 from contin.harmonic_balance import HarmonicBalance, HBOptions
-from contin.shooting import ShootingOptions, flow_map, period_doubling_scan, periodic_orbit
+from contin.shooting import ShootingOptions, ShootingProblem, flow_map, period_doubling_scan, periodic_orbit
 from contin.stability import orbit_state
 
 
@@ -83,6 +83,28 @@ def test_rotor_period_doublings_match_the_harmonic_balance_in_permanent_contact(
         assert np.abs(flow_map(model, p.params, p.state) - p.state).max() < 1e-9
 
 
+def test_shooting_branch_passes_the_duffing_folds_of_the_converged_harmonic_balance():
+    """The engine's pseudo-arclength steps on the flow map (ShootingProblem) against HB with H = 15."""
+    model = build_model("duffing", {"c": 0.1, "g": 1.0, "F": 0.5})
+    opts = ContinuationOptions(ds=0.05, ds_max=0.1)
+    hb = HarmonicBalance(model, "w", HBOptions(harmonics=15))
+    br = continuation(hb, hb.linear_solution(0.5), 0.5, (0.5, 3.0), opts)
+    hb_folds = sorted(p.parameter for p in br.points_of_kind("fold"))
+    prob = ShootingProblem(model, "w", options=ShootingOptions(steps_per_period=1024))
+    z0 = periodic_orbit(model, {"w": 0.5}, [0.0, 0.0], prob.options).state
+    sb = continuation(prob, z0, 0.5, (0.5, 3.0), opts, monitors=[prob.monitor])
+    assert sb.status.value == "range_end"
+    folds = sorted(p.parameter for p in sb.points_of_kind("fold"))
+    assert len(hb_folds) == 2 and len(folds) == 2
+    np.testing.assert_allclose(folds, hb_folds, atol=1e-9)  # measured 1.4e-11
+    # the middle branch, between the folds along the arc, is the unstable one (a real multiplier > 1)
+    i, j = sorted(p.index for p in sb.points_of_kind("fold"))
+    mu = np.asarray(sb.point_data["max_multiplier"])
+    assert np.all(mu[i + 2:j - 1] > 1.0) and np.all(mu[:i - 1] < 1.0) and np.all(mu[j + 2:] < 1.0)
+    for k in range(0, len(sb), 7):  # every stored point is a periodic orbit of the flow
+        assert np.abs(prob.residual(sb.unknowns[k], sb.parameter[k])).max() < 1e-8
+
+
 # ------------------------------------------------------------------ failure paths
 @pytest.mark.parametrize("kw,match", [
     ({"steps_per_period": 0}, "ShootingOptions.steps_per_period must be a positive integer"),
@@ -115,6 +137,15 @@ def test_newton_that_does_not_converge_keeps_its_iterate_and_says_why():
     orb = periodic_orbit(model, {}, [3.0, 0.0], ShootingOptions(max_iter=1, steps_per_period=512))
     assert not orb.converged and "did not converge in 1 steps" in orb.message
     assert np.all(np.isfinite(orb.state)) and np.all(np.isfinite(orb.monodromy))
+
+
+def test_an_iterate_without_a_forcing_period_is_a_failed_evaluation():
+    """The engine retries with a smaller step when an evaluation raises ArithmeticError."""
+    prob = ShootingProblem(build_model("duffing"), "w")
+    with pytest.raises(ArithmeticError, match="the iterate has w = -0.5: no positive forcing period"):
+        prob.linearize(np.zeros(2), -0.5)
+    with pytest.raises(ValueError, match="unknown parameter 'omega'"):
+        ShootingProblem(build_model("duffing"), "omega")
 
 
 def test_a_lost_orbit_ends_the_scan_with_what_was_computed():
