@@ -123,16 +123,16 @@ class ShootingOrbit:
     @property
     def flip_test(self) -> float:
         """``det(Phi + I)``: changes sign where a real multiplier crosses -1."""
-        return float(np.real(np.prod(self.multipliers + 1.0)))
+        return _flip(self.multipliers)
 
     @property
     def stable(self) -> bool:
         return bool(np.abs(self.multipliers).max() < 1.0)
 
 
-def _period(model, params, nu: int) -> float:
-    w = float(model.parameter_vector(params)[model.parameter_index(model.frequency)])
-    return nu * 2.0 * math.pi / w
+def _flip(mu: np.ndarray) -> float:
+    """``det(Phi + I) = prod (mu_i + 1)`` from the multipliers (module docstring)."""
+    return float(np.real(np.prod(mu + 1.0)))
 
 
 def flow_map(model, params: Mapping[str, float], z: np.ndarray, options: ShootingOptions = ShootingOptions()):
@@ -420,5 +420,5 @@ class ShootingProblem:
     def monitor(self, z, lam, Ju, Jlam) -> dict:
         """Engine monitor: the multipliers of the integrated flow (``Ju + I`` is the monodromy)."""
         mu = np.linalg.eigvals(Ju + np.eye(Ju.shape[0]))
-        return {"max_multiplier": float(np.abs(mu).max()), "flip_test": float(np.real(np.prod(mu + 1.0)))}
+        return {"max_multiplier": float(np.abs(mu).max()), "flip_test": _flip(mu)}
 

@@ -32,15 +32,13 @@ import numpy as np
 
 from contin.blas import limit_blas_threads
 from contin.catalog import build_model
-from contin.continuation import ContinuationOptions, continuation
 from contin.results import read_csv
 from contin.runner import run_scene
 from contin.scene import load_scene
-from contin.shooting import ShootingOptions, ShootingProblem, periodic_orbit
 from contin.simulation import simulate
+from rotor_subharmonic_shooting import W0, follow_both_ways  # the same branch, from the same start
 
 ROOT = Path(__file__).resolve().parents[1]
-W0 = 2.16
 PAPER_TRUNCATION = """\
 model: {builtin: bearing_rotor, parameters: {f0: 0.5}}
 analysis:
@@ -90,27 +88,14 @@ def ends(outdir: Path) -> list:
 
 
 def shooting_branches(quick: bool):
+    """(w, radius, stable) of the integrated flow's branch both ways (scripts/rotor_subharmonic_shooting.py)."""
     model = build_model("bearing_rotor", {"f0": 0.5})
-    opt = ShootingOptions(steps_per_period=4096, subharmonic=2)
-    run = simulate(model, {"w": W0}, periods=300 if quick else 1500, steps_per_period=4096, record_every=4096)
-    orb = periodic_orbit(model, {"w": W0}, run.final_state, opt)
-    if not orb.converged:
-        raise SystemExit(f"no periodic orbit at w = {W0}: {orb.message}")
-    prob = ShootingProblem(model, "w", options=opt)
-    span = (W0 - 0.004, W0 + 0.004) if quick else (2.1, 2.25)
-    out = []
-    for direction in (-1, 1):
-        br = continuation(prob, orb.state, W0, span, ContinuationOptions(ds=0.01, ds_max=0.05, direction=direction,
-                                                                          newton_tol=1e-9),
-                          parameter_name="w", monitors=[prob.monitor], solve_start=False)
-        radius = np.array([forward_half_whirl(model, w, z, opt) for w, z in zip(br.parameter, br.unknowns)])
-        stable = np.asarray(br.point_data["max_multiplier"]) < 1.0
-        out.append((br.parameter, radius, stable))
-        turns = ", ".join(f"{sp.kind.value} {sp.parameter:.6f}" for sp in br.special_points
-                          if sp.kind.value in ("fold", "kink"))
-        print(f"  equations of motion, {'down' if direction < 0 else 'up'}: w from {br.parameter.min():.6f} to "
-              f"{br.parameter.max():.6f}; {turns or 'no turn'}; {br.status.value}: {br.message[:100]}")
-    return out
+    found = follow_both_ways(model, quick)
+    if found is None:
+        raise SystemExit(f"no periodic orbit at w = {W0}")
+    opt, branches = found
+    return [(br.parameter, np.array([forward_half_whirl(model, w, z, opt) for w, z in zip(br.parameter, br.unknowns)]),
+             np.asarray(br.point_data["max_multiplier"]) < 1.0) for _, br in branches]
 
 
 def draw(ax, branches, color, label, lw):
