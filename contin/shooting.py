@@ -28,6 +28,16 @@ Period doubling: a real multiplier crosses -1 exactly where the flip test
 changes sign (a complex pair contributes ``|mu + 1|^2 > 0``; Kuznetsov,
 *Elements of Applied Bifurcation Theory*, 3rd ed., 2004, sec. 7.4). It is
 located by Brent's method in the parameter, each evaluation a converged orbit.
+
+Branches: :class:`ShootingProblem` hands ``R(z, lambda) = phi_T(z) - z`` to the
+continuation engine, :class:`ShootingStability` gives it the flow's
+multipliers at every point (so the classified stability events locate folds,
+period doublings, Neimark-Sacker and branch points of the flow), and
+:func:`period_doubling_start` starts the branch of twice the period at a
+period doubling. Where an orbit starts or stops touching a contact (grazing)
+the flow map stays continuous but its derivative jumps, so the branch has a
+corner there, which harmonic balance, whose truncated series ripples about
+the contact, cannot pass.
 """
 
 from __future__ import annotations
@@ -40,9 +50,10 @@ import numpy as np
 from scipy.optimize import brentq, minimize_scalar
 
 from contin.simulation import SimulationError, simulate
+from contin.stability.floquet import FloquetResult, StabilityOptions, monodromy_result
 
-__all__ = ["ShootingOptions", "ShootingOrbit", "PeriodDoublingScan", "ShootingProblem", "flow_map",
-           "periodic_orbit", "period_doubling_scan"]
+__all__ = ["ShootingOptions", "ShootingOrbit", "PeriodDoublingScan", "ShootingProblem", "ShootingStability",
+           "flow_map", "periodic_orbit", "period_doubling_scan", "period_doubling_start"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -388,13 +399,17 @@ class ShootingProblem:
         self.base = dict(params or {})
         self.size = 2 * model.n_dof
 
+    def frequency_at(self, lam: float) -> float:
+        """The forcing frequency at ``lam`` (the parameter itself, or fixed by the overrides)."""
+        params = {**self.base, self.parameter: float(lam)}
+        return float(self.model.parameter_vector(params)[self.model.parameter_index(self.model.frequency)])
+
     def params_at(self, lam: float) -> dict:
         """Parameter overrides at ``lam``; a Newton iterate with no positive forcing period fails the evaluation."""
-        params = {**self.base, self.parameter: float(lam)}
-        w = float(self.model.parameter_vector(params)[self.model.parameter_index(self.model.frequency)])
+        w = self.frequency_at(lam)
         if not w > 0.0:
             raise ArithmeticError(f"the iterate has {self.model.frequency} = {w:g}: no positive forcing period")
-        return params
+        return {**self.base, self.parameter: float(lam)}
 
     def _flow(self, z, lam):
         try:
@@ -422,3 +437,97 @@ class ShootingProblem:
         mu = np.linalg.eigvals(Ju + np.eye(Ju.shape[0]))
         return {"max_multiplier": float(np.abs(mu).max()), "flip_test": _flip(mu)}
 
+
+
+class ShootingStability:
+    """Stability monitor of a :class:`ShootingProblem` branch: the multipliers of the integrated flow.
+
+    The engine passes ``Ju = Phi - I`` to its monitors, so the monodromy costs
+    nothing more. The returned data are those of
+    :class:`contin.stability.StabilityMonitor` (``stable``, ``n_unstable``,
+    ``n_plus``, ``n_minus``, ``n_complex``, ``max_multiplier``,
+    ``multipliers``, ...) plus ``flip_test``, so the classified events of
+    :func:`contin.stability.stability_events` locate the period doublings
+    (a real multiplier through -1), Neimark-Sacker points (a complex pair
+    through the unit circle) and branch points of the flow on the branch.
+    Pass the same object in ``monitors`` and to ``stability_events``.
+
+    Parameters
+    ----------
+    problem : ShootingProblem
+    options : StabilityOptions, optional
+        Its ``tolerance`` and ``real_angle_tol`` decide the verdict (the
+        method is that of the problem: the flow's monodromy).
+    """
+
+    #: no harmonic-balance problem: located points carry no Hill eigenvector
+    hb = None
+
+    def __init__(self, problem: ShootingProblem, options: StabilityOptions | None = None):
+        self.problem = problem
+        self.options = StabilityOptions(method="floquet") if options is None else options
+
+    def analyze(self, u: np.ndarray, lam: float, Ju: np.ndarray | None = None) -> FloquetResult:
+        """The verdict at ``(u, lam)``, from ``Ju = Phi - I`` when given (else one linearisation)."""
+        if Ju is None:
+            _, Ju, _ = self.problem.linearize(u, lam)
+        period = self.problem.options.subharmonic * 2.0 * math.pi / self.problem.frequency_at(lam)
+        return monodromy_result(np.linalg.eigvals(Ju + np.eye(Ju.shape[0])), period, self.options)
+
+    def __call__(self, u, lam, Ju=None, Jlam=None) -> dict:
+        res = self.analyze(u, lam, Ju)
+        return {**res.monitor_data(), "flip_test": _flip(res.multipliers)}
+
+
+def period_doubling_start(problem: ShootingProblem, z, lam: float, eps: float = 1e-3):
+    """The first point of the branch of period ``2 nu`` born at a period doubling of ``problem``'s branch.
+
+    At a period doubling the monodromy ``Phi`` of the period-``nu`` orbit
+    ``z`` has a multiplier ``-1`` with real eigenvector ``v``; seen with twice
+    the period, the orbit has the double multiplier ``+1`` and the new branch
+    leaves it tangent to ``(v, 0)`` (a pitchfork in the parameter; Kuznetsov
+    2004, sec. 7.4). Pass the returned point and tangent to
+    :func:`contin.continuation.continuation` with ``solve_start=False``: the
+    engine corrects the point on the hyperplane through it normal to the
+    tangent, which cuts the new branch and not the old one.
+
+    Parameters
+    ----------
+    problem : ShootingProblem
+        The problem of the period-``nu`` branch.
+    z : array_like, shape (2n,)
+        The located period-doubling orbit (e.g. a point of
+        :func:`period_doubling_scan` or a located ``pd`` special point).
+    lam : float
+        Its parameter value.
+    eps : float
+        Offset along ``v``, relative to ``max(1, max |z|)``.
+
+    Returns
+    -------
+    doubled : ShootingProblem
+        The problem of period ``2 nu`` (same model, parameter and options).
+    u0 : ndarray, shape (2n,)
+        ``z + eps v``.
+    tangent : ndarray, shape (2n + 1,)
+        ``(v, 0)``.
+
+    Raises
+    ------
+    ValueError
+        If no multiplier of ``Phi`` lies within 1e-3 of ``-1`` (not a period
+        doubling).
+    """
+    z = np.asarray(z, dtype=float)
+    _, Ju, _ = problem.linearize(z, lam)
+    mu, V = np.linalg.eig(Ju + np.eye(z.size))
+    j = int(np.argmin(np.abs(mu + 1.0)))
+    if abs(mu[j] + 1.0) > 1e-3:
+        raise ValueError(f"no multiplier near -1 at {problem.parameter} = {lam:.10g} (closest {complex(mu[j]):.6g}): "
+                         "not a period doubling")
+    v = np.real(V[:, j]) if np.linalg.norm(np.real(V[:, j])) >= np.linalg.norm(np.imag(V[:, j])) else np.imag(V[:, j])
+    v = v / np.linalg.norm(v)
+    opts = dataclasses.replace(problem.options, subharmonic=2 * problem.options.subharmonic)
+    doubled = ShootingProblem(problem.model, problem.parameter, problem.base, opts)
+    u0 = z + eps * max(1.0, float(np.max(np.abs(z)))) * v
+    return doubled, u0, np.r_[v, 0.0]

@@ -11,13 +11,13 @@ on the zero-amplitude (harmonic) solution. This script draws, in one diagram of 
 - the same branch with the paper's truncation (H = 10 of w/2, 512 samples), which goes
   on through the folds C and past E but whose multipliers flicker across the unit
   circle where the bearing skims its casing;
-- the branch of the equations of motion themselves (contin.shooting.ShootingProblem:
-  pseudo-arclength steps on the flow map of the time integrator), followed from the
-  motion a time simulation settles on at w = 2.16 until its grazing points.
+- the branch of the equations of motion themselves, by shooting on the flow map of the
+  time integrator, from the period doubling D through C and E to the period doubling F
+  (scripts/rotor_subharmonic_shooting.py, which this script runs).
 
 It prints where each branch ends and writes ``fig4_truncations.png`` in ``-o DIR``.
 
-    python scripts/rotor_fig4_truncations.py --main results/rotor   # ~15 min on two cores
+    python scripts/rotor_fig4_truncations.py --main results/rotor   # ~25 min on two cores
     python scripts/rotor_fig4_truncations.py --quick                 # short stretches, ~1 min
 """
 
@@ -35,8 +35,7 @@ from contin.catalog import build_model
 from contin.results import read_csv
 from contin.runner import run_scene
 from contin.scene import load_scene
-from contin.simulation import simulate
-from rotor_subharmonic_shooting import W0, follow_both_ways  # the same branch, from the same start
+from rotor_subharmonic_shooting import W0, fig4_branches  # the equations of motion's branch
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER_TRUNCATION = """\
@@ -60,16 +59,6 @@ output: {measure: whirl_fwd_half_disc}
 """
 
 
-def forward_half_whirl(model, w, z, opt, samples=256):
-    """The +w/2 forward whirl radius of the disc on the orbit through ``z``: |F| of x1 + i y1 = F e^{i w t/2} + ..."""
-    steps = opt.steps_per_period * opt.subharmonic
-    run = simulate(model, {"w": w}, z[:model.n_dof], z[model.n_dof:], periods=opt.subharmonic,
-                   steps_per_period=opt.steps_per_period, record_every=steps // samples)
-    t, x = run.t[:samples], run.x[:samples]
-    zc = x[:, 0] + 1j * x[:, 1]
-    return float(abs(np.mean(zc * np.exp(-0.5j * w * t))))
-
-
 def hb_branches(outdir: Path, nu: int = 2):
     """(w, radius, stable) per nu-``nu`` branch of a finished run."""
     rows = read_csv(outdir / "branches.csv")
@@ -88,14 +77,9 @@ def ends(outdir: Path) -> list:
 
 
 def shooting_branches(quick: bool):
-    """(w, radius, stable) of the integrated flow's branch both ways (scripts/rotor_subharmonic_shooting.py)."""
-    model = build_model("bearing_rotor", {"f0": 0.5})
-    found = follow_both_ways(model, quick)
-    if found is None:
-        raise SystemExit(f"no periodic orbit at w = {W0}")
-    opt, branches = found
-    return [(br.parameter, np.array([forward_half_whirl(model, w, z, opt) for w, z in zip(br.parameter, br.unknowns)]),
-             np.asarray(br.point_data["max_multiplier"]) < 1.0) for _, br in branches]
+    """[(w, radius, stable)] of the equations of motion's branch from F (scripts/rotor_subharmonic_shooting.py)."""
+    rows = fig4_branches(build_model("bearing_rotor", {"f0": 0.5}), quick)[0]
+    return [tuple(np.array([r[k] for r in rows]) for k in ("w", "radius", "stable"))]
 
 
 def draw(ax, branches, color, label, lw):

@@ -11,15 +11,25 @@ import math
 
 import numpy as np
 import pytest
+from scipy.integrate import solve_ivp
 from scipy.linalg import expm
+from scipy.optimize import brentq
 from scipy.special import mathieu_a, mathieu_b
 
 from contin.bifurcation_curves import FlipTestEvent
 from contin.catalog import build_model
 from contin.continuation import ContinuationOptions, continuation
 from contin.harmonic_balance import HarmonicBalance, HBOptions
-from contin.shooting import ShootingOptions, ShootingProblem, flow_map, period_doubling_scan, periodic_orbit
-from contin.stability import orbit_state
+from contin.shooting import (
+    ShootingOptions,
+    ShootingProblem,
+    ShootingStability,
+    flow_map,
+    period_doubling_scan,
+    period_doubling_start,
+    periodic_orbit,
+)
+from contin.stability import orbit_state, stability_events
 
 
 def test_linear_oscillator_orbit_and_monodromy_are_the_closed_forms():
@@ -103,6 +113,78 @@ def test_shooting_branch_passes_the_duffing_folds_of_the_converged_harmonic_bala
     assert np.all(mu[i + 2:j - 1] > 1.0) and np.all(mu[:i - 1] < 1.0) and np.all(mu[j + 2:] < 1.0)
     for k in range(0, len(sb), 7):  # every stored point is a periodic orbit of the flow
         assert np.abs(prob.residual(sb.unknowns[k], sb.parameter[k])).max() < 1e-8
+
+
+def _damped_mathieu_pd(lo, hi, c=0.1, eps=0.4):
+    """delta where x'' + c x' + (delta + eps cos t) x = 0 has the multiplier -1, by scipy alone.
+
+    1 + tr Phi + det Phi = 0 with det Phi = exp(-2 pi c) (Liouville) and Phi by DOP853.
+    """
+    def trace(delta):
+        def rhs(t, y):
+            return np.concatenate([y[2:], -(delta + eps * np.cos(t)) * y[:2] - c * y[2:]])
+
+        y = solve_ivp(rhs, (0, 2 * np.pi), [1.0, 0.0, 0.0, 1.0], method="DOP853", rtol=1e-13, atol=1e-14).y[:, -1]
+        return y[0] + y[3]
+
+    return brentq(lambda d: 1 + trace(d) + math.exp(-2 * math.pi * c), lo, hi, xtol=1e-13)
+
+
+@pytest.fixture(scope="module")
+def mathieu_duffing_shooting():
+    """x'' + 0.1 x' + (delta + 0.4 cos t) x + x^3 = 0: the trivial orbit by shooting, continued in delta."""
+    model = build_model("mathieu", {"c": 0.1, "g": 1.0, "eps": 0.4, "w": 1.0})
+    prob = ShootingProblem(model, "delta", options=ShootingOptions(steps_per_period=512))
+    mon = ShootingStability(prob)
+    br = continuation(prob, np.zeros(2), -0.2, (-0.2, 0.7), ContinuationOptions(ds=0.02, ds_max=0.05),
+                      monitors=[mon], events=stability_events(mon))
+    return prob, br
+
+
+def test_shooting_stability_locates_the_damped_mathieu_period_doublings(mathieu_duffing_shooting):
+    """The flow's multipliers through -1 where scipy's monodromy of the linear equation says (RK4, 512 steps)."""
+    _, br = mathieu_duffing_shooting
+    assert br.status.value == "range_end"
+    pds = br.points_of_kind("pd")
+    want = [_damped_mathieu_pd(0.0, 0.2), _damped_mathieu_pd(0.3, 0.6)]
+    np.testing.assert_allclose([p.parameter for p in pds], want, atol=1e-7)
+    for p in pds:
+        assert p.data["classification"] == "pd" and abs(p.data["multiplier"] + 1.0) < 1e-4
+        assert "eigenvector" not in p.data  # no harmonic-balance problem: no Hill vector
+    # unstable (one multiplier beyond -1) exactly between them
+    d, n = br.parameter, np.asarray(br.point_data["n_minus"])
+    inside = (d > want[0] + 1e-6) & (d < want[1] - 1e-6)
+    assert np.all(n[inside] == 1) and np.all(n[(d < want[0] - 1e-6) | (d > want[1] + 1e-6)] == 0)
+    assert np.all(np.asarray(br.point_data["flip_test"])[inside] < 0)
+
+
+def test_switched_shooting_branch_is_a_period_two_orbit_of_scipys_integration(mathieu_duffing_shooting):
+    """From the upper period doubling onto the 1/2 subharmonic; each orbit checked by DOP853 (not contin's RK4)."""
+    prob, br = mathieu_duffing_shooting
+    pd = br.points_of_kind("pd")[-1]
+    doubled, u0, t0 = period_doubling_start(prob, pd.unknowns, pd.parameter)
+    assert doubled.options.subharmonic == 2 and doubled.parameter == "delta"
+    mon = ShootingStability(doubled)
+    sub = continuation(doubled, u0, pd.parameter, (pd.parameter - 0.3, pd.parameter + 0.3),
+                       ContinuationOptions(ds=0.02, ds_max=0.05, max_points=15), monitors=[mon], tangent=t0,
+                       solve_start=False)
+    assert len(sub) == 15
+    assert abs(sub.parameter[0] - pd.parameter) < 1e-5  # the first point is next to the period doubling
+    for z, delta in zip(sub.unknowns[1:], sub.parameter[1:]):
+        def rhs(t, y):
+            return [y[1], -0.1 * y[1] - (delta + 0.4 * np.cos(t)) * y[0] - y[0] ** 3]
+
+        y = solve_ivp(rhs, (0, 4 * np.pi), z, method="DOP853", rtol=1e-12, atol=1e-13, dense_output=True)
+        assert np.abs(y.y[:, -1] - z).max() < 1e-7  # closes after two periods
+        assert np.abs(y.sol(2 * np.pi) - z).max() > 1e-3  # not after one: a new branch, not the trivial one
+    # supercritical at the upper boundary: the new branch is stable there and bends towards lower delta
+    assert np.asarray(sub.point_data["stable"])[1:6].all() and sub.parameter[5] < pd.parameter
+
+
+def test_period_doubling_start_refuses_an_orbit_without_a_multiplier_minus_one(mathieu_duffing_shooting):
+    prob, _ = mathieu_duffing_shooting
+    with pytest.raises(ValueError, match="no multiplier near -1 at delta = 0.1"):
+        period_doubling_start(prob, np.zeros(2), 0.1)
 
 
 # ------------------------------------------------------------------ failure paths

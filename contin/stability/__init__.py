@@ -16,6 +16,7 @@ from contin.stability.floquet import (
     classify_multipliers,
     describe_crossing,
     floquet_multipliers,
+    monodromy_result,
     multiplier_distance,
     stability_events,
 )
@@ -38,6 +39,7 @@ __all__ = [
     "StabilityChangeEvent",
     "StabilityMethod",
     "StabilityMonitor",
+    "monodromy_result",
     "StabilityOptions",
     "SwitchEvent",
     "classify_multipliers",

@@ -76,6 +76,7 @@ __all__ = [
     "FloquetResult",
     "classify_multipliers",
     "floquet_multipliers",
+    "monodromy_result",
     "StabilityMonitor",
     "MultiplierCrossingEvent",
     "StabilityChangeEvent",
@@ -426,6 +427,24 @@ def _result(mu, ex, method, period, options, **extra) -> FloquetResult:
         **extra,
     )
     return res
+
+
+def monodromy_result(mu: np.ndarray, period: float, options: StabilityOptions | None = None) -> FloquetResult:
+    """The verdict from a monodromy's multipliers computed elsewhere (e.g. of an integrated flow).
+
+    Parameters
+    ----------
+    mu : ndarray, shape (2n,) complex
+        Eigenvalues of the monodromy matrix.
+    period : float
+        The orbit's period (for the exponents ``log(mu) / period``).
+    options : StabilityOptions, optional
+        Supplies ``tolerance`` and ``real_angle_tol``.
+    """
+    options = StabilityOptions() if options is None else options
+    mu = np.asarray(mu, dtype=complex)
+    return _result(mu, _log_exponents(mu, period), StabilityMethod.FLOQUET, period, options,
+                   monodromy_multipliers=mu.copy())
 
 
 def _log_exponents(mu: np.ndarray, period: float) -> np.ndarray:
@@ -816,7 +835,9 @@ def describe_crossing(monitor: StabilityMonitor, point: PointInfo, crossing: str
         (complex), ``multiplier_abs``, ``multiplier_arg`` (float),
         ``exponent`` (complex), ``eigenvector`` (ndarray (m,) complex,
         coefficient space, unit 2-norm; Hill's, even when the monodromy's
-        multipliers are reported), ``n_unstable``, ``disagreement``.
+        multipliers are reported; absent for a monitor without a
+        harmonic-balance problem, ``monitor.hb`` None), ``n_unstable``,
+        ``disagreement``.
     """
     opts = monitor.options
     d = point.data
@@ -841,6 +862,8 @@ def describe_crossing(monitor: StabilityMonitor, point: PointInfo, crossing: str
     }
     if kind is SpecialKind.BP or kind is SpecialKind.FOLD:
         data["turns"] = kind is SpecialKind.FOLD
+    if getattr(monitor, "hb", None) is None:
+        return data
     try:
         spec = hill_spectrum(monitor.hb, point.u, point.lam, vectors=True, shift_tol=opts.shift_tol)
         j = int(np.argmin(np.abs(spec.multipliers - mu)))
