@@ -438,7 +438,6 @@ class ShootingProblem:
         return {"max_multiplier": float(np.abs(mu).max()), "flip_test": _flip(mu)}
 
 
-
 class ShootingStability:
     """Stability monitor of a :class:`ShootingProblem` branch: the multipliers of the integrated flow.
 

@@ -21,13 +21,18 @@ too:
    end tangents, the distance from the prediction) stay on;
 3. checks from outside the branch: where it returns to the harmonic orbit against the
    period doubling D located by the scan, and the orbit a time simulation from rest
-   settles on at w = 2.16 (entrainment) against the branch's orbit there.
+   settles on at w = 2.16 (entrainment) against the branch's orbit there, the verdict of
+   each stable and unstable stretch against 400 revolutions of a time simulation started
+   1e-6 off its middle orbit and, with ``--harmonic-balance``, the folds near F, where the
+   bearing stays on its casing, against the converged harmonic balance (H = 120 of w/2)
+   continued from the shooting orbit.
 
 It prints the branch's folds, bifurcations and stable stretches, writes ``branch.csv``
 (w, the +w/2 forward whirl radius of the disc, largest multiplier, stable, contact
 switches in two revolutions) and draws ``fig4_shooting.png`` in ``-o DIR``.
 
-    python scripts/rotor_subharmonic_shooting.py            # ~8 min on two cores
+    python scripts/rotor_subharmonic_shooting.py            # ~7 min on two cores
+    python scripts/rotor_subharmonic_shooting.py --harmonic-balance   # and the harmonic balance near F, ~5 min more
     python scripts/rotor_subharmonic_shooting.py --quick    # the scan near F and a short stretch, ~20 s
 """
 
@@ -48,6 +53,7 @@ from contin.shooting import (ShootingOptions, ShootingProblem, ShootingStability
                              period_doubling_start, periodic_orbit)
 from contin.simulation import simulate
 from contin.stability import orbit_state, stability_events
+from contin.start import simulation_start
 
 W0 = 2.16
 HARMONIC = ShootingOptions(steps_per_period=4096)
@@ -145,6 +151,28 @@ def entrained_orbit(model, revolutions: int = 1500):
     return periodic_orbit(model, {"w": W0}, run.final_state, NU2)
 
 
+def harmonic_balance_near_f(model, br, index: int = 4, harmonics: int = 120) -> None:
+    """The converged harmonic balance's branch from the shooting orbit ``br[index]``, towards lower w.
+
+    Near F the bearing stays on its casing, where the plainly sampled contact law is smooth and
+    ``harmonics`` of w/2 converge; prints its folds beside the shooting branch's in the same range.
+    """
+    t = time.perf_counter()
+    n = model.n_dof
+    hb = HarmonicBalance(model, "w", HBOptions(harmonics=harmonics, subharmonic=2, samples=2048, crossings="none"))
+    w, z = float(br.parameter[index]), br.unknowns[index]
+    u = simulation_start(hb, w, transient=2, x0=z[:n], v0=z[n:])
+    hbr = continuation(hb, u, w, (2.19, 2.21), ContinuationOptions(ds=0.005, ds_max=0.02, newton_tol=1e-9,
+                                                                   direction=-1, max_points=300), parameter_name="w")
+    lo = float(hbr.parameter.min())
+    folds = [p.parameter for p in hbr.points_of_kind("fold")]
+    mine = [p.parameter for p in br.points_of_kind("fold") if p.parameter >= lo]
+    print(f"\n== harmonic balance, H = {harmonics} of w/2, from the shooting orbit at w = {w:.6f}: {len(hbr)} points "
+          f"down to w = {lo:.8f} [{time.perf_counter() - t:.0f} s]\n  end: {hbr.status.value}: {hbr.message}")
+    print(f"  its folds:      {', '.join(f'{f:.8f}' for f in folds)}")
+    print(f"  shooting folds: {', '.join(f'{f:.8f}' for f in mine)}")
+
+
 def rows_of(br, info) -> list[dict]:
     mu = np.asarray(br.point_data["max_multiplier"])
     return [{"w": float(br.parameter[i]), "radius": info[i][0], "max_multiplier": float(mu[i]),
@@ -181,7 +209,7 @@ def draw(rows, pds, harmonic, path: Path) -> None:
     plt.close(fig)
 
 
-def fig4_branches(model, quick: bool):
+def fig4_branches(model, quick: bool, harmonic_balance: bool = False):
     """The equations of motion's nu = 2 branch from F.
 
     Returns ``(rows, [w of the period doublings], [(w, stable) of the scan's harmonic orbits])``.
@@ -211,6 +239,8 @@ def fig4_branches(model, quick: bool):
         gap = same_orbit(model, W0, orb.state, on_branch.state)
         print(f"  a time simulation from rest at w = {W0} settles on an orbit {gap:.1e} from the branch's "
               f"(stable: {on_branch.stable}; {time.perf_counter() - t:.0f} s)")
+    if harmonic_balance:
+        harmonic_balance_near_f(model, br)
     # the verdicts checked by time integration: the middle point of each stretch, kicked by 1e-6
     stable = np.asarray(br.point_data["stable"])
     for r in np.split(np.arange(len(br)), np.flatnonzero(np.diff(stable.astype(int))) + 1):
@@ -224,7 +254,9 @@ def fig4_branches(model, quick: bool):
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="the scan near D and a short stretch of its branch")
+    ap.add_argument("--quick", action="store_true", help="the scan near F and a short stretch of its branch")
+    ap.add_argument("--harmonic-balance", action="store_true",
+                    help="also continue the harmonic balance (H = 120 of w/2) from the branch near F, ~5 min more")
     ap.add_argument("-o", "--outdir", default="results/rotor_fig4_shooting")
     args = ap.parse_args(argv)
     limit_blas_threads(1)
@@ -232,7 +264,7 @@ def main(argv=None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     model = build_model("bearing_rotor", {"f0": 0.5})
-    rows, pds, harmonic = fig4_branches(model, args.quick)
+    rows, pds, harmonic = fig4_branches(model, args.quick, args.harmonic_balance)
     with open(out / "branch.csv", "w", newline="") as fh:
         wr = csv.DictWriter(fh, fieldnames=list(rows[0]))
         wr.writeheader()
