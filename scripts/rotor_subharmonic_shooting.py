@@ -29,7 +29,8 @@ too:
 
 It prints the branch's folds, bifurcations and stable stretches, writes ``branch.csv``
 (w, the +w/2 forward whirl radius of the disc, largest multiplier, stable, contact
-switches in two revolutions) and draws ``fig4_shooting.png`` in ``-o DIR``.
+switches in two revolutions) and ``special_points.csv`` (kind, w) and draws
+``fig4_shooting.png`` in ``-o DIR``.
 
     python scripts/rotor_subharmonic_shooting.py            # ~7 min on two cores
     python scripts/rotor_subharmonic_shooting.py --harmonic-balance   # and the harmonic balance near F, ~5 min more
@@ -212,7 +213,8 @@ def draw(rows, pds, harmonic, path: Path) -> None:
 def fig4_branches(model, quick: bool, harmonic_balance: bool = False):
     """The equations of motion's nu = 2 branch from F.
 
-    Returns ``(rows, [w of the period doublings], [(w, stable) of the scan's harmonic orbits])``.
+    Returns ``(rows, [w of the period doublings], [(w, stable) of the scan's harmonic orbits],
+    [special points of the branch])``.
     """
     grid = np.linspace(2.200, 2.212, 4) if quick else np.linspace(2.12, 2.22, 21)
     t = time.perf_counter()
@@ -225,7 +227,8 @@ def fig4_branches(model, quick: bool, harmonic_balance: bool = False):
         raise SystemExit("no period doubling found")
     br, info = switched_branch(model, pds[-1], engine_options(max_points=8 if quick else 600))
     rows = rows_of(br, info)
-    out = rows, [o.params["w"] for o in pds], [(o.params["w"], o.stable) for o in scan.orbits]
+    special = [{"kind": sp.kind.value, "w": float(sp.parameter)} for sp in br.special_points]
+    out = rows, [o.params["w"] for o in pds], [(o.params["w"], o.stable) for o in scan.orbits], special
     if quick:
         return out
     if len(pds) > 1 and rows[-1]["radius"] < 0.02:
@@ -264,11 +267,12 @@ def main(argv=None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     model = build_model("bearing_rotor", {"f0": 0.5})
-    rows, pds, harmonic = fig4_branches(model, args.quick, args.harmonic_balance)
-    with open(out / "branch.csv", "w", newline="") as fh:
-        wr = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        wr.writeheader()
-        wr.writerows(rows)
+    rows, pds, harmonic, special = fig4_branches(model, args.quick, args.harmonic_balance)
+    for name, table in (("branch.csv", rows), ("special_points.csv", special)):
+        with open(out / name, "w", newline="") as fh:
+            wr = csv.DictWriter(fh, fieldnames=list(table[0]))
+            wr.writeheader()
+            wr.writerows(table)
     draw(rows, pds, harmonic, out / "fig4_shooting.png")
     print(f"\ntotal {time.perf_counter() - t0:.1f} s; {out / 'branch.csv'}, {out / 'fig4_shooting.png'}")
     return 0

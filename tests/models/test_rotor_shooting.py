@@ -7,10 +7,16 @@ harmonics of w/2) where the bearing stays on its casing, the period doublings lo
 by a scan of the harmonic orbit, and a time simulation from rest.
 """
 
+import re
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from contin.catalog import build_model
+from contin.results import read_csv
 from contin.continuation import ContinuationOptions, continuation
 from contin.harmonic_balance import HarmonicBalance, HBOptions
 from contin.shooting import (
@@ -19,12 +25,12 @@ from contin.shooting import (
     ShootingStability,
     period_doubling_scan,
     period_doubling_start,
-    periodic_orbit,
 )
 from contin.simulation import simulate
 from contin.stability import orbit_state, stability_events
 from contin.start import simulation_start
 
+ROOT = Path(__file__).resolve().parents[2]
 HARMONIC = ShootingOptions(steps_per_period=4096)
 # the turn test relaxed for the corners where the bearing starts or stops bouncing (grazing)
 STEPS = dict(ds=0.01, ds_max=0.05, newton_tol=1e-9, max_angle_deg=89.0)
@@ -82,34 +88,29 @@ def test_branch_switched_at_F_is_the_converged_harmonic_balance_branch(model):
 
 
 @pytest.mark.slow
-def test_branch_from_F_reaches_D_through_E_and_C(model):
-    """The paper's F-E-C-B-D as one branch of the flow (about 8 minutes).
+def test_fig4_script_follows_the_branch_from_F_to_D_through_E_and_C(tmp_path):
+    """scripts/rotor_subharmonic_shooting.py: the paper's F-E-C-B-D as one branch of the flow (about 8 minutes).
 
-    It leaves the harmonic orbit at F, passes the folds E and C, where the bearing
-    bounces on its casing in between, and returns to the harmonic orbit at D, which
-    the scan locates independently; the orbit a time simulation from rest reaches at
-    w = 2.16 lies on it, where it is stable.
+    From its result files: the branch leaves the harmonic orbit at F, passes the folds E and
+    C, where the bearing bounces on its casing in between, and returns to the harmonic orbit
+    at D, located independently by the scan; the orbit a time simulation from rest reaches at
+    w = 2.16 lies on it, and each stretch's verdict holds over 400 revolutions of a time
+    simulation.
     """
-    d = period_doubling(model, np.linspace(2.144, 2.150, 4))
-    f = period_doubling(model, np.linspace(2.200, 2.212, 4))
-    seen = []
-
-    def back_at_harmonic(branch, i):
-        seen.append(radius(model, float(branch.parameter[i]), branch.unknowns[i]))
-        return not (max(seen) > 0.2 and seen[-1] < 0.02)
-
-    br = switched(model, f, max_points=600, callback=back_at_harmonic)
-    assert br.status.value == "interrupted"
-    assert abs(br.parameter[-1] - d.params["w"]) < 1e-4 and seen[-1] < 0.02
-    folds = np.array([p.parameter for p in br.points_of_kind("fold")])
+    out = subprocess.run([sys.executable, str(ROOT / "scripts" / "rotor_subharmonic_shooting.py"), "-o",
+                          str(tmp_path)], capture_output=True, text=True, timeout=3000)
+    assert out.returncode == 0, out.stderr[-2000:]
+    rows, special = read_csv(tmp_path / "branch.csv"), read_csv(tmp_path / "special_points.csv")
+    d = float(re.search(r"period doubling D is at ([0-9.]+)", out.stdout).group(1))
+    assert abs(rows["w"][-1] - d) < 1e-5 and rows["radius"][-1] < 0.02 and rows["radius"].max() > 1.4
+    folds = special["w"][special["kind"] == "fold"]
     assert np.any(np.abs(folds - 2.19496) < 1e-4)  # E, the jump
     assert np.any((2.1435 < folds) & (folds < 2.1440))  # C
-    stable = np.asarray(br.point_data["stable"])
-    assert stable[(br.parameter > 2.155) & (br.parameter < 2.19)].all()
-    run = simulate(model, {"w": 2.16}, periods=1500, steps_per_period=4096, record_every=4096)
-    orb = periodic_orbit(model, {"w": 2.16}, run.final_state, ShootingOptions(subharmonic=2))
-    i = int(np.argmax(np.diff(np.sign(br.parameter - 2.16)) != 0))
-    on = periodic_orbit(model, {"w": 2.16}, br.unknowns[i], ShootingOptions(subharmonic=2))
-    shifted = simulate(model, {"w": 2.16}, orb.state[:4], orb.state[4:], periods=1, steps_per_period=4096).final_state
-    assert min(np.abs(orb.state - on.state).max(), np.abs(shifted - on.state).max()) < 1e-7
-    assert on.stable
+    assert (rows["stable"] == "True")[(rows["w"] > 2.155) & (rows["w"] < 2.19) & (rows["radius"] > 0.3)
+                          & (rows["radius"] < 1.1)].all()  # C-E
+    assert rows["contact_switches"].max() >= 20  # the bearing bounces on the way
+    gap = float(re.search(r"settles on an orbit ([0-9.e+-]+) from the branch's", out.stdout).group(1))
+    assert gap < 1e-7
+    for verdict, mu, end in re.findall(r"\((stable|unstable), largest multiplier ([0-9.]+)\): 400 revolutions from "
+                                       r"1e-6 off the orbit end ([0-9.e+-]+)", out.stdout):
+        assert (float(end) < 1e-6) == (verdict == "stable")
