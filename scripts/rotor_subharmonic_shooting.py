@@ -33,7 +33,7 @@ switches in two revolutions) and ``special_points.csv`` (kind, w) and draws
 ``fig4_shooting.png`` in ``-o DIR``.
 
     python scripts/rotor_subharmonic_shooting.py            # ~7 min on two cores
-    python scripts/rotor_subharmonic_shooting.py --harmonic-balance   # and the harmonic balance near F, ~5 min more
+    python scripts/rotor_subharmonic_shooting.py --harmonic-balance   # and the harmonic balance near F, ~3 min more
     python scripts/rotor_subharmonic_shooting.py --quick    # the scan near F and a short stretch, ~20 s
 """
 
@@ -259,7 +259,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="the scan near F and a short stretch of its branch")
     ap.add_argument("--harmonic-balance", action="store_true",
-                    help="also continue the harmonic balance (H = 120 of w/2) from the branch near F, ~5 min more")
+                    help="also continue the harmonic balance (H = 120 of w/2) from the branch near F, ~3 min more")
     ap.add_argument("-o", "--outdir", default="results/rotor_fig4_shooting")
     args = ap.parse_args(argv)
     limit_blas_threads(1)
