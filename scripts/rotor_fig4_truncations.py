@@ -35,7 +35,7 @@ from contin.catalog import build_model
 from contin.results import read_csv
 from contin.runner import run_scene
 from contin.scene import load_scene
-from rotor_subharmonic_shooting import W0, fig4_branches  # the equations of motion's branch
+from rotor_subharmonic_shooting import W0, draw_stability, fig4_branches  # the equations of motion's branch
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER_TRUNCATION = """\
@@ -83,14 +83,8 @@ def shooting_branches(quick: bool):
 
 
 def draw(ax, branches, color, label, lw):
-    first = True
-    for w, r, st in branches:
-        for s in np.split(np.arange(len(w)), np.flatnonzero(np.diff(st.astype(int))) + 1):
-            if s.size == 0:
-                continue
-            j = np.arange(max(s[0] - 1, 0), s[-1] + 1)
-            ax.plot(w[j], r[j], "-" if st[s[0]] else "--", color=color, lw=lw, label=label if first else None)
-            first = False
+    for k, (w, r, st) in enumerate(branches):
+        draw_stability(ax, w, r, st, label=label if k == 0 else None, color=color, lw=lw)
 
 
 def main(argv=None) -> int:

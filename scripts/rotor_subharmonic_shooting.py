@@ -180,6 +180,15 @@ def rows_of(br, info) -> list[dict]:
              "stable": bool(br.point_data["stable"][i]), "contact_switches": info[i][1]} for i in range(len(br))]
 
 
+def draw_stability(ax, w, y, stable, label=None, **style) -> None:
+    """``y`` against ``w``, solid where ``stable``, dashed elsewhere; each change drawn from the last point before it."""
+    w, y, stable = np.asarray(w), np.asarray(y), np.asarray(stable, dtype=bool)
+    for k, s in enumerate(np.split(np.arange(len(w)), np.flatnonzero(np.diff(stable.astype(int))) + 1)):
+        if s.size:
+            i = np.arange(max(s[0] - 1, 0), s[-1] + 1)
+            ax.plot(w[i], y[i], "-" if stable[s[0]] else "--", label=label if k == 0 else None, **style)
+
+
 def draw(rows, pds, harmonic, path: Path) -> None:
     import matplotlib
 
@@ -187,18 +196,12 @@ def draw(rows, pds, harmonic, path: Path) -> None:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(7.5, 5.0), constrained_layout=True)
-    w = np.array([r["w"] for r in rows])
-    y = np.array([r["radius"] for r in rows])
-    st = np.array([r["stable"] for r in rows])
-    for s in np.split(np.arange(len(w)), np.flatnonzero(np.diff(st.astype(int))) + 1):
-        i = np.arange(max(s[0] - 1, 0), s[-1] + 1)
-        ax.plot(w[i], y[i], "-" if st[s[0]] else "--", color="k", lw=1.2)
+    draw_stability(ax, [r["w"] for r in rows], [r["radius"] for r in rows], [r["stable"] for r in rows],
+                   color="k", lw=1.2)
     ax.plot([], [], "-", color="k", label="1/2-subharmonic branch, stable")
     ax.plot([], [], "--", color="k", label="unstable")
-    hw, hs = np.array([h[0] for h in harmonic]), np.array([h[1] for h in harmonic])
-    for s in np.split(np.arange(len(hw)), np.flatnonzero(np.diff(hs.astype(int))) + 1):
-        i = np.arange(max(s[0] - 1, 0), s[-1] + 1)
-        ax.plot(hw[i], np.zeros(i.size), "-" if hs[s[0]] else "--", color="0.5", lw=1.0)
+    draw_stability(ax, [h[0] for h in harmonic], np.zeros(len(harmonic)), [h[1] for h in harmonic],
+                   color="0.5", lw=1.0)
     ax.plot([], [], "--", color="0.5", label="harmonic orbit of the flow (zero +w/2)")
     ax.plot(pds, np.zeros(len(pds)), "o", color="C3", ms=5, label="its period doublings (scan)")
     ax.set_xlabel("rotor speed w")
