@@ -36,6 +36,9 @@ class BranchStatus(str, enum.Enum):
     INTERRUPTED = "interrupted"
     #: the branch came back to its start point
     CLOSED_LOOP = "closed_loop"
+    #: the branch reached a located point it cannot pass (a boundary of the problem's smooth
+    #: domain, such as grazing: a contact arc appearing or vanishing tangentially)
+    BOUNDARY = "boundary"
 
     def __str__(self) -> str:
         return self.value
@@ -52,6 +55,8 @@ class SpecialKind(str, enum.Enum):
     STABILITY = "stability"
     #: a corner of the branch: the tangent jumps (non-smooth problems, e.g. contact onset/grazing)
     KINK = "kink"
+    #: a contact arc appears or vanishes tangentially (an extremum of a switching function reaches zero)
+    GRAZING = "grazing"
     #: codimension two, on a fold curve: two folds merge (Kuznetsov 2004, sec. 8.2)
     CUSP = "cusp"
     #: codimension two: multipliers +1 and -1 at once (a fold curve meets a period-doubling curve)

@@ -127,6 +127,11 @@ def cmd_check(args) -> int:
         print(f"  parameter {hb.parameter} over {a['range']}, harmonics H={hb.H}, subharmonic nu={hb.nu}, "
               f"samples N={hb.N}")
         print(f"  unknowns: {hb.size} = {hb.n} dof x (2H+1)")
+        from contin.analyses.frequency_response import engine_problem
+
+        problem = engine_problem(scene, hb)
+        if problem is not hb:
+            print(f"  {problem.describe()}")
         print(f"  stability: {a['stability']}; switching at: {', '.join(a['switch']) or 'none'}")
     elif a["type"] == "modes":
         what = f"versus {a['parameter']}" if a["parameter"] else "at the model's parameters"

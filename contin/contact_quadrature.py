@@ -255,15 +255,26 @@ class LawIntegral:
         self.Le = swe.difference[:, law]
         self.Pe, self.Se, self.Spe = _fourier_rows(ends, H)
 
-    def _end_vectors(self):
-        """``g_e = P(theta_e) (x) L_e`` (signed by side and form), shape (E, (2H+1) n)."""
+    def _end_vectors(self, dofs=None):
+        """``g_e = P(theta_e) (x) L_e`` (signed by side and form), shape (E, (2H+1) n), or (E, (2H+1) len(dofs))
+        on the coefficients of ``dofs`` alone."""
         ends, side, sl, _, _, _, _ = self.ends
-        g = (self.Pe[:, :, None] * self.Le[:, None, :]).reshape(ends.size, -1)
+        Le = self.Le if dofs is None else self.Le[:, dofs]
+        g = (self.Pe[:, :, None] * Le[:, None, :]).reshape(ends.size, -1)
         return g * (self.quad.sign * side)[:, None]
 
-    def _add(self, J, Dx, Dxd, Sx, Sxd, ex, exd):
-        """``J += sum_g W_g P_g (x) (Dx_g Sx_g + Dxd_g Sxd_g)`` plus the arc ends' Leibniz terms."""
-        G, n = self.L.shape
+    def _add(self, J, Dx, Dxd, Sx, Sxd, ex, exd, dofs=None):
+        """``J += sum_g W_g P_g (x) (Dx_g Sx_g + Dxd_g Sxd_g)`` plus the arc ends' Leibniz terms.
+
+        ``dofs`` (sorted indices, optional): ``J`` is the block of the coefficients of these dofs only
+        (rows and columns), shape (n_d (2H+1), n_d (2H+1)).
+        """
+        ends, side, sl, gx, gxd, _, _ = self.ends
+        if dofs is not None:
+            Dx = Dx[:, dofs][:, :, dofs]
+            Dxd = None if Dxd is None else Dxd[:, dofs][:, :, dofs]
+            gx, gxd = gx[:, dofs], gxd[:, dofs]
+        G, n = Dx.shape[0], Dx.shape[1]
         R = 2 * self.H + 1
         left = self.P * (self.quad.sign * self.quad.weight)[:, None]  # (G, R)
         right = Dx.reshape(G, n * n)[:, :, None] * Sx[:, None, :]
@@ -272,17 +283,24 @@ class LawIntegral:
         block = (left.T @ right.reshape(G, -1)).reshape(R, n, n, R)
         J += block.transpose(0, 1, 3, 2).reshape(R * n, R * n)
         # the arc ends move with the orbit: d theta_e = -(dh/dx dx + dh/dx' dx') / (dh/dtheta)
-        ends, side, sl, gx, gxd, _, _ = self.ends
         dphi = -ex[:, :, None] * gx[:, None, :]
         if exd is not None:
             dphi = dphi - exd[:, :, None] * gxd[:, None, :]
         dphi = (dphi / sl[:, None, None]).reshape(ends.size, -1)
-        J += self._end_vectors().T @ dphi
+        J += self._end_vectors(dofs).T @ dphi
 
-    def add_jacobian(self, J):
-        """Accumulate ``d coefficients / dU`` into ``J`` (shape (n(2H+1), n(2H+1)))."""
+    def add_jacobian(self, J, dofs=None):
+        """Accumulate ``d coefficients / dU`` into ``J``.
+
+        Parameters
+        ----------
+        J : ndarray, shape (n(2H+1), n(2H+1)), or (n_d(2H+1), n_d(2H+1)) with ``dofs``
+        dofs : ndarray of int, optional
+            Sorted dofs that include every dof the element acts on or depends on: ``J``
+            is the block of their coefficients (harmonic-major, :mod:`contin.harmonics`).
+        """
         if self.quad.phi.size:
-            self._add(J, self.Lx, self.Lxd, self.S, self.Omega * self.Sp, self.Se, self.Omega * self.Spe)
+            self._add(J, self.Lx, self.Lxd, self.S, self.Omega * self.Sp, self.Se, self.Omega * self.Spe, dofs)
 
     def add_velocity_jacobian(self, D):
         """Accumulate the derivative of the coefficients with respect to velocity coefficients into ``D``.

@@ -48,6 +48,7 @@ Method
 from __future__ import annotations
 
 import collections
+import collections.abc
 import dataclasses
 import difflib
 import enum
@@ -65,6 +66,7 @@ from .events import (
     PointInfo,
     changed_components,
     evaluate_test,
+    predicted_zero,
 )
 from .newton import NUMERICAL_ERRORS, LUFactor, SingularMatrixError, factorize, newton
 
@@ -334,6 +336,28 @@ SECANT_MONOTONE = 1e-3
 #: Growth of the scaled Jacobian since the start that a stop message points out.
 JACOBIAN_GROWTH = 1e3
 
+#: A corrector stops after this many updates without a new smallest residual (the step is then
+#: retried shorter): Newton meandering on a piecewise-smooth residual costs more than a shorter step.
+NEWTON_STALL = 3
+
+#: A step capped by an event's prediction goes this far past the predicted change, so that it is
+#: taken in the step; and never below this fraction of the uncapped step.
+EVENT_OVERSHOOT = 1.25
+EVENT_FLOOR = 1e-3
+#: A failed step reaching this many times beyond a barrier event's predicted zero locates it.
+BARRIER_REACH = 1.0
+#: Solves spent locating a barrier, and its accuracy (relative to its distance where the steps failed).
+BARRIER_SOLVES = 12
+BARRIER_GTOL = 1e-8
+#: Past a barrier's point the branch passes it when, over the next PASS_POINTS points, a step of
+#: PASS_FRACTION of the step that reached it is taken again, fewer than PASS_FAILURES steps fail and
+#: the event does not change again; otherwise it cannot pass it and ends there. A single grazing
+#: with a corner (a stop's contact onset) is passed in a step or two of the corner machinery; a
+#: bouncing cascade, each tangential touch opening the next, is not.
+PASS_FRACTION = 1.0 / 16.0
+PASS_POINTS = 8
+PASS_FAILURES = 6
+
 
 def _condition(rcond: float) -> float:
     """Condition estimate from a reciprocal one (``inf`` for a singular matrix, NaN if none)."""
@@ -414,6 +438,92 @@ class _Candidate:
     ds: float
     landed: bool = False
     kink: tuple | None = None  # (angle, ds, first angle, first ds) when accepted as a corner
+    barrier: Event | None = None  # the barrier event this point was located on
+
+
+class _LazyData(collections.abc.Mapping):
+    """Monitored values computed on first access (for the points solved while locating an event)."""
+
+    def __init__(self, compute: Callable[[], Mapping[str, Any]]):
+        self._compute = compute
+        self._values: dict | None = None
+
+    def _get(self) -> dict:
+        if self._values is None:
+            self._values = dict(self._compute())
+        return self._values
+
+    def __getitem__(self, key):
+        return self._get()[key]
+
+    def __iter__(self):
+        return iter(self._get())
+
+    def __len__(self) -> int:
+        return len(self._get())
+
+
+class HermiteArc:
+    """The cubic Hermite curve through two points of a branch with their unit tangents.
+
+    ``x(q) = h00(q) xa + h10(q) L ta + h01(q) xb + h11(q) L tb`` for ``q`` in
+    ``[0, 1]``, ``L`` the chord length (the arclength of a nearly straight
+    arc); it lies ``O(L^4)`` off a smooth branch, where the chord lies
+    ``O(L^2)`` off. :meth:`at` returns its point on the hyperplane
+    ``ta . (x - xa) = sigma`` used by the engine's location.
+
+    Parameters
+    ----------
+    xa, ta, xb, tb : ndarray, shape (m+1,)
+        End points and unit tangents (scaled coordinates, oriented along the branch).
+    h : float
+        ``ta . (xb - xa)``.
+    """
+
+    def __init__(self, xa, ta, xb, tb, h):
+        self.xa, self.ta, self.xb, self.tb, self.h = xa, ta, xb, tb, float(h)
+        self.L = float(np.linalg.norm(xb - xa))
+        # sigma(q) = ta . (x(q) - xa), a cubic in q
+        self._c = (self.L, self.h, self.L * float(ta @ tb))
+
+    def _sigma(self, q):
+        L, hb, Ltb = self._c
+        h10, h01, h11 = q ** 3 - 2 * q ** 2 + q, -2 * q ** 3 + 3 * q ** 2, q ** 3 - q ** 2
+        d10, d01, d11 = 3 * q ** 2 - 4 * q + 1, -6 * q ** 2 + 6 * q, 3 * q ** 2 - 2 * q
+        return h10 * L + h01 * hb + h11 * Ltb, d10 * L + d01 * hb + d11 * Ltb
+
+    def at(self, sigma: float) -> np.ndarray:
+        """The curve's point with ``ta . (x - xa) = sigma`` (the chord's if the cubic is not monotone there)."""
+        q = sigma / self.h if self.h > 0 else 0.0
+        for _ in range(8):
+            f, df = self._sigma(q)
+            if not df > 0:
+                q = sigma / self.h if self.h > 0 else 0.0
+                break
+            dq = (sigma - f) / df
+            q += dq
+            if abs(dq) < 1e-14:
+                break
+        if not 0.0 <= q <= 1.0:
+            q = min(max(sigma / self.h if self.h > 0 else 0.0, 0.0), 1.0)
+        h00, h10 = 2 * q ** 3 - 3 * q ** 2 + 1, q ** 3 - 2 * q ** 2 + q
+        h01, h11 = -2 * q ** 3 + 3 * q ** 2, q ** 3 - q ** 2
+        return h00 * self.xa + h10 * self.L * self.ta + h01 * self.xb + h11 * self.L * self.tb
+
+
+@dataclasses.dataclass
+class _Barrier:
+    """A located point of a barrier event that the branch has yet to show it passes."""
+
+    event: Event
+    parameter: float
+    reach: float  # the step that reached it
+    index: int  # the stored point at it (near side) or just past it
+    near_side: bool = False
+    later: int = 0  # more of them located before the branch showed it passes the first
+    last_parameter: float = math.nan
+    failures: int = 0  # failed steps since
+    recovered: bool = False  # a step of PASS_FRACTION of the reaching one was taken since
 
 
 class _StepFailed(Exception):
@@ -462,6 +572,11 @@ class _Engine:
         self._options_dict = options.to_dict()
         self._e_last = np.zeros(self.m + 1)
         self._e_last[-1] = 1.0
+        self.event_cap = math.inf  # the events' prediction of the arclength to their next change
+        self.ds_free = options.ds  # the step the step control wants (before an event's cap)
+        self.prev_info: PointInfo | None = None
+        self.barrier_tried = -1  # branch length at the last barrier location
+        self.at_barrier: _Barrier | None = None  # a barrier's point the branch has not yet shown it passes
 
     # -- helpers ---------------------------------------------------------
     def fmt(self, lam: float) -> str:
@@ -558,8 +673,8 @@ class _Engine:
             raise _StepFailed("non-finite tangent", lu.rcond)
         return z / nz
 
-    def _bordered_solve(self, guess, x_ref, normal, offset):
-        """Newton on ``[R = 0; normal . (x - x_ref) = offset]`` from ``guess``."""
+    def _bordered_solve(self, guess, x_ref, normal, offset, lu0=None):
+        """Newton on ``[R = 0; normal . (x - x_ref) = offset]`` from ``guess`` (``lu0``: see :func:`newton`)."""
         sp, m = self.sp, self.m
         F = np.empty(m + 1)
         A = np.empty((m + 1, m + 1))
@@ -572,7 +687,7 @@ class _Engine:
             A[:m] = Jh
             return F, A
 
-        return self._newton(fun_and_jac, guess, factor_final=True)
+        return self._newton(fun_and_jac, guess, factor_final=True, lu0=lu0)
 
     def _newton(self, fun_and_jac, guess, **kw):
         """Newton, retried with step halving when plain Newton cycles.
@@ -585,12 +700,13 @@ class _Engine:
         a failure.
         """
         opt = self.opt
-        res = newton(fun_and_jac, guess, opt.newton_tol, opt.newton_max_iter, **kw)
+        res = newton(fun_and_jac, guess, opt.newton_tol, opt.newton_max_iter, stall=NEWTON_STALL, **kw)
         self.n_newton += res.iterations
         if res.converged or res.singular or not _cycles(res.residual_history):
             return res
         self.n_backtracked += 1
-        res = newton(fun_and_jac, guess, opt.newton_tol, 2 * opt.newton_max_iter, backtrack=8, **kw)
+        res = newton(fun_and_jac, guess, opt.newton_tol, 2 * opt.newton_max_iter, backtrack=8, stall=2 * NEWTON_STALL,
+                     **kw)
         self.n_newton += res.iterations
         return res
 
@@ -928,14 +1044,18 @@ class _Engine:
     # -- main loop -------------------------------------------------------
     def run(self) -> Branch:
         opt = self.opt
-        ds = opt.ds
+        ds = opt.ds  # the step the step control wants; events may cap the one taken
         recent = collections.deque(maxlen=opt.stall_points)  # steps of the last stored points
         while True:
             if len(self.branch) >= opt.max_points:
                 self.builder.finish(BranchStatus.MAX_POINTS, f"stored max_points={opt.max_points} points; last at {self.fmt(self.lam)}")
                 return self.branch
+            ds_try = self.ds_free = ds
+            if self.event_cap < ds:  # an event predicted within the step: land just beyond it
+                ds_try = max(EVENT_OVERSHOOT * self.event_cap, opt.ds_min, min(ds, EVENT_FLOOR * ds))
+                ds_try = min(ds_try, ds)
             try:
-                cand = self._attempt(ds)
+                cand = self._attempt(ds_try)
             except _StepFailed as exc:
                 cand = exc
             except NUMERICAL_ERRORS as exc:
@@ -943,20 +1063,29 @@ class _Engine:
             if cand is None:
                 self._finish_range_end(len(self.branch) - 1)
                 return self.branch
+            if isinstance(cand, _StepFailed):
+                barrier = self._barrier(ds_try)
+                if barrier is not None:
+                    cand = barrier
             if isinstance(cand, _StepFailed) and opt.corners:
-                corner = self._corner(cand, ds)
+                corner = self._corner(cand, ds_try)
                 if corner is not None:
                     cand = corner
             if isinstance(cand, _StepFailed):
                 self.n_rejected += 1
                 self.last_failure = cand.reason
+                if self.at_barrier is not None:
+                    self.at_barrier.failures += 1
+                    if self.at_barrier.failures >= PASS_FAILURES:
+                        self._finish_at_barrier(f"{PASS_FAILURES} steps beyond it failed (the last: {cand.reason})")
+                        return self.branch
                 if self.info.rcond < _ILL_RCOND:
                     raise _Failure(
                         BranchStatus.ILL_CONDITIONED,
                         f"the bordered Jacobian is ill-conditioned at {self.fmt(self.lam)} "
                         f"(rcond={self.info.rcond:.1e}) and the step failed: {cand.reason}",
                     )
-                if ds <= opt.ds_min:
+                if ds_try <= opt.ds_min:
                     if cand.rcond < _ILL_RCOND:
                         raise _Failure(
                             BranchStatus.ILL_CONDITIONED,
@@ -968,13 +1097,25 @@ class _Engine:
                         f"step size fell below ds_min={opt.ds_min:g} at {self.fmt(self.lam)}; "
                         f"last failure: {cand.reason}{self._diagnosis()}",
                     )
-                ds = max(ds * opt.shrink, opt.ds_min)
+                ds = max(ds_try * opt.shrink, opt.ds_min)
                 continue
-            if not self.turns or cand.kink is not None or ds >= self.turns[0][1] / opt.corner_ratio:
+            if not self.turns or cand.kink is not None or ds_try >= self.turns[0][1] / opt.corner_ratio:
                 self.turns.clear()  # healthy again (or past the corner): forget the failures
             if not self._accept(cand):
                 return self.branch
-            recent.append(ds)
+            bar = self.at_barrier
+            if bar is not None and bar.index < len(self.branch) - 1:
+                if bar.later:
+                    self._finish_at_barrier(f"it changed again within {PASS_POINTS} points (a cascade)")
+                    return self.branch
+                bar.recovered = bar.recovered or max(ds_try, cand.h) >= PASS_FRACTION * bar.reach
+                if len(self.branch) - 1 - bar.index >= PASS_POINTS:
+                    if not bar.recovered:
+                        self._finish_at_barrier(f"{PASS_POINTS} points beyond it the steps had not recovered "
+                                                f"{PASS_FRACTION:.3g} of the step that reached it, {bar.reach:.2g}")
+                        return self.branch
+                    self.at_barrier = None  # passed
+            recent.append(ds if ds_try < ds else ds_try)  # a step cut short by an event is no crawl
             if len(recent) == opt.stall_points and sum(recent) < opt.ds_max:
                 self.builder.finish(
                     BranchStatus.STEP_TOO_SMALL,
@@ -1001,6 +1142,92 @@ class _Engine:
                 return self.branch
             if cand.iterations <= opt.newton_easy:
                 ds = min(ds * opt.grow, opt.ds_max)
+
+    def _barrier_reached(self, ev: Event, lam: float, h: float, index: int, near_side: bool = False) -> None:
+        bar = self.at_barrier
+        if bar is None:
+            # judged against the step the step control wanted there, not one an event cut short
+            self.at_barrier = _Barrier(ev, lam, max(h, self.ds_free), index, near_side)
+            return
+        # a cascade (more contact arcs opening one after the other): judged against the step that
+        # reached the first one
+        bar.index, bar.near_side, bar.later = index, near_side, bar.later + 1
+        bar.last_parameter = lam
+
+    def _finish_at_barrier(self, why: str) -> None:
+        bar = self.at_barrier
+        more = (f"; {bar.later} more located after it, the last at {self.fmt(bar.last_parameter)}"
+                if bar.later else "")
+        self.builder.finish(
+            BranchStatus.BOUNDARY,
+            f"the branch cannot pass the {bar.event.kind.value} point at {self.fmt(bar.parameter)} "
+            f"({bar.event.name}{more}): {why}; last point at {self.fmt(self.lam)}")
+
+    def _barrier(self, ds: float):
+        """A barrier event's point located ahead of the current one, as a candidate, or None.
+
+        Called when a step of length ``ds`` failed. A barrier event
+        (:attr:`contin.events.Event.barrier`) whose distance, extrapolated
+        from the last two stored points, reaches zero within that step is
+        located by the secant method on its distance, solving on the
+        hyperplanes normal to the current tangent from the near side (a
+        solve that fails, beyond the barrier, halves the way back). Tried
+        once per stored point.
+        """
+        if self.barrier_tried == len(self.branch) or self.prev_info is None or len(self.branch) < 2:
+            return None
+        self.barrier_tried = len(self.branch)
+        h_last = float(self.s - self.prev_info.s)
+        for ev in self.events:
+            if not ev.barrier or (self.at_barrier is not None and ev is self.at_barrier.event):
+                continue  # not a barrier, or the branch is at (or just past) its point already
+            try:
+                g_prev, g0 = float(ev.distance(self.prev_info)), float(ev.distance(self.info))
+            except NUMERICAL_ERRORS:
+                continue
+            ahead = predicted_zero(g_prev, g0, h_last)
+            if not ahead <= BARRIER_REACH * ds:
+                continue
+            cand = self._locate_barrier(ev, g0, min(ahead, ds))
+            if cand is not None:
+                return cand
+        return None
+
+    def _locate_barrier(self, ev: Event, g0: float, s1: float):
+        sp, m = self.sp, self.m
+        s0, g_start = 0.0, g0
+        tol_lam = self.opt.locate_tol * max(1.0, abs(self.lam))
+        lam_prev = self.lam
+        for _ in range(BARRIER_SOLVES):
+            if not s1 > 0:
+                return None
+            xp = self.x + s1 * self.t
+            try:
+                res = self._bordered_solve(xp.copy(), self.x, self.t, s1)
+            except NUMERICAL_ERRORS:
+                res = None
+            if res is None or not res.converged or res.lu is None:
+                s1 = s0 + 0.5 * (s1 - s0)  # beyond the barrier, or outside Newton's basin: back off
+                continue
+            try:
+                cand = self._check_new(res.x, xp, s1, res.lu, res.rcond, res.iterations)
+            except _StepFailed:
+                s1 = s0 + 0.5 * (s1 - s0)
+                continue
+            info = self._point_info(cand.u, cand.lam, cand.tangent, cand.lu, cand.Ju, cand.Jlam, self.s + cand.h, {})
+            try:
+                g1 = float(ev.distance(info))
+            except NUMERICAL_ERRORS:
+                return None
+            if not math.isfinite(g1) or (g1 < 0) != (g_start < 0) and g1 != 0.0:
+                return None  # solved beyond it: passable, the ordinary steps will locate it
+            if abs(g1) <= BARRIER_GTOL * abs(g_start) or abs(cand.lam - lam_prev) <= tol_lam:
+                cand.barrier = ev
+                return cand
+            lam_prev = cand.lam
+            s_new = s1 - g1 * (s1 - s0) / (g1 - g0) if g1 != g0 else 2.0 * s1
+            s0, g0, s1 = s1, g1, min(s_new, s1 + 4.0 * (s1 - s0))
+        return None
 
     def _corner(self, failed: _StepFailed, ds: float):
         """A step across a corner of the branch, or None.
@@ -1196,46 +1423,80 @@ class _Engine:
         g_new = self._tests(info)
         # events on the arc between the previous and the new point
         t_prev = self.t
+        changed = set()
         for ev, ga, gb in zip(self.events, prev_g, g_new):
             if cand.kink is not None and isinstance(ev, (FoldEvent, BranchPointEvent)):
                 continue  # the tangent's jump at a corner is neither a fold nor a branch point
+            bar = self.at_barrier
+            if bar is not None and bar.near_side and ev is bar.event and bar.index == index - 1:
+                continue  # the step from the barrier's point passes the barrier recorded there
             for comp in changed_components(ev, ga, gb, prev_info, info):
+                changed.add(ev)
                 self._locate(ev, comp, prev_x, t_prev, prev_info, cand, info, ga, gb, index - 1)
+        if cand.barrier is not None:
+            self._record_barrier(cand.barrier, info, prev_info.lam, index)
+            self._barrier_reached(cand.barrier, info.lam, cand.h, index, near_side=True)
+        cap = math.inf
+        for ev in self.events:
+            if ev in changed or ev is cand.barrier:
+                continue  # located at or just behind the new point: nothing ahead to predict yet
+            try:
+                limit = float(ev.step_limit(prev_info, info, cand.h))
+            except NUMERICAL_ERRORS:
+                continue
+            if limit > 0:
+                cap = min(cap, limit)
+        self.event_cap = cap
+        self.prev_info = prev_info
         self.x, self.u, self.lam, self.t, self.s = cand.x, cand.u, lam_new, cand.tangent, s_new
         self.info, self.g = info, g_new
         return self._after_store()
 
+    def _record_barrier(self, ev: Event, info: PointInfo, lam_prev: float, index: int) -> None:
+        try:
+            data = dict(ev.describe(info))
+        except NUMERICAL_ERRORS as exc:
+            data = {"describe_error": f"{type(exc).__name__}: {exc}"}
+        self.builder.add_special(
+            SpecialPoint(
+                kind=ev.kind, parameter=float(info.lam), unknowns=info.u.copy(), interval=(lam_prev, info.lam),
+                index=index, s=float(info.s), located=True, data=data, event=ev.name,
+                message=f"{ev.name}: located from the near side, where the steps failed", tangent=info.tangent.copy(),
+                point_data={k: np.array(v) for k, v in info.data.items()},
+            )
+        )
+
     def _locate(self, ev: Event, comp: int, xa, ta, info_a: PointInfo, cand: _Candidate, info_b: PointInfo, ga, gb, index: int):
         sp = self.sp
         h = cand.h
-        xb = cand.x
+        arc = HermiteArc(xa, ta, cand.x, cand.tangent, h)
 
         def solve_on_arc(sigma: float):
-            # chord guess first; where Newton's basin is smaller than the chord's
-            # error (stiff contact), march from the earlier point in substeps
-            # along the family of hyperplanes normal to its tangent
+            # the cubic Hermite guess on the arc first (O(h^4) off the curve, where the chord is
+            # O(h^2) off); where Newton's basin is smaller still (stiff contact), march from the
+            # earlier point in substeps along the family of hyperplanes normal to its tangent
             try:
-                res = self._bordered_solve(xa + (sigma / h) * (xb - xa), xa, ta, sigma)
+                res = self._bordered_solve(arc.at(sigma), xa, ta, sigma)
                 if res.converged and res.lu is not None:
                     return res, ""
-                for n_sub in (4, 16):
-                    x, t, ok = xa, ta, True
-                    for k in range(1, n_sub + 1):
-                        sk = sigma * k / n_sub
-                        res = self._bordered_solve(x + (sigma / n_sub) * t / max(float(t @ ta), 0.1), xa, ta, sk)
-                        if not res.converged or res.lu is None:
-                            ok = False
-                            break
-                        x = res.x
-                        z = res.lu.solve(self._e_last)
-                        t = z / np.linalg.norm(z)
-                        if float(t @ ta) < 0:
-                            t = -t
-                    if ok:
-                        return res, ""
+                x, t, ok = xa, ta, True
+                n_sub = 4
+                for k in range(1, n_sub + 1):
+                    sk = sigma * k / n_sub
+                    res = self._bordered_solve(x + (sigma / n_sub) * t / max(float(t @ ta), 0.1), xa, ta, sk)
+                    if not res.converged or res.lu is None:
+                        ok = False
+                        break
+                    x = res.x
+                    z = res.lu.solve(self._e_last)
+                    t = z / np.linalg.norm(z)
+                    if float(t @ ta) < 0:
+                        t = -t
+                if ok:
+                    return res, ""
             except NUMERICAL_ERRORS as exc:
                 return None, f"evaluation failed ({type(exc).__name__}: {exc})"
-            if res.lu is None:
+            if res.converged:
                 return None, "singular bordered Jacobian"
             return None, f"Newton did not converge ({res.message})"
 
@@ -1248,33 +1509,43 @@ class _Engine:
             if not (math.isfinite(nz) and nz > 0):
                 return None, "non-finite tangent"
             u, lam, R, Ju, Jlam = sp.last
-            try:
-                data = self._monitor(u, lam, Ju, Jlam)
-            except NUMERICAL_ERRORS as exc:
-                return None, f"a monitor failed ({type(exc).__name__}: {exc})"
-            if not all(np.all(np.isfinite(np.asarray(v))) for v in data.values()):
-                return None, "non-finite monitored value"
+            # the monitors run when an event's test first reads the point's data: a fold's test
+            # (the tangent) needs none, a stability event's the multipliers
+            data = _LazyData(lambda u=u, lam=lam, Ju=Ju, Jlam=Jlam: self._monitor(u, lam, Ju, Jlam))
             return self._point_info(u, lam, z / nz, res.lu, Ju, Jlam, info_a.s + sigma, data), ""
 
         locations = ev.locate(comp, point_at, h, info_a, info_b, float(ga[comp]), float(gb[comp]),
                               tol=self.opt.locate_tol, max_iter=self.opt.locate_max_iter)
         for loc in locations:
             p = loc.point
-            try:
-                data = dict(ev.describe(p))
-            except NUMERICAL_ERRORS as exc:
-                data = {"describe_error": f"{type(exc).__name__}: {exc}"}
-            if ga.size > 1:
-                data.setdefault("component", comp)
-            msg = f"{ev.name}: {loc.message}"
-            self.builder.add_special(
-                SpecialPoint(
-                    kind=ev.kind, parameter=float(p.lam), unknowns=p.u.copy(), interval=(info_a.lam, info_b.lam),
-                    index=index, s=float(p.s), test_values=(float(ga[comp]), float(gb[comp])), located=loc.located,
-                    data=data, message=msg, event=ev.name, tangent=p.tangent.copy(),
-                    point_data={k: np.array(v) for k, v in p.data.items()},
-                )
+            if isinstance(p.data, _LazyData):
+                try:
+                    p.data = dict(p.data)
+                except NUMERICAL_ERRORS as exc:
+                    p.data = {}
+                    loc.message += f"; a monitor failed there ({type(exc).__name__}: {exc})"
+            self._record_location(ev, loc, ga[comp], gb[comp], comp, ga.size > 1, info_a.lam, info_b.lam, index)
+            if ev.barrier and loc.located:
+                # the steps after it must show that the branch passes it (see _finish_at_barrier)
+                self._barrier_reached(ev, float(loc.point.lam), h, index + 1)
+
+    def _record_location(self, ev: Event, loc, ga: float, gb: float, comp: int, vector: bool, lam_a: float,
+                         lam_b: float, index: int) -> None:
+        p = loc.point
+        try:
+            data = dict(ev.describe(p))
+        except NUMERICAL_ERRORS as exc:
+            data = {"describe_error": f"{type(exc).__name__}: {exc}"}
+        if vector:
+            data.setdefault("component", comp)
+        self.builder.add_special(
+            SpecialPoint(
+                kind=ev.kind, parameter=float(p.lam), unknowns=p.u.copy(), interval=(lam_a, lam_b),
+                index=index, s=float(p.s), test_values=(float(ga), float(gb)), located=loc.located,
+                data=data, message=f"{ev.name}: {loc.message}", event=ev.name, tangent=p.tangent.copy(),
+                point_data={k: np.array(v) for k, v in p.data.items()},
             )
+        )
 
     def _revisited(self, cand: _Candidate) -> int | None:
         """Index of an earlier stored point (not the start, not the last few) that the

@@ -36,7 +36,8 @@ coefficients have a square-root singularity; the branch passes it as a corner.
 Derivatives: ``dt/du = -(dh/dx S(theta*) + dh/dx' Omega S'(theta*)) / (dh/dtheta (2 pi/N))``
 (``S`` the row of the synthesis, :mod:`contin.harmonics` ordering), so each
 crossing adds a rank-one term ``P(theta_a) (x) dc_a/dt L_a (x) dt/du`` to the
-Jacobian (:func:`add_crossing_jacobian`), besides ``c_a dL/dx`` on the two
+Jacobian (:func:`add_crossing_jacobian`, which sums them as one product of
+rank ``K`` on the dofs they touch), besides ``c_a dL/dx`` on the two
 samples' own derivatives.
 """
 
@@ -87,6 +88,10 @@ def switching_intervals(h):
 def series_at(U, phi):
     """The series and its first two ``theta`` derivatives at arbitrary phases.
 
+    ``cos(h phi)``, ``sin(h phi)`` by the angle-addition recurrence from
+    ``cos(phi)``, ``sin(phi)`` (a rotation: its rounding error grows linearly
+    in ``h``, as that of the argument ``h phi`` does).
+
     Parameters
     ----------
     U : ndarray, shape (2H+1, n)
@@ -105,15 +110,19 @@ def series_at(U, phi):
     for k in range(K):
         for q in range(n):
             x[k, q] = U[0, q]
+        c1 = np.cos(phi[k])
+        s1 = np.sin(phi[k])
+        c = c1
+        s = s1
         for hh in range(1, H + 1):
-            c = np.cos(hh * phi[k])
-            s = np.sin(hh * phi[k])
             for q in range(n):
                 a = U[2 * hh - 1, q]
                 b = U[2 * hh, q]
-                x[k, q] += a * c + b * s
+                v = a * c + b * s
+                x[k, q] += v
                 x1[k, q] += hh * (b * c - a * s)
-                x2[k, q] -= hh * hh * (a * c + b * s)
+                x2[k, q] -= hh * hh * v
+            c, s = c * c1 - s * s1, s * c1 + c * s1
     return x, x1, x2
 
 
@@ -147,12 +156,173 @@ class Crossings:
         self.state, self.dx1 = state, dx1
 
 
+@nb.njit(cache=True)
+def _first_guess(h, intervals):
+    """Root in ``[0, 1]`` of the cubic through ``h`` at samples ``j-1, j, j+1, j+2`` of each interval.
+
+    Parameters
+    ----------
+    h : ndarray, shape (N, m)
+    intervals : ndarray of int, shape (K, 3)
+
+    Returns
+    -------
+    ndarray, shape (K,)
+        The place in the interval, a first guess for the root along the series.
+    """
+    N = h.shape[0]
+    K = intervals.shape[0]
+    out = np.empty(K)
+    for k in range(K):
+        j = intervals[k, 0]
+        j1 = intervals[k, 1]
+        i = intervals[k, 2]
+        hm = h[j - 1 if j > 0 else N - 1, i]
+        h0 = h[j, i]
+        h1 = h[j1, i]
+        h2 = h[j1 + 1 if j1 + 1 < N else 0, i]
+        # p(t) = a0 + a1 t + a2 t^2 + a3 t^3 with p(-1, 0, 1, 2) = hm, h0, h1, h2
+        a1 = -hm / 3.0 - 0.5 * h0 + h1 - h2 / 6.0
+        a2 = 0.5 * hm - h0 + 0.5 * h1
+        a3 = (h2 - hm) / 6.0 + 0.5 * (h0 - h1)
+        t = h0 / (h0 - h1)
+        lo = 0.0  # p(lo) has the sign of h0 (p(0) = h0, p(1) = h1)
+        hi = 1.0
+        pos = h0 > 0.0
+        for _ in range(30):
+            pv = h0 + t * (a1 + t * (a2 + t * a3))
+            if (pv > 0.0) == pos:
+                lo = t
+            else:
+                hi = t
+            dp = a1 + t * (2.0 * a2 + 3.0 * t * a3)
+            new = t - pv / dp if dp != 0.0 else 0.5 * (lo + hi)
+            if not (min(lo, hi) < new < max(lo, hi)):
+                new = 0.5 * (lo + hi)
+            done = abs(new - t) < 1e-15
+            t = new
+            if done:
+                break
+        out[k] = t
+    return out
+
+
+@nb.njit(cache=True)
+def _series_bounds(U):
+    """Sums of the coefficients' magnitudes, bounds of ``|x|`` and ``|dx/dtheta|``, shapes (n,)."""
+    R, n = U.shape
+    b0 = np.zeros(n)
+    b1 = np.zeros(n)
+    for q in range(n):
+        b0[q] = abs(U[0, q])
+    for r in range(1, R):
+        hh = (r + 1) // 2
+        for q in range(n):
+            b0[q] += abs(U[r, q])
+            b1[q] += hh * abs(U[r, q])
+    return b0, b1
+
+
+# a crossing's Newton iteration stops where |h| is below this many estimated rounding errors
+_NOISE = 2.0
+
+
+@nb.njit(cache=True)
+def _newton_sweep(active, law, value, grad_x, grad_xd, x, x1, x2, Omega, dphi, h0, tol, bound0, bound1,
+                  t, lo, hi, phi_a, out_phi, out_gx, out_gxd, out_slope, out_x, out_x1, last):
+    """One safeguarded Newton step of the unconverged crossings; store the data evaluated at ``t``.
+
+    A crossing has converged when its Newton step, or its bracket, is below
+    ``tol``, or when ``h`` is within its rounding error along the series
+    (``eps`` times the coefficients' magnitudes weighted by the gradient):
+    near a tangential touch the slope is small and that error, not ``tol``,
+    bounds how well the root is determined; further steps would only wander
+    inside it.
+
+    Parameters
+    ----------
+    active : ndarray of int, shape (A,)
+        Crossings evaluated in this sweep.
+    law : ndarray of int, shape (K,)
+    value : ndarray, shape (A, m)
+    grad_x, grad_xd : ndarray, shape (A, m, n)
+        The switching functions at the states of the active crossings.
+    x, x1, x2 : ndarray, shape (A, n)
+        The series and its ``theta`` derivatives there.
+    Omega, dphi, tol : float
+    h0 : ndarray, shape (K,)
+        ``h`` at the first sample of each interval.
+    bound0, bound1 : ndarray, shape (n,)
+        From :func:`_series_bounds`.
+    t, lo, hi : ndarray, shape (K,)
+        Place and bracket, updated in place.
+    phi_a : ndarray, shape (A,)
+        Phases evaluated.
+    out_phi, out_slope : ndarray, shape (K,)
+    out_gx, out_gxd, out_x, out_x1 : ndarray, shape (K, n)
+        Data at the evaluated place, written for the active crossings.
+    last : bool
+        Store the data only, no step.
+
+    Returns
+    -------
+    ndarray of int
+        The crossings still unconverged (a converged one keeps the place
+        evaluated).
+    """
+    A = active.shape[0]
+    n = x.shape[1]
+    eps = np.finfo(np.float64).eps
+    keep = np.empty(A, dtype=np.int64)
+    nk = 0
+    for r in range(A):
+        k = active[r]
+        i = law[k]
+        hv = value[r, i]
+        sl = 0.0
+        sd = 0.0
+        noise = 0.0
+        for q in range(n):
+            sl += grad_x[r, i, q] * x1[r, q]
+            sd += grad_xd[r, i, q] * x2[r, q]
+            noise += abs(grad_x[r, i, q]) * bound0[q] + Omega * abs(grad_xd[r, i, q]) * bound1[q]
+            out_gx[k, q] = grad_x[r, i, q]
+            out_gxd[k, q] = grad_xd[r, i, q]
+            out_x[k, q] = x[r, q]
+            out_x1[k, q] = x1[r, q]
+        slope = (sl + Omega * sd) * dphi
+        out_slope[k] = slope
+        out_phi[k] = phi_a[r]
+        tk = t[k]
+        # converged: the Newton step below tol, or h within its rounding error of zero
+        if last or abs(hv) < tol * abs(slope) or abs(hv) <= _NOISE * eps * noise:
+            continue
+        if (hv > 0.0) == (h0[k] > 0.0):
+            lo[k] = tk
+        else:
+            hi[k] = tk
+        a = min(lo[k], hi[k])
+        b = max(lo[k], hi[k])
+        new = tk - hv / slope if slope != 0.0 else 0.5 * (lo[k] + hi[k])
+        if not (a < new < b):  # also catches a non-finite step
+            new = 0.5 * (lo[k] + hi[k])
+            if abs(new - tk) < tol:  # the bracket has closed on tk
+                continue
+        t[k] = new
+        keep[nk] = k
+        nk += 1
+    return keep[:nk]
+
+
 def locate_crossings(element, U, Omega, theta, h, p, tol=1e-13, max_iter=40) -> Crossings:
     """Roots of the element's switching functions along the series, one per switching interval.
 
     A Newton iteration in the interval coordinate ``t``, kept inside the
-    bracket of the sign change (bisection when a step leaves it), all
-    crossings at once.
+    bracket of the sign change (bisection when a step leaves it), from the
+    root of the cubic through the samples of ``h`` around the interval.
+    Each crossing stops on its own (see :func:`_newton_sweep`), keeping the
+    place evaluated last, whose data are returned; only the unconverged
+    ones are evaluated again.
 
     Parameters
     ----------
@@ -167,6 +337,11 @@ def locate_crossings(element, U, Omega, theta, h, p, tol=1e-13, max_iter=40) -> 
         Switching functions at the samples.
     p : ndarray
         Parameter vector.
+    tol : float
+        Step in ``t`` below which a crossing has converged.
+    max_iter : int
+        Newton steps at most; a crossing still moving then is evaluated at
+        its last iterate.
     """
     N = theta.shape[0]
     iv = switching_intervals(h)
@@ -176,39 +351,29 @@ def locate_crossings(element, U, Omega, theta, h, p, tol=1e-13, max_iter=40) -> 
     if K == 0:
         z = np.zeros((0, n))
         return Crossings(iv, np.zeros(0), np.zeros(0), np.zeros(0), z, z, np.zeros(0), (z, z), z)
-    j, law = iv[:, 0], iv[:, 2]
-    rows = np.arange(K)
-    h0 = h[iv[:, 0], law]
+    U = np.ascontiguousarray(U, dtype=float)
+    j, law = iv[:, 0], np.ascontiguousarray(iv[:, 2])
+    h0 = np.ascontiguousarray(h[iv[:, 0], law], dtype=float)
     h1 = h[iv[:, 1], law]
+    t = _first_guess(np.ascontiguousarray(h, dtype=float), iv)
     lo, hi = np.zeros(K), np.ones(K)  # h(lo) has the sign of h0
-    t = h0 / (h0 - h1)
-    for _ in range(max_iter):
-        phi = theta[j] + t * dphi
-        x, x1, x2 = series_at(U, phi)
-        sw = element.switching_functions(x, Omega * x1, phi, p)
-        hv = sw.value[rows, law]
-        gx, gxd = sw.grad_x[rows, law], sw.grad_xd[rows, law]
-        slope = (np.einsum("kq,kq->k", gx, x1) + Omega * np.einsum("kq,kq->k", gxd, x2)) * dphi
-        same = (hv > 0.0) == (h0 > 0.0)
-        lo = np.where(same, t, lo)
-        hi = np.where(same, hi, t)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            step = np.where(slope != 0.0, -hv / slope, np.inf)
-        new = t + step
-        bad = ~np.isfinite(new) | (new <= np.minimum(lo, hi)) | (new >= np.maximum(lo, hi))
-        new = np.where(bad, 0.5 * (lo + hi), new)
-        done = np.abs(new - t) < tol
-        t = new
-        if done.all():
+    bound0, bound1 = _series_bounds(U)
+    phi, slope = np.empty(K), np.empty(K)
+    gx, gxd, x, x1 = np.empty((K, n)), np.empty((K, n)), np.empty((K, n)), np.empty((K, n))
+    Omega = float(Omega)
+    active = np.arange(K)
+    for it in range(max_iter + 1):
+        phi_a = theta[j[active]] + t[active] * dphi
+        xa, x1a, x2a = series_at(U, phi_a)
+        sw = element.switching_functions(xa, Omega * x1a, phi_a, p)
+        # after the last step only the data at the last iterate
+        active = _newton_sweep(active, law, np.ascontiguousarray(sw.value), np.ascontiguousarray(sw.grad_x),
+                               np.ascontiguousarray(sw.grad_xd), xa, x1a, x2a, Omega, dphi, h0,
+                               tol, bound0, bound1, t, lo, hi, phi_a, phi, gx, gxd, slope, x, x1, it == max_iter)
+        if active.size == 0:
             break
-    phi = theta[j] + t * dphi
-    x, x1, x2 = series_at(U, phi)
-    xd = Omega * x1
-    sw = element.switching_functions(x, xd, phi, p)
-    gx, gxd = sw.grad_x[rows, law], sw.grad_xd[rows, law]
-    slope = (np.einsum("kq,kq->k", gx, x1) + Omega * np.einsum("kq,kq->k", gxd, x2)) * dphi
     sign = np.where(h1 > 0.0, 1.0, -1.0)
-    return Crossings(iv, sign, t, phi, gx, gxd, slope, (x, xd), x1)
+    return Crossings(iv, sign, t, phi, gx, gxd, slope, (x, Omega * x1), x1)
 
 
 @nb.njit(cache=True)
@@ -261,25 +426,47 @@ def apply_crossings(intervals, sign, t, L, Lx, Lxd, f, dfdx, dfdxd):
 
 @nb.njit(cache=True)
 def crossing_gradients(phi, gx, gxd, slope, Omega, H):
-    """``dt/dU`` of each crossing, shape (K, 2H+1, n) (implicit function theorem on ``h(theta*) = 0``)."""
+    """``dt/dU`` of each crossing (implicit function theorem on ``h(theta*) = 0``).
+
+    Parameters
+    ----------
+    phi : ndarray, shape (K,)
+    gx, gxd : ndarray, shape (K, n)
+    slope : ndarray, shape (K,)
+    Omega : float
+    H : int
+
+    Returns
+    -------
+    ndarray, shape (K, 2H+1, n)
+    """
     K, n = gx.shape
     out = np.zeros((K, 2 * H + 1, n))
     for k in range(K):
         inv = -1.0 / slope[k]
         for q in range(n):
             out[k, 0, q] = inv * gx[k, q]
+        c1 = np.cos(phi[k])
+        s1 = np.sin(phi[k])
+        c = c1
+        s = s1
         for hh in range(1, H + 1):
-            c = np.cos(hh * phi[k])
-            s = np.sin(hh * phi[k])
             for q in range(n):
                 out[k, 2 * hh - 1, q] = inv * (gx[k, q] * c - Omega * gxd[k, q] * hh * s)
                 out[k, 2 * hh, q] = inv * (gx[k, q] * s + Omega * gxd[k, q] * hh * c)
+            c, s = c * c1 - s * s1, s * c1 + c * s1
     return out
 
 
 @nb.njit(cache=True)
 def add_crossing_jacobian(intervals, coef, L, theta, dtdU, J):
     """Add ``P(theta_a) (x) dc_a/dt L_a (x) dt/dU`` of each crossing's two samples to ``J``.
+
+    Both samples of a crossing share its ``dt/dU``, so the terms are one
+    matrix product ``A B`` of rank ``K``: column ``k`` of ``A`` the sum over
+    the two samples of ``P(theta_a) (x) dc_a/dt L_a``, row ``k`` of ``B`` the
+    crossing's ``dt/dU``; both restricted to the dofs where ``L``, and
+    ``dt/dU``, are nonzero (a contact acts on few dofs).
 
     Parameters
     ----------
@@ -295,26 +482,57 @@ def add_crossing_jacobian(intervals, coef, L, theta, dtdU, J):
     K, R, n = dtdU.shape
     H = (R - 1) // 2
     N = theta.shape[0]
-    P = np.empty(R)
-    row = np.empty(R * n)
+    rows = np.zeros(n, dtype=np.bool_)
+    cols = np.zeros(n, dtype=np.bool_)
+    for k in range(K):
+        i = intervals[k, 2]
+        for side in range(2):
+            for r in range(n):
+                if L[intervals[k, side], i, r] != 0.0:
+                    rows[r] = True
+        for r1 in range(R):
+            for q in range(n):
+                if dtdU[k, r1, q] != 0.0:
+                    cols[q] = True
+    rd = np.nonzero(rows)[0]
+    cd = np.nonzero(cols)[0]
+    nr = rd.shape[0]
+    nc = cd.shape[0]
+    if K == 0 or nr == 0 or nc == 0:
+        return
+    A = np.zeros((R * nr, K))
+    B = np.empty((K, R * nc))
+    w = np.empty(nr)
     for k in range(K):
         i = intervals[k, 2]
         for side in range(2):
             a = intervals[k, side]
             dc = coef[k, 2 + side]
-            P[0] = 1.0 / N
+            for ir in range(nr):
+                w[ir] = dc * L[a, i, rd[ir]]
+            for ir in range(nr):
+                A[ir, k] += w[ir] / N
+            c1 = np.cos(theta[a])
+            s1 = np.sin(theta[a])
+            c = c1
+            s = s1
             for hh in range(1, H + 1):
-                P[2 * hh - 1] = 2.0 * np.cos(hh * theta[a]) / N
-                P[2 * hh] = 2.0 * np.sin(hh * theta[a]) / N
-            for r1 in range(R):
-                for r in range(n):
-                    row[r1 * n + r] = P[r1] * dc * L[a, i, r]
-            g = dtdU[k].ravel()
-            for I in range(R * n):
-                v = row[I]
-                if v != 0.0:
-                    for Jc in range(R * n):
-                        J[I, Jc] += v * g[Jc]
+                pc = 2.0 * c / N
+                ps = 2.0 * s / N
+                for ir in range(nr):
+                    A[(2 * hh - 1) * nr + ir, k] += pc * w[ir]
+                    A[2 * hh * nr + ir, k] += ps * w[ir]
+                c, s = c * c1 - s * s1, s * c1 + c * s1
+        for r1 in range(R):
+            for ic in range(nc):
+                B[k, r1 * nc + ic] = dtdU[k, r1, cd[ic]]
+    M = np.dot(A, B)
+    for r1 in range(R):
+        for ir in range(nr):
+            I = r1 * n + rd[ir]
+            for c1 in range(R):
+                for ic in range(nc):
+                    J[I, c1 * n + cd[ic]] += M[r1 * nr + ir, c1 * nc + ic]
 
 
 @nb.njit(cache=True)

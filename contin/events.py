@@ -43,6 +43,8 @@ __all__ = [
     "changed_components",
     "evaluate_test",
     "locate",
+    "narrow",
+    "predicted_zero",
 ]
 
 
@@ -107,6 +109,10 @@ class Event(abc.ABC):
     kind: SpecialKind = SpecialKind.USER
     name: str = "event"
     integer_valued: bool = False
+    #: the branch may be unable to pass this event's zero (a boundary of the problem's smooth
+    #: domain): when steps fail short of where :meth:`distance` predicts it, the engine locates
+    #: it from the near side and ends the branch there if no step passes it
+    barrier: bool = False
 
     @abc.abstractmethod
     def test(self, point: PointInfo) -> float | np.ndarray:
@@ -126,6 +132,24 @@ class Event(abc.ABC):
     def describe(self, point: PointInfo) -> dict[str, Any]:
         """Free data stored with a located special point."""
         return {}
+
+    def distance(self, point: PointInfo) -> float:
+        """A continuous signed distance to this event, zero where it triggers (NaN: none).
+
+        Used to locate a :attr:`barrier` from one side, and by the default
+        :meth:`step_limit`. The default has none.
+        """
+        return math.nan
+
+    def step_limit(self, a: PointInfo, b: PointInfo, h: float) -> float:
+        """Predicted arclength beyond ``b`` to this event's next trigger (``inf``: none predicted).
+
+        The engine keeps its next step near this prediction, so that two
+        changes close together are not taken in one step (where a count
+        would change and change back unseen). The default extrapolates
+        :meth:`distance` linearly from ``a`` and ``b`` (``h`` apart).
+        """
+        return predicted_zero(self.distance(a), self.distance(b), h)
 
     def locate(self, component, point_at, h, a, b, ga, gb, *, tol=1e-10, max_iter=60) -> list["Location"]:
         """Locate the change of test ``component`` between ``a`` and ``b``.
@@ -173,6 +197,10 @@ class BranchPointEvent(Event):
 class FunctionEvent(Event):
     """An event from a plain function ``fun(point_info) -> float or ndarray``.
 
+    ``distance`` (optional) is a continuous signed distance to the event
+    (see :meth:`Event.distance`): it gives the engine's step control a
+    prediction and, with ``barrier=True``, makes the event a barrier.
+
     Examples
     --------
     >>> ev = FunctionEvent(lambda p: p.lam - 0.3, name="lam=0.3")
@@ -186,18 +214,40 @@ class FunctionEvent(Event):
         kind: SpecialKind | str = SpecialKind.USER,
         integer_valued: bool = False,
         describe: Callable[[PointInfo], dict] | None = None,
+        distance: Callable[[PointInfo], float] | None = None,
+        barrier: bool = False,
     ):
         self.fun = fun
         self.name = name
         self.kind = SpecialKind(kind)
         self.integer_valued = bool(integer_valued)
         self._describe = describe
+        self._distance = distance
+        self.barrier = bool(barrier)
+        if self.barrier and distance is None:
+            raise ValueError("FunctionEvent: a barrier needs a distance function")
 
     def test(self, point: PointInfo):
         return self.fun(point)
 
+    def distance(self, point: PointInfo) -> float:
+        return math.nan if self._distance is None else float(self._distance(point))
+
     def describe(self, point: PointInfo) -> dict:
         return {} if self._describe is None else dict(self._describe(point))
+
+
+def predicted_zero(ga: float, gb: float, h: float) -> float:
+    """Arclength beyond ``b`` where the line through ``(0, ga)`` and ``(h, gb)`` reaches zero.
+
+    ``inf`` when the values are not finite or do not approach zero.
+    """
+    if not (math.isfinite(ga) and math.isfinite(gb) and h > 0) or gb == 0.0:
+        return math.inf
+    rate = (gb - ga) / h
+    if rate == 0.0 or (gb < 0) == (rate < 0):
+        return math.inf
+    return -gb / rate
 
 
 def evaluate_test(event: Event, point: PointInfo) -> np.ndarray:
@@ -292,43 +342,119 @@ def locate(
         successive change (e.g. a count jumping by 2 in one step may give two
         located points).
     """
+    ga, gb = float(ga), float(gb)
+    if not event.integer_valued:
+        if gb == 0.0:
+            return [Location(h, b, 0.0, True, 0, "test exactly zero at the stored point", (b.lam, b.lam))]
+
+        def value(info):
+            g = evaluate_test(event, info)
+            return float(g[component]) if component < g.size else math.nan
+
+        def side(info, v):
+            if not math.isfinite(v):
+                raise ArithmeticError("non-finite test value")
+            return (v < 0) == (ga < 0)
+
+        return [narrow(point_at, 0.0, h, a, b, ga, gb, h, side=side, value=value, tol=tol, max_iter=max_iter,
+                       value_decides=True)]
+
+    counts = {id(b): (b, gb)}  # each solved point's count evaluated once (the point is kept: ids stay unique)
+
+    def count(info):
+        if id(info) not in counts:
+            g = evaluate_test(event, info)
+            counts[id(info)] = (info, float(g[component]) if component < g.size else math.nan)
+        return counts[id(info)][1]
+
     results = []
-    sig_a, pa, va = 0.0, a, float(ga)
+    sig_a, pa, va = 0.0, a, ga
     while True:
-        loc = _locate_one(event, component, point_at, sig_a, h, pa, b, va, float(gb), tol, max_iter)
+        ref = va
+        loc = narrow(point_at, sig_a, h, pa, b, math.nan, math.nan, h, side=lambda info, v, ref=ref: count(info) == ref,
+                     value=None, tol=tol, max_iter=max_iter)
+        loc.value = count(loc.point)
         results.append(loc)
-        if not (event.integer_valued and loc.located):
+        if not loc.located or loc.value == gb or loc.sigma >= h or loc.point is b or len(results) > 16:
             break
         # a later change in the remainder of the interval
-        if loc.value == gb or loc.sigma >= h or loc.point is b:
-            break
         sig_a, pa, va = loc.sigma, loc.point, loc.value
-        if len(results) > 16:
-            break
     return results
 
 
-def _locate_one(event, component, point_at, s_lo, s_hi, p_lo, p_hi, g_lo, g_hi, tol, max_iter) -> Location:
-    h = s_hi - s_lo
-    true_lo, true_hi = g_lo, g_hi  # Illinois modifies the working values
-    w_lo, w_hi = g_lo, g_hi
-    ref = g_lo  # integer tests: value on the "before" side
-    scale_g = max(abs(g_lo), abs(g_hi))
-    side = 0
+def narrow(point_at, s_lo, s_hi, p_lo, p_hi, v_lo, v_hi, h, *, side, value=None, tol=1e-10, max_iter=60,
+           vtol=1e-15, failed_beyond=False, value_decides=False) -> Location:
+    """Narrow a bracket ``[s_lo, s_hi]`` of pseudo-arclength around a change.
+
+    Which side of the change a solved point lies on is decided by
+    ``side(info, v)`` (True: the side of ``p_lo``). Where a continuous test
+    ``value(info)`` is available and its values at the two ends of the
+    current bracket have opposite signs, the next point is the Illinois
+    variant of regula falsi on it (superlinear); otherwise the bracket is
+    bisected. A continuous test may be undefined (NaN) or inconsistent with
+    ``side`` at some points: the iteration then falls back to bisection
+    there, so a count decides the bracket and the continuous test only
+    speeds it up (how the stability and grazing events locate their points).
+
+    Parameters
+    ----------
+    point_at : callable
+        As for :func:`locate`.
+    s_lo, s_hi : float
+        The bracket, ``s_lo < s_hi``.
+    p_lo, p_hi : PointInfo
+        The points at its ends.
+    v_lo, v_hi : float
+        The continuous test at the ends (NaN if none).
+    h : float
+        Length of the whole step (for the tolerance on the arclength).
+    side : callable
+        ``side(info, v) -> bool``.
+    value : callable, optional
+        ``value(info) -> float`` (NaN where undefined).
+    tol, max_iter
+        As for :func:`locate`.
+    vtol : float
+        The change is located at a point where ``|value| <= vtol`` times the
+        larger of its values at the two ends.
+    failed_beyond : bool
+        Count a point that cannot be solved as lying beyond the change (the
+        far side of a grazing, where the residual is not smooth and Newton
+        may fail), instead of ending the location there.
+    value_decides : bool
+        ``side`` is the sign of ``value`` (a plain continuous test), so a
+        zero of ``value`` is the change.
+
+    Returns
+    -------
+    Location
+        ``point`` is the end of the final bracket with the smaller ``|value|``
+        when the continuous test is defined at both, else the end on the
+        far side of the change (``p_hi``). ``value`` is the continuous test
+        there (NaN without one).
+    """
+    w_lo, w_hi = v_lo, v_hi  # working values (Illinois halves a stale end)
+    scale_v = max(abs(v_lo), abs(v_hi)) if math.isfinite(v_lo) and math.isfinite(v_hi) else math.nan
+    # the sign the continuous test has on each side (none unless the ends have opposite signs)
+    sign_lo = math.copysign(1.0, v_lo) if math.isfinite(scale_v) and (v_lo < 0) != (v_hi < 0) else math.nan
+    last = 0
+    stalls = 0
     iterations = 0
-    s_full = s_hi
     message = ""
     located = False
+    s_full = s_hi
+
+    lam_rate = abs(p_hi.lam - p_lo.lam) / (s_hi - s_lo) if s_hi > s_lo else 0.0
+    lam_hi = p_hi.lam
 
     def bracket_done():
         width = s_hi - s_lo
         if width <= 64 * _EPS * max(1.0, s_full):
             return True
+        # without a solved far end, the parameter's bracket is estimated from the step's mean slope
+        dlam = abs(lam_hi - p_lo.lam) if lam_hi is not None else lam_rate * width
         lam_ref = max(1.0, abs(p_lo.lam), abs(p_hi.lam))
-        return abs(p_hi.lam - p_lo.lam) <= tol * lam_ref and width <= math.sqrt(tol) * h
-
-    if not event.integer_valued and g_hi == 0.0:
-        return Location(s_hi, p_hi, 0.0, True, 0, "test exactly zero at the stored point", (p_hi.lam, p_hi.lam))
+        return dlam <= tol * lam_ref and width <= math.sqrt(tol) * h
 
     while True:
         if bracket_done():
@@ -337,52 +463,73 @@ def _locate_one(event, component, point_at, s_lo, s_hi, p_lo, p_hi, g_lo, g_hi, 
         if iterations >= max_iter:
             message = f"location did not converge in {max_iter} iterations"
             break
-        if event.integer_valued:
-            s = 0.5 * (s_lo + s_hi)
-        else:
-            denom = w_hi - w_lo
-            s = (s_lo * w_hi - s_hi * w_lo) / denom if denom != 0 else math.nan
-            if not (s_lo < s < s_hi):
-                s = 0.5 * (s_lo + s_hi)
+        s = 0.5 * (s_lo + s_hi)
+        width = s_hi - s_lo
+        interpolated = False
+        if (stalls < 3 and math.isfinite(w_lo) and math.isfinite(w_hi) and (w_lo < 0) != (w_hi < 0)
+                and w_hi != w_lo):
+            t = (s_lo * w_hi - s_hi * w_lo) / (w_hi - w_lo)
+            if s_lo < t < s_hi:
+                s, interpolated = t, True
         iterations += 1
         info, why = point_at(s)
+        if info is None and failed_beyond and s > s_lo:
+            s_hi, w_hi, stalls = s, math.nan, 0
+            if last == 1 and math.isfinite(w_lo):
+                w_lo *= 0.5
+            last = 1
+            lam_hi = None  # the bracket's far end has no solved point now
+            continue
         if info is None:
             message = f"location failed: {why}"
             break
-        g_all = evaluate_test(event, info)
-        g = float(g_all[component]) if component < g_all.size else math.nan
-        if not math.isfinite(g):
-            message = "location failed: non-finite test value"
+        try:
+            v = value(info) if value is not None else math.nan
+            lower = bool(side(info, v))
+        except (ArithmeticError, ValueError) as exc:  # LinAlgError is a ValueError
+            message = f"location failed: {type(exc).__name__}: {exc}"
             break
-        if event.integer_valued:
-            if g == ref:
-                s_lo, p_lo, true_lo = s, info, g
-            else:
-                s_hi, p_hi, true_hi = s, info, g
-            continue
-        if g == 0.0 or abs(g) <= 1e-15 * scale_g:
+        # a zero of the test is the change itself only where the test decides the side, or on the
+        # near side of a change whose far side cannot be solved; a hybrid narrows on
+        if (math.isfinite(v) and math.isfinite(scale_v) and abs(v) <= vtol * scale_v
+                and (lower if failed_beyond else value_decides)):
             s_lo = s_hi = s
             p_lo = p_hi = info
-            true_lo = true_hi = g
+            v_lo = v_hi = v
             located = True
             break
-        if (g < 0) == (w_lo < 0):
-            s_lo, p_lo, true_lo, w_lo = s, info, g, g
-            if side == -1:
+        # the working value of this end: the test where its sign agrees with the side (an exact zero
+        # counts with the side's sign), else none, so that the next point bisects
+        expected = sign_lo if lower else -sign_lo
+        w = math.nan
+        if math.isfinite(v) and math.isfinite(expected):
+            if v == 0.0:
+                w = expected * 1e-15 * scale_v
+            elif (v > 0) == (expected > 0):
+                w = v
+        if not lower:
+            lam_hi = info.lam
+        if lower:
+            s_lo, p_lo, v_lo, w_lo = s, info, v, w
+            if last == -1 and math.isfinite(w_hi):
                 w_hi *= 0.5
-            side = -1
+            last = -1
         else:
-            s_hi, p_hi, true_hi, w_hi = s, info, g, g
-            if side == 1:
+            s_hi, p_hi, v_hi, w_hi = s, info, v, w
+            if last == 1 and math.isfinite(w_lo):
                 w_lo *= 0.5
-            side = 1
+            last = 1
+        # interpolation that keeps failing to halve the bracket (a test flat on one side, such as the
+        # modulus of multipliers sitting on the circle) gives way to a bisection
+        stalls = stalls + 1 if interpolated and s_hi - s_lo > 0.5 * width else 0
 
-    if event.integer_valued:
-        sigma, point, value = s_hi, p_hi, true_hi
-    elif abs(true_lo) <= abs(true_hi):
-        sigma, point, value = s_lo, p_lo, true_lo
+    if failed_beyond and (lam_hi is None or (math.isfinite(v_lo) and (not math.isfinite(v_hi) or abs(v_lo) <= abs(v_hi)))):
+        sigma, point, val = s_lo, p_lo, v_lo  # the near side: where the branch is smooth
+    elif math.isfinite(v_lo) and math.isfinite(v_hi) and abs(v_lo) < abs(v_hi):
+        sigma, point, val = s_lo, p_lo, v_lo
     else:
-        sigma, point, value = s_hi, p_hi, true_hi
+        sigma, point, val = s_hi, p_hi, v_hi
     if located:
-        message = f"located in {iterations} iterations, |dlam| = {abs(p_hi.lam - p_lo.lam):.1e}"
-    return Location(sigma, point, value, located, iterations, message, (p_lo.lam, p_hi.lam))
+        dlam = abs(lam_hi - p_lo.lam) if lam_hi is not None else lam_rate * (s_hi - s_lo)
+        message = f"located in {iterations} iterations, |dlam| = {dlam:.1e}"
+    return Location(sigma, point, val, located, iterations, message, (p_lo.lam, p_hi.lam))

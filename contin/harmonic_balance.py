@@ -463,22 +463,32 @@ class HarmonicBalance:
             out += law.coefficients
         return out.reshape(-1)
 
-    def _law_terms(self, x, xd, p, J, Jlam, dfdp):
-        """Jacobian and lambda derivative of the exactly integrated laws (arcs into J, Jlam; samples into dfdp)."""
+    def _law_terms(self, x, xd, p, J, Jlam, dfdp, dofs=None):
+        """Jacobian and lambda derivative of the exactly integrated laws (arcs into J, Jlam; samples into dfdp).
+
+        With ``dofs``, ``J`` is the block of those dofs' coefficients (see :meth:`linearize_into`).
+        """
         for el, i, law in self._laws:
-            law.add_jacobian(J)
+            law.add_jacobian(J, dofs)
             dep = el.depends_on(self.k)
             Jlam += law.lam_derivative(self.k == self.kw, self.k if dep else None).reshape(-1)
             if dep and law.quad.full:
                 _, Lp = el.switching_dp(x, xd, self.tau, p, self.k)
                 dfdp += Lp[:, i]
 
-    def _crossing_terms(self, x, xd, p, J, dfdp):
-        """Crossing terms of ``J`` and ``dfdp`` (see :mod:`contin.crossings`)."""
+    def _crossing_terms(self, x, xd, p, J, dfdp, dofs=None):
+        """Crossing terms of ``J`` and ``dfdp`` (see :mod:`contin.crossings`).
+
+        With ``dofs``, ``J`` is the block of those dofs' coefficients (see :meth:`linearize_into`).
+        """
         Omega = p[self.kw] / self.nu
         for el, sw, cr, coef in self._crossings:
             dtdU = crossings.crossing_gradients(cr.phi, cr.gx, cr.gxd, cr.slope, Omega, self.H)
-            crossings.add_crossing_jacobian(cr.intervals, coef, sw.difference, self.theta, dtdU, J)
+            if dofs is None:
+                crossings.add_crossing_jacobian(cr.intervals, coef, sw.difference, self.theta, dtdU, J)
+            else:
+                crossings.add_crossing_jacobian(cr.intervals, coef, sw.difference[:, :, dofs], self.theta,
+                                                dtdU[:, :, dofs], J)
             dt = np.zeros(cr.t.size)
             if self.k == self.kw:  # x' = (w/nu) dx/dtheta at the crossing
                 dt -= np.einsum("kq,kq->k", cr.gxd, cr.dx1) / self.nu / cr.slope
@@ -518,14 +528,46 @@ class HarmonicBalance:
             ``dR/dlambda``.
         """
         p = self.params_at(lam)
+        M, C, K = self._linear_mck(p)
+        # the linear part block by block, O(n^2 H): no dense A0 + Omega A1 + Omega^2 A2 nor dense products
+        J = np.zeros((self.size, self.size))
+        linear_operator(M, C, K, float(p[self.kw]) / self.nu, self.H, J, False)
+        R, Jlam = self.linearize_into(u, lam, J)
+        return R, J, Jlam
+
+    def linearize_into(self, u: np.ndarray, lam: float, J: np.ndarray, dofs=None):
+        """Residual and ``dR/dlambda``, with the nonlinear part of ``dR/du`` added to ``J``.
+
+        The linear part of ``dR/du`` (the block-diagonal ``A``) is left to the
+        caller, who may hold it in another form (:mod:`contin.condensation`
+        holds its Schur complement on ``dofs``).
+
+        Parameters
+        ----------
+        u : ndarray, shape (size,)
+        lam : float
+        J : ndarray, shape (size, size), or (len(dofs)(2H+1), len(dofs)(2H+1)) with ``dofs``
+            Accumulated in place.
+        dofs : ndarray of int, optional
+            Sorted dofs that include every dof a force element acts on or
+            depends on: ``J`` is then the block of their coefficients (rows and
+            columns, harmonic-major as in :mod:`contin.harmonics`) and the
+            nonlinear kernels work on those dofs alone.
+
+        Returns
+        -------
+        R, Jlam : ndarray, shape (size,)
+            The full residual and its lambda derivative.
+        """
+        m = self.size if dofs is None else len(dofs) * (2 * self.H + 1)
+        if J.shape != (m, m):  # the kernels write without bounds checks
+            raise ValueError(f"linearize_into: J must have shape {(m, m)}, got {J.shape}")
+        p = self.params_at(lam)
         fext, dfext = self.excitation(p)
         MCK = self._linear_mck(p)
         M, C, K = MCK
         Omega = float(p[self.kw]) / self.nu  # a Python float: numba types numpy scalars slowly
         U = self._blocks(u)
-        # the linear part block by block, O(n^2 H): no dense A0 + Omega A1 + Omega^2 A2 nor dense products
-        J = np.zeros((self.size, self.size))
-        linear_operator(M, C, K, Omega, self.H, J, False)
         R = linear_apply(M, C, K, Omega, U).reshape(-1) - fext
         dAu = self._linear_dp_times(p, U, MCK)
         Jlam = -dfext if dAu is None else dAu - dfext
@@ -537,16 +579,25 @@ class HarmonicBalance:
             for el in self._dp_forces:
                 el.evaluate_dp(x, xd, self.tau, p, self.k, dfdp)
             if self._crossings:
-                self._crossing_terms(x, xd, p, J, dfdp)
+                self._crossing_terms(x, xd, p, J, dfdp, dofs)
             if self._laws:
                 R += self._law_coefficients()
-                self._law_terms(x, xd, p, J, Jlam, dfdp)
+                self._law_terms(x, xd, p, J, Jlam, dfdp, dofs)
             # when lambda is w, the velocity xdot = (w/nu) x'(theta) depends on it too
-            Rn, Jn = aft.nonlinear_terms(f, dfdx, dfdxd, dfdp, xp, Omega, self.nu, self.H, self.k == self.kw, J)
-            R += Rn
-            Jlam += Jn
+            with_w = self.k == self.kw
+            if dofs is None:
+                Rn, Jn = aft.nonlinear_terms(f, dfdx, dfdxd, dfdp, xp, Omega, self.nu, self.H, with_w, J)
+                R += Rn
+                Jlam += Jn
+            else:
+                # the other dofs carry no force and no force depends on them: their samples are zero
+                Rn, Jn = aft.nonlinear_terms(f[:, dofs], dfdx[:, dofs][:, :, dofs], dfdxd[:, dofs][:, :, dofs],
+                                             dfdp[:, dofs], xp[:, dofs], Omega, self.nu, self.H, with_w, J)
+                rows = (np.arange(2 * self.H + 1)[:, None] * self.n + np.asarray(dofs)[None, :]).reshape(-1)
+                R[rows] += Rn
+                Jlam[rows] += Jn
         self.evaluations += 1
-        return R, J, Jlam
+        return R, Jlam
 
     def hill_matrices(self, u: np.ndarray, lam: float):
         """Coefficient-space matrices of Hill's quadratic eigenproblem.

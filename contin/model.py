@@ -252,6 +252,20 @@ class ForceElement:
         """Multiples of ``tau`` at which the force varies explicitly in time."""
         return ()
 
+    def active_dofs(self) -> tuple | None:
+        """The dofs the force acts on or depends on (through ``x`` or ``x'``), or None if unknown.
+
+        The dofs outside every element's set carry linear terms only, and the
+        harmonic balance eliminates them exactly (:mod:`contin.condensation`).
+        An element that leaves a dof out wrongly makes that elimination wrong,
+        so the default is None: all dofs kept.
+
+        Returns
+        -------
+        tuple of int, sorted, or None
+        """
+        return None
+
     def switching_functions(self, x, xd, tau, p) -> "Switching | None":
         """Switching surfaces of a piecewise-defined law, or None for a smooth one.
 

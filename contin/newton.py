@@ -262,6 +262,10 @@ class NewtonResult:
     factorizations: int = 0
 
 
+#: Within this factor of the tolerance an iteration at its rounding floor is not stopped as stalled.
+STALL_FLOOR = 1e3
+
+
 def _inf_norm(v: np.ndarray) -> float:
     return float(np.max(np.abs(v))) if v.size else 0.0
 
@@ -281,6 +285,7 @@ def newton(
     reuse_lu: bool = True,
     lu0: LUFactor | None = None,
     backtrack: int = 0,
+    stall: int | None = None,
 ) -> NewtonResult:
     """Newton's method for ``F(x) = 0``.
 
@@ -350,6 +355,14 @@ def newton(
         not reduce the residual it is undone (one more evaluation, at ``x0``,
         restores the caller's state) and the iteration goes on as full Newton,
         so a poor ``lu0`` costs two evaluations, never convergence.
+    stall : int, optional
+        Stop, unconverged, after this many consecutive updates none of which
+        reached a smaller residual than the best so far: Newton outside its
+        basin, or cycling on a residual that is only piecewise smooth, rarely
+        recovers, and a continuation step is cheaper to retry shorter. Even
+        slow linear convergence makes a new best at every update; an
+        iteration whose best is within ``STALL_FLOOR`` times ``tol`` (at the
+        rounding floor of its residual) goes on to ``max_iter``.
     backtrack : int
         Largest number of step halvings when a full update does not
         decrease ``||F||_inf`` (0 = plain Newton). A residual that is only
@@ -410,6 +423,7 @@ def newton(
     given = lu0 if reuse_lu else None  # the caller's factorisation, tried on the first update
     step_lu = given
     chords = 0  # consecutive chord steps
+    no_best = 0  # consecutive updates without a new smallest residual
     while True:
         if r <= tol and (xtol is None or step_norm is None or step_norm <= xtol):
             break
@@ -483,6 +497,12 @@ def newton(
         history.append(r)
         if r < best[1]:
             best = (x.copy(), r)
+            no_best = 0
+        else:
+            no_best += 1
+            if stall is not None and no_best >= stall and best[1] > STALL_FLOOR * tol:
+                return fail(f"residual {best[1]:.1e} not improved in {no_best} iterations (stalled; at {r:.1e} "
+                            f"after {k} iterations)", best, F, J, k)
         if r > divergence_factor * max(r0, tol):
             return fail(
                 f"residual grew from {r0:.1e} to {r:.1e} at iteration {k} (diverging)", best, F, J, k

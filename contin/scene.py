@@ -63,6 +63,8 @@ FREQUENCY_RESPONSE = {
     "samples": Key("an integer from 2*harmonics+1 to 2**20, or null",
                    lambda v: v is None or (is_int(v) and 3 <= v <= 2**20), None),
     "crossings": string("exact", ("exact", "interval", "none")),
+    # eliminate the dofs free of nonlinear forces exactly (contin.condensation)
+    "condense": Key("'auto', true or false", lambda v: v == "auto" or isinstance(v, bool), "auto"),
     "stability": string("both", ("hill", "floquet", "both", "none")),
     "stability_options": mapping(),
     "switch": listing([], lambda x: x in ("pd", "bp"), "a list of bifurcation kinds among 'pd', 'bp'"),

@@ -29,7 +29,8 @@ class HomotopyFailed(RuntimeError):
 
 
 def homotopy_start(hb: HarmonicBalance, lam0: float, parameter: str, soft_value: float, guess: np.ndarray,
-                   at: float | None = None, options: ContinuationOptions | None = None) -> np.ndarray:
+                   at: float | None = None, options: ContinuationOptions | None = None,
+                   harmonics: int | None = None) -> np.ndarray:
     """A converged solution of ``hb`` at ``lam = lam0`` by homotopy in ``parameter``.
 
     Parameters
@@ -49,6 +50,10 @@ def homotopy_start(hb: HarmonicBalance, lam0: float, parameter: str, soft_value:
         Value of ``lam`` at which to do the homotopy (default ``lam0``); the
         solution is then continued in ``lam`` to ``lam0``.
     options : ContinuationOptions, optional
+    harmonics : int, optional
+        Do the homotopy with this many harmonics (fewer than ``hb.H``: each
+        step is cheaper), then solve ``hb`` by Newton from its solution padded
+        with zeros; if either fails, the homotopy is done with ``hb.H``.
 
     Returns
     -------
@@ -58,6 +63,20 @@ def homotopy_start(hb: HarmonicBalance, lam0: float, parameter: str, soft_value:
     ------
     HomotopyFailed
     """
+    if harmonics is not None and 0 <= harmonics < hb.H:
+        coarse = hb.with_options(harmonics=int(harmonics))
+        try:
+            u = homotopy_start(coarse, lam0, parameter, soft_value, np.asarray(guess, float)[:coarse.size], at,
+                               options)
+        except HomotopyFailed:
+            u = None
+        if u is not None:
+            padded = np.zeros(hb.size)
+            padded[:u.size] = u  # harmonic-major coefficients: the higher harmonics come last
+            res = solve_at_parameter(hb, padded, lam0, options or ContinuationOptions(newton_max_iter=30))
+            if res.converged:
+                return res.x
+        return homotopy_start(hb, lam0, parameter, soft_value, guess, at, options)
     opts = options or ContinuationOptions(ds=0.01, ds_max=0.1, newton_max_iter=30)
     at = lam0 if at is None else at
     model = hb.model

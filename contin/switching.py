@@ -50,6 +50,7 @@ import numpy as np
 from contin import aft
 from contin.branch import Branch, BranchStatus, SpecialKind, SpecialPoint
 from contin.continuation import ContinuationOptions, continuation
+from contin.grazing import grazing_events
 from contin.harmonics import coefficient_blocks, embed
 from contin.newton import newton
 from contin.stability.floquet import StabilityMethod, StabilityMonitor, StabilityOptions, stability_events
@@ -394,9 +395,13 @@ def switch_at(problem, branch: Branch, point: SpecialPoint, *, options: Continua
         if pd_direction == "hill":
             spec = hill_spectrum(problem, u_star, lam_star, vectors=True)
             j = int(np.argmin(np.abs(spec.multipliers + 1.0)))
-            phi = hill_vector_to_doubled(spec.vectors[:, j], spec.exponents[j], spec.Omega, problem.n, hb2.H)
+            n_hill = getattr(problem, "full", problem).n  # Hill's vectors are full for a condensed problem
+            phi = hill_vector_to_doubled(spec.vectors[:, j], spec.exponents[j], spec.Omega, n_hill, hb2.H)
             if np.linalg.norm(phi) < 0.5:
-                phi = hill_vector_to_doubled(spec.vectors[:, j], spec.exponents[j], spec.Omega, problem.n, hb2.H, "imag")
+                phi = hill_vector_to_doubled(spec.vectors[:, j], spec.exponents[j], spec.Omega, n_hill, hb2.H, "imag")
+            if hasattr(hb2, "restrict"):
+                phi = hb2.restrict(phi)
+                phi /= np.linalg.norm(phi)
         elif pd_direction == "svd":
             phi, _ = period_doubling_direction(hb2, u2, lam_star)
         else:
@@ -430,17 +435,26 @@ def _keep(starts: list, st, failures, kind: str, lam: float, side: int, eps: flo
 def _run(start: BranchStart, lam_range, options: ContinuationOptions, stability: StabilityOptions,
          parameter_name: str, su: float, sl: float, callback=None):
     opts = options.replace(unknown_scale=su, parameter_scale=sl)
-    monitor = None
-    events = []
-    monitors = []
-    if stability.method is not StabilityMethod.NONE:
-        monitor = StabilityMonitor(start.problem, stability)
-        events = stability_events(monitor, folds=not opts.detect_folds)
-        monitors = [monitor]
+    monitor, events, monitors = _stability(start.problem, stability, opts)
     tangent = np.concatenate([start.tangent[:-1] / su, [start.tangent[-1] / sl]])
     br = continuation(start.problem, start.u, start.lam, lam_range, opts, parameter_name=parameter_name,
                       events=events, monitors=monitors, tangent=tangent, solve_start=False, callback=callback)
     return br, monitor
+
+
+def _stability(problem, stability: StabilityOptions, options: ContinuationOptions):
+    """The stability monitor, the events and the monitors of a branch of ``problem``.
+
+    The events are the classified stability changes (with a monitor) and
+    the grazing of contact laws (for a harmonic balance with switching force
+    elements).
+    """
+    monitor, events, monitors = None, [], []
+    if stability.method is not StabilityMethod.NONE:
+        monitor = StabilityMonitor(problem, stability)
+        events = stability_events(monitor, folds=not options.detect_folds)
+        monitors = [monitor]
+    return monitor, events + grazing_events(problem), monitors
 
 
 def _resume(prev: Branch, problem, lam_range, options: ContinuationOptions, name: str, events, monitors, callback):
@@ -682,13 +696,8 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
     diagram = BifurcationDiagram()
 
     # the first branch
-    monitor = None
-    events: list = []
-    monitors: list = []
-    if stability.method is not StabilityMethod.NONE:
-        monitor = StabilityMonitor(problem, stability)
-        events = stability_events(monitor, folds=not options.detect_folds)
-        monitors = [monitor]
+    monitor, events, monitors = _stability(problem, stability, options)
+
     def cb_for(index, prob):
         return callback_factory(index, prob) if callback_factory is not None else callback
 
@@ -734,10 +743,8 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
                     continue  # the new branch leaves the range at once
                 j = len(diagram)
                 if j in previous:
-                    mon = StabilityMonitor(st.problem, stability) if stability.method is not StabilityMethod.NONE else None
-                    ev = stability_events(mon, folds=not options.detect_folds) if mon is not None else []
-                    child = _resume(previous[j], st.problem, lam_range, options, name, ev,
-                                    [mon] if mon is not None else [], cb_for(j, st.problem))
+                    mon, ev, mons = _stability(st.problem, stability, options)
+                    child = _resume(previous[j], st.problem, lam_range, options, name, ev, mons, cb_for(j, st.problem))
                 else:
                     child, mon = _run(st, lam_range, options, stability, name, su, sl, cb_for(j, st.problem))
                 child.info.update(parent=i, origin=_origin(sp, i, st), depth=depth + 1)

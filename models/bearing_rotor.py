@@ -133,6 +133,10 @@ def whirl_components(u: np.ndarray, n_dof: int, nu: int) -> dict:
     return out
 
 
+#: Harmonics of the homotopy in the contact stiffness (the start at full H follows by Newton).
+HOMOTOPY_HARMONICS = 8
+
+
 def _homotopy_start(hb, lam0: float):
     """Start by homotopy in the contact stiffness (see :mod:`contin.start`).
 
@@ -150,13 +154,16 @@ def _homotopy_start(hb, lam0: float):
     f0 = hb.p0[hb.model.parameter_index("f0")]
     side = 1.0 if f0 >= 0 else -1.0
     guess[:4] = [0.0, side * 0.5, 0.0, side * 0.2]
+    # the homotopy with few harmonics: pressed on its casing the bearing's orbit is nearly harmonic,
+    # and Newton with all of them converges from it
+    coarse = min(hb.H, HOMOTOPY_HARMONICS)
     try:
-        return homotopy_start(hb, lam0, "kbn", 20.0, guess)
+        return homotopy_start(hb, lam0, "kbn", 20.0, guess, harmonics=coarse)
     except HomotopyFailed:
         if hb.parameter != "w":
             raise
         try:
-            return homotopy_start(hb, lam0, "kbn", 20.0, guess, at=2.0)
+            return homotopy_start(hb, lam0, "kbn", 20.0, guess, at=2.0, harmonics=coarse)
         except HomotopyFailed as exc:
             from contin.simulation import SimulationError
 

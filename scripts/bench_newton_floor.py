@@ -16,6 +16,15 @@ at ``H = 10, 20, 40, 80`` and for the forced Duffing oscillator, with the
 breakdown of the iteration (linearize / bordered matrix / factorize / solve)
 so that a ratio above the target of 3 shows where the time goes.
 
+The condensed table compares, for the rotor at ``H = 40`` and ``80``, one
+iteration of the problem condensed onto the bearing's dofs ``x2, y2``
+(:mod:`contin.condensation`: the disc's ``x1, y1`` carry no nonlinear force
+and are eliminated exactly, harmonic by harmonic) with the full iteration and
+with its own floor (one dense LU of the condensed order plus the FFTs of the
+kept dofs), all interleaved in the same rounds. There each linearisation (full
+and condensed) is at a new value of ``lambda`` (by 1e-12 relative), as in the
+corrector, so the condensed blocks are rebuilt every time.
+
 The second table is the cost per Newton iteration and per continuation point
 of the rotor as ``H`` grows, with the exponent of the growth between
 successive ``H`` against the ``O((nH)^3)`` of the LU: where the measured
@@ -49,10 +58,14 @@ from contin.newton import factorize
 
 
 class Iteration:
-    """One corrector update as the continuation engine performs it, split in its stages."""
+    """One corrector update as the continuation engine performs it, split in its stages.
 
-    def __init__(self, hb: HarmonicBalance, u: np.ndarray, lam: float):
-        self.hb, self.u, self.lam = hb, u, lam
+    ``fresh_lambda``: linearise at a new ``lambda`` (by 1e-12 relative) each call, as the corrector does, so
+    that what depends on ``lambda`` alone is recomputed rather than taken from a cache.
+    """
+
+    def __init__(self, hb: HarmonicBalance, u: np.ndarray, lam: float, fresh_lambda: bool = False):
+        self.hb, self.u, self.lam, self.fresh = hb, u, lam, fresh_lambda
         m = hb.size
         self.m = m
         self.su = np.full(m, max(float(np.max(np.abs(u))), 1e-12))
@@ -62,9 +75,15 @@ class Iteration:
         self.A = np.empty((m + 1, m + 1))
         self.F = np.empty(m + 1)
         self.A[m] = self.t
+        self.calls = 0
 
     def linearize(self):
-        return self.hb.linearize(self.u, self.lam)
+        if not self.fresh:
+            return self.hb.linearize(self.u, self.lam)
+        # lambda moves in every corrector update: a new value each call, so that what depends on it alone
+        # (the excitation, the condensed problem's blocks) is recomputed as in the engine
+        self.calls += 1
+        return self.hb.linearize(self.u, self.lam * (1.0 + 1e-12 * self.calls))
 
     def border(self, R, Ju, Jlam):
         m = self.m
@@ -80,13 +99,13 @@ class Iteration:
         return lu.solve(-F)
 
 
-def measure(hb: HarmonicBalance, u: np.ndarray, lam: float, repeat: int, rounds: int = 7) -> dict:
-    """Iteration, its stages and its floor, measured in interleaved rounds (the best of each kept).
+def _stages(hb, u: np.ndarray, lam: float, fresh_lambda: bool = False) -> dict:
+    """The timed stages of one iteration of ``hb`` and of its floor.
 
-    Interleaving puts the iteration and its floor under the same load of a
-    shared machine; the minimum over rounds drops the interruptions.
+    ``hb``: any problem with ``linearize``, ``size``, ``n`` and ``N`` (a condensed one too);
+    ``fresh_lambda``: linearise at a new ``lambda`` each call (see :class:`Iteration`).
     """
-    it = Iteration(hb, u, lam)
+    it = Iteration(hb, u, lam, fresh_lambda)
     R, Ju, Jlam = it.linearize()
     F, A = it.border(R, Ju, Jlam)
     lu = factorize(A)
@@ -94,7 +113,7 @@ def measure(hb: HarmonicBalance, u: np.ndarray, lam: float, repeat: int, rounds:
     rng = np.random.default_rng(1)
     B = rng.normal(size=(m1, m1)) + m1 * np.eye(m1)
     X = np.fft.rfft(rng.normal(size=(hb.N, hb.n)), axis=0)
-    stages = {
+    return {
         "it": it,
         "lin": it.linearize,
         "border": lambda: it.border(R, Ju, Jlam),
@@ -103,6 +122,10 @@ def measure(hb: HarmonicBalance, u: np.ndarray, lam: float, repeat: int, rounds:
         "lu": lambda: scipy.linalg.lu_factor(B),
         "fft": lambda: np.fft.rfft(np.fft.irfft(X, hb.N, axis=0), axis=0),
     }
+
+
+def _best(stages: dict, repeat: int, rounds: int) -> dict:
+    """The best time of each stage over ``rounds`` rounds, the stages interleaved in each round."""
     best = {k: math.inf for k in stages}
     for fn in stages.values():
         fn()
@@ -112,8 +135,42 @@ def measure(hb: HarmonicBalance, u: np.ndarray, lam: float, repeat: int, rounds:
             for _ in range(repeat):
                 fn()
             best[k] = min(best[k], (time.perf_counter() - t) / repeat)
+    return best
+
+
+def _summary(best: dict, hb) -> dict:
+    best = dict(best)
     best["floor"] = best["lu"] + best["fft"]
-    return dict(size=m1, N=hb.N, ratio=best["it"] / best["floor"], **best)
+    return dict(size=hb.size + 1, N=hb.N, ratio=best["it"] / best["floor"], **best)
+
+
+def measure(hb: HarmonicBalance, u: np.ndarray, lam: float, repeat: int, rounds: int = 7) -> dict:
+    """Iteration, its stages and its floor, measured in interleaved rounds (the best of each kept).
+
+    Interleaving puts the iteration and its floor under the same load of a
+    shared machine; the minimum over rounds drops the interruptions.
+    """
+    return _summary(_best(_stages(hb, u, lam), repeat, rounds), hb)
+
+
+def measure_condensed(hb: HarmonicBalance, u: np.ndarray, lam: float, repeat: int, rounds: int = 7):
+    """The full and the condensed iteration with their floors, all stages interleaved in the same rounds.
+
+    Returns
+    -------
+    full, condensed : dict
+        As :func:`measure`; the condensed floor is the LU of the condensed
+        order plus the FFTs of the kept dofs.
+    """
+    from contin.condensation import condense
+
+    ch = condense(hb)
+    both = {("f", k): fn for k, fn in _stages(hb, u, lam, True).items()}
+    both.update({("c", k): fn for k, fn in _stages(ch, ch.restrict(u), lam, True).items()})
+    best = _best(both, repeat, rounds)
+    full = _summary({k: v for (s, k), v in best.items() if s == "f"}, hb)
+    cond = _summary({k: v for (s, k), v in best.items() if s == "c"}, ch)
+    return full, cond
 
 
 def rotor_samples(H: int) -> int:
@@ -186,6 +243,18 @@ def main(argv=None) -> int:
     print_table(rows)
     worst = max(r["ratio"] for _, r in rows)
     print(f"largest ratio iteration / floor: {worst:.2f} (target <= 3)")
+
+    print()
+    print("rotor condensed onto the bearing dofs (x2, y2), against the full problem; times in us")
+    print(f"{'H':>4s} {'full order':>11s} {'full it':>8s} {'full floor':>11s} | {'cond order':>11s} {'cond it':>8s} "
+          f"{'linearize':>10s} {'factorize':>10s} {'cond floor':>11s} | {'full/cond it':>13s} {'cond it/floor':>14s}")
+    for H in [h for h in hs if h >= 40] or hs:
+        hb, u = rotor_solution(H)
+        f, c = measure_condensed(hb, u, 2.16, max(2, 4000 // (H * H)), 3 if a.quick else 7)
+        print(f"{H:4d} {f['size']:11d} {f['it'] * 1e6:8.0f} {f['floor'] * 1e6:11.0f} | {c['size']:11d} "
+              f"{c['it'] * 1e6:8.0f} {c['lin'] * 1e6:10.0f} {c['fac'] * 1e6:10.0f} {c['floor'] * 1e6:11.0f} | "
+              f"{f['it'] / c['it']:13.2f} {c['ratio']:14.2f}")
+    print("(the condensed floor: lu_factor of the condensed order + irfft/rfft of the kept dofs)")
 
     print()
     print("rotor: cost growth with H (exponent between successive H; the LU alone grows as H^3)")

@@ -590,3 +590,76 @@ def test_a_crawling_branch_stops_with_its_points_kept():
     np.testing.assert_allclose(br.unknowns[:, 0], br.parameter, atol=1e-12)
     with pytest.raises(ValueError, match="stall_points must be an integer >= 2"):
         ContinuationOptions(stall_points=1)
+
+
+# --------------------------------------------------------------------------
+# events that predict their change (step caps) and barriers
+# --------------------------------------------------------------------------
+class Line:
+    """u - lam = 0 (the branch u = lam)."""
+
+    def residual(self, u, lam):
+        return np.array([u[0] - lam])
+
+    def linearize(self, u, lam):
+        return self.residual(u, lam), np.array([[1.0]]), np.array([-1.0])
+
+
+def test_a_pair_of_close_changes_is_not_stepped_over_when_the_event_predicts_it():
+    """A test out of [0.5, 0.52] and back: one long step would see the same sign at both ends.
+
+    The distance (a smooth function through both zeros) lets the engine keep its steps near
+    the predicted zero, so both changes are located, to 1e-10.
+    """
+    g = lambda p: (p.lam - 0.5) * (p.lam - 0.52)
+    blind = FunctionEvent(g, name="window")
+    seeing = FunctionEvent(g, name="window", distance=g)
+    opts = ContinuationOptions(ds=0.05, ds_max=0.5)
+    missed = continuation(Line(), [0.0], 0.0, (0.0, 1.0), opts, events=[blind])
+    assert not missed.points_of_kind(SpecialKind.USER)  # the steps jump over the window
+    found = continuation(Line(), [0.0], 0.0, (0.0, 1.0), opts, events=[seeing]).points_of_kind(SpecialKind.USER)
+    assert [p.parameter for p in found] == pytest.approx([0.5, 0.52], abs=1e-10)
+
+
+class Ends:
+    """u - lam = 0 up to lam = 0.7, no solution beyond (a boundary of the problem's domain)."""
+
+    def __init__(self):
+        self.calls = 0
+
+    def residual(self, u, lam):
+        return np.array([u[0] - lam])
+
+    def linearize(self, u, lam):
+        self.calls += 1
+        if lam > 0.7:
+            raise ArithmeticError("outside the domain")
+        return self.residual(u, lam), np.array([[1.0]]), np.array([-1.0])
+
+
+def test_a_barrier_is_located_from_the_near_side_and_ends_the_branch():
+    prob = Ends()
+    edge = FunctionEvent(lambda p: float(p.lam > 0.7), integer_valued=True, kind="grazing", name="edge",
+                         distance=lambda p: 0.7 - p.lam, barrier=True)
+    br = continuation(prob, [0.0], 0.0, (0.0, 1.0), ContinuationOptions(ds=0.05, ds_max=0.2), events=[edge])
+    assert br.status is BranchStatus.BOUNDARY
+    assert "cannot pass the grazing point at lambda=0.7" in br.message
+    (p,) = br.points_of_kind(SpecialKind.GRAZING)
+    assert p.located and p.parameter == pytest.approx(0.7, abs=1e-10)
+    assert br.parameter[-1] == pytest.approx(0.7, abs=1e-10)  # the last stored point is the barrier's
+    assert prob.calls < 80  # a few solves, no crawl to ds_min
+
+
+def test_without_a_barrier_the_same_problem_ends_as_a_failure():
+    br = continuation(Ends(), [0.0], 0.0, (0.0, 1.0), ContinuationOptions(ds=0.05, ds_max=0.2))
+    assert br.status is BranchStatus.STEP_TOO_SMALL
+    assert br.parameter[-1] <= 0.7
+
+
+def test_a_barrier_the_branch_passes_is_recorded_and_passed():
+    edge = FunctionEvent(lambda p: float(p.lam > 0.7), integer_valued=True, kind="grazing", name="edge",
+                         distance=lambda p: 0.7 - p.lam, barrier=True)
+    br = continuation(Line(), [0.0], 0.0, (0.0, 1.0), ContinuationOptions(ds=0.05, ds_max=0.2), events=[edge])
+    assert br.status is BranchStatus.RANGE_END
+    (p,) = br.points_of_kind(SpecialKind.GRAZING)
+    assert p.parameter == pytest.approx(0.7, abs=1e-10)

@@ -11,7 +11,7 @@ import pytest
 from conftest import fd_jacobian
 from scipy.integrate import quad
 
-from contin import aft
+from contin import aft, crossings
 from contin.branch import BranchStatus
 from contin.continuation import ContinuationOptions, continuation
 from contin.elements import GapForce, RadialGapForce
@@ -201,3 +201,130 @@ def test_branch_passes_grazing_where_the_sampled_law_stalls():
     assert amp.min() < 0.5 < amp.max()  # contact onset inside the range
     br0, _ = ends[False]
     assert br0.status is not BranchStatus.RANGE_END or len(br0) > 2 * len(br)
+
+
+def _planar_contact_orbit():
+    """Three dofs with a radial clearance on the first two, and an orbit that crosses it eight times.
+
+    The third dof carries no contact force and the switching function does not depend on it, so
+    the crossing terms fill the rows and columns of two of the three dofs only.
+    """
+    model = polynomial_model(["x", "y", "z"], {"c": 0.05, "F": 0.3, "w": 1.0, "g": 0.5, "kc": 40.0, "cc": 0.5},
+                             mass=np.eye(3).tolist(), damping=[["c", 0, 0], [0, "c", 0], [0, 0, "c"]],
+                             stiffness=[[1.0, 0, 0.3], [0, 1.0, 0], [0.3, 0, 2.0]],
+                             forcing=[{"dof": "x", "amplitude": "F"}])
+    mono = [Monomial(1.0, ((model.parameter_index(s), 1),)) for s in ("g", "kc", "cc")]
+    model.forces.append(RadialGapForce((0, 1), *mono))
+    U = np.zeros((15, 3))
+    U[0] = [0.05, -0.02, 0.1]
+    U[1] = [0.55, 0.0, 0.2]  # a_1
+    U[2] = [0.0, 0.35, 0.0]  # b_1
+    U[5] = [0.1, 0.0, 0.05]  # a_3
+    U[6] = [0.0, -0.1, 0.0]  # b_3
+    U[9] = [0.12, 0.02, 0.0]  # a_5
+    U[10] = [0.0, 0.1, 0.0]  # b_5
+    return model, U.reshape(-1)
+
+
+@pytest.mark.parametrize("lam", ["w", "cc"])
+def test_crossing_jacobian_with_several_switches_equals_finite_differences(lam):
+    """dR/du and dR/dlambda against central differences on an orbit with eight transversal switches."""
+    model, u = _planar_contact_orbit()
+    hb = HarmonicBalance(model, lam, HBOptions(harmonics=7, samples=128, crossings="interval"))
+    lam0 = 1.1 if lam == "w" else hb.p0[hb.k]
+    _, J, Jl = hb.linearize(u, lam0)
+    (_, _, cr, _), = hb._crossings
+    assert cr.t.size == 8 and np.abs(cr.slope).min() > 0.01
+    Jfd = fd_jacobian(lambda v: hb.residual(v, lam0), u)
+    Jlfd = fd_jacobian(lambda v: hb.residual(u, v[0]), np.array([lam0]))[:, 0]
+    assert np.abs(J - Jfd).max() < 1e-8 * np.abs(J).max()
+    assert np.abs(Jl - Jlfd).max() < 1e-7 * max(1.0, np.abs(Jl).max())
+
+
+def test_crossing_jacobian_kernel_is_the_sum_of_rank_one_terms_on_any_dof_selection():
+    """add_crossing_jacobian against P(theta_a) (x) dc_a/dt L_a (x) dt/dU summed term by term, on all
+    dofs and on the slices of the contact dofs (a Jacobian restricted to them)."""
+    model, u = _planar_contact_orbit()
+    hb = HarmonicBalance(model, "w", HBOptions(harmonics=7, samples=128, crossings="interval"))
+    hb.linearize(u, 1.1)
+    (_, sw, cr, coef), = hb._crossings
+    H, N, n = hb.H, hb.N, hb.n
+    dtdU = crossings.crossing_gradients(cr.phi, cr.gx, cr.gxd, cr.slope, 1.1, H)
+    ref = np.zeros((hb.size, hb.size))
+    hh = np.arange(1, H + 1)
+    for k, (j, j1, i) in enumerate(cr.intervals):
+        for side, a in enumerate((j, j1)):
+            P = np.concatenate([[1.0], np.column_stack([2 * np.cos(hh * hb.theta[a]),
+                                                        2 * np.sin(hh * hb.theta[a])]).ravel()]) / N
+            ref += np.outer(np.kron(P, coef[k, 2 + side] * sw.difference[a, i]), dtdU[k].ravel())
+    J = np.zeros((hb.size, hb.size))
+    crossings.add_crossing_jacobian(cr.intervals, coef, sw.difference, hb.theta, dtdU, J)
+    assert np.abs(J - ref).max() < 1e-13 * np.abs(ref).max()
+    assert np.abs(ref.reshape(2 * H + 1, n, 2 * H + 1, n)[:, 2]).max() == 0.0  # no row nor column of z
+    dofs = np.array([0, 1])
+    idx = (np.arange(2 * H + 1)[:, None] * n + dofs).ravel()
+    Js = np.zeros((idx.size, idx.size))
+    crossings.add_crossing_jacobian(cr.intervals, coef, sw.difference[:, :, dofs], hb.theta, dtdU[:, :, dofs], Js)
+    assert np.abs(Js - ref[np.ix_(idx, idx)]).max() < 1e-13 * np.abs(ref).max()
+
+
+def test_series_and_crossing_gradients_equal_direct_evaluation(rng):
+    """The harmonics by recurrence against cos(h phi), sin(h phi) one by one, at 80 harmonics."""
+    H, n, K = 80, 3, 50
+    U = rng.normal(size=(2 * H + 1, n)) / (1.0 + np.arange(2 * H + 1))[:, None]
+    phi = rng.uniform(0.0, 2 * np.pi, K)
+    hh = np.arange(1, H + 1)
+    c, s = np.cos(np.outer(phi, hh)), np.sin(np.outer(phi, hh))
+    a, b = U[1::2], U[2::2]
+    x = U[0] + c @ a + s @ b
+    x1 = (s * -hh) @ a + (c * hh) @ b
+    x2 = -(c * hh ** 2) @ a - (s * hh ** 2) @ b
+    for got, want in zip(crossings.series_at(U, phi), (x, x1, x2)):
+        assert np.abs(got - want).max() < 1e-13 * np.abs(want).max()
+    gx, gxd, slope, Omega = rng.normal(size=(K, n)), rng.normal(size=(K, n)), rng.normal(size=K), 0.7
+    got = crossings.crossing_gradients(phi, gx, gxd, slope, Omega, H)
+    want = np.empty_like(got)
+    want[:, 0] = gx
+    want[:, 1::2] = gx[:, None] * c[:, :, None] - Omega * gxd[:, None] * (hh * s)[:, :, None]
+    want[:, 2::2] = gx[:, None] * s[:, :, None] + Omega * gxd[:, None] * (hh * c)[:, :, None]
+    want *= -1.0 / slope[:, None, None]
+    assert np.abs(got - want).max() < 1e-13 * np.abs(want).max()
+
+
+class _Counting:
+    """An element whose switching functions count their evaluations."""
+
+    def __init__(self, element):
+        self.element, self.calls = element, 0
+
+    def switching_functions(self, x, xd, tau, p):
+        self.calls += 1
+        return self.element.switching_functions(x, xd, tau, p)
+
+
+@pytest.mark.parametrize("excess", [0.2, 1e-9, 1e-12])
+def test_crossings_are_located_to_rounding_in_few_evaluations(excess):
+    """x = OFFSET + A cos(theta) reaching excess beyond the stop: the roots of x = G against arccos.
+
+    Near the tangential touch (small excess) h is known only to its rounding error over a small
+    slope; the iteration stops there instead of wandering for its full count of steps.
+    """
+    el = _Counting(_gap())
+    N, H = 64, 5
+    A = G - OFFSET + excess
+    U = np.zeros((2 * H + 1, 1))
+    U[0, 0], U[1, 0] = OFFSET, A
+    theta = 2 * np.pi * np.arange(N) / N
+    x = OFFSET + A * np.cos(theta)[:, None]
+    h = el.element.switching_functions(x, np.zeros_like(x), theta, np.zeros(0)).value
+    cr = crossings.locate_crossings(el, U, 1.0, theta, h, np.zeros(0))
+    root = 2 * np.arcsin(np.sqrt((A - (G - OFFSET)) / (2 * A)))  # cos(root) = (G - OFFSET) / A, accurately
+    roots = [root, 2 * np.pi - root]
+    if A > G + OFFSET:
+        back = np.arccos((-G - OFFSET) / A)
+        roots += [back, 2 * np.pi - back]
+    assert cr.t.size == len(roots)
+    assert np.all((cr.t >= 0.0) & (cr.t <= 1.0))
+    err = np.abs(cr.phi[:, None] - np.array(roots)[None]).min(axis=1)
+    assert err.max() < 1e-13 / np.abs(cr.slope).min()  # rounding of h ~1e-17 over the slope
+    assert el.calls <= 10  # measured 3 to 8; 41 (every step) when wandering inside the rounding error

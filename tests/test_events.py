@@ -15,6 +15,8 @@ from contin.events import (
     changed_components,
     evaluate_test,
     locate,
+    narrow,
+    predicted_zero,
 )
 
 
@@ -170,3 +172,38 @@ def test_describe_and_vector_tests():
     (loc,) = locate(ev, 1, arc_point_at(lambda s: s), 1.0, a, b, ga[1], gb[1])
     assert loc.point.lam == pytest.approx(0.5, abs=1e-10)
     assert ev.describe(loc.point) == {"where": loc.point.lam}
+
+
+def test_narrow_uses_the_continuous_test_and_keeps_the_bracket_by_the_side():
+    calls = []
+    point_at = arc_point_at(lambda s: s, calls=calls)
+    a, b = info(0.0), info(1.0, s=1.0)
+    side = lambda p, v: p.lam <= 0.37
+    loc = narrow(point_at, 0.0, 1.0, a, b, -0.37, 0.63, 1.0, side=side, value=lambda p: p.lam - 0.37, tol=1e-12)
+    assert loc.located and loc.point.lam == pytest.approx(0.37, abs=1e-12)
+    assert len(calls) <= 6  # regula falsi on a linear test
+    # a continuous test that disagrees with the side (its zero is elsewhere) cannot move the bracket off
+    calls.clear()
+    loc = narrow(point_at, 0.0, 1.0, a, b, -0.2, 0.8, 1.0, side=side, value=lambda p: p.lam - 0.2, tol=1e-12)
+    assert loc.located and abs(loc.point.lam - 0.37) <= 1e-12
+    assert len(calls) <= 60
+
+
+def test_narrow_counts_failed_solves_beyond_the_change():
+    """No solution past 0.37 + 1e-4 (a grazing): located on the near side, where the test is smooth."""
+
+    def point_at(s):
+        return (None, "no solution") if s > 0.3701 else (info(s, s=s), "")
+
+    a, b = info(0.0), info(0.5, s=0.5)
+    loc = narrow(point_at, 0.0, 0.5, a, b, 0.37, -0.13, 0.5, side=lambda p, v: p.lam < 0.37,
+                 value=lambda p: 0.37 - p.lam, tol=1e-10, vtol=1e-9, failed_beyond=True)
+    assert loc.located and loc.point.lam <= 0.37
+    assert loc.point.lam == pytest.approx(0.37, abs=1e-9)
+
+
+def test_predicted_zero():
+    assert predicted_zero(1.0, 0.5, 0.1) == pytest.approx(0.1)
+    assert predicted_zero(-1.0, -0.5, 1.0) == pytest.approx(1.0)
+    assert predicted_zero(0.5, 1.0, 1.0) == math.inf  # moving away
+    assert predicted_zero(float("nan"), 1.0, 1.0) == math.inf

@@ -4,10 +4,18 @@ Traces the branch of order ``nu`` from the start of ``range`` with
 pseudo-arclength continuation, with stability where requested, switches at
 the requested bifurcations, and streams ``branches.csv`` and
 ``special_points.csv`` as points are found.
+
+With ``analysis.condense`` (``auto``, ``true``, ``false``) the engine follows
+the problem condensed onto the dofs that carry nonlinear forces
+(:mod:`contin.condensation`); everything written stays full: the measures,
+the special points, and the coefficients ``u`` in ``state.jsonl`` (whose
+tangents are the engine's, in the kept dofs' coefficients, listed as
+``dofs`` in each branch record).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import time
 
@@ -17,13 +25,14 @@ from contin.analyses import register_analysis
 from contin.branch import BranchStatus
 from contin.continuation import ContinuationOptions
 from contin.harmonic_balance import HarmonicBalance, HBOptions
-from contin.checkpoint import encode, special_record
+from contin.checkpoint import decode, encode, special_record
+from contin.condensation import condensation_dofs, condense, restrict_coefficients
 from contin.measures import measure_names, point_measures
 from contin.checkpoint import read_records, rebuild_branches
 from contin.results import CsvStream, read_csv, truncate_to_valid_rows
 from contin.scene import SceneError
 
-__all__ = ["run", "BranchRecorder", "build_problem"]
+__all__ = ["run", "BranchRecorder", "build_problem", "engine_problem"]
 
 SPECIAL_EXTRA = ["interval_lo", "interval_hi", "located", "detail"]
 
@@ -44,6 +53,31 @@ def build_problem(scene, model) -> HarmonicBalance:
         return HarmonicBalance(model, param, opts)
     except ValueError as exc:
         raise SceneError("analysis", "a discretisation the model can use", None, hint=f": {exc}") from None
+
+
+def engine_problem(scene, hb: HarmonicBalance):
+    """The problem the continuation follows: ``hb`` condensed as ``analysis.condense`` says.
+
+    ``auto`` condenses when dofs free of nonlinear forces can be eliminated
+    safely (:func:`contin.condensation.condense`), ``true`` whenever any can
+    (an error naming the key when none can), ``false`` never.
+    """
+    how = scene.analysis.get("condense", "auto")
+    if how is False:
+        return hb
+    try:
+        return condense(hb, require=how is True)
+    except ValueError as exc:
+        raise scene.error("analysis.condense", "a model with dofs free of nonlinear forces (or auto/false)", True,
+                          hint=f": {exc}") from None
+
+
+def condensation_summary(hb: HarmonicBalance, problem) -> dict:
+    """What ``summary.json`` says of the condensation: the kept dofs and unknowns, or why there was none."""
+    if problem is hb:
+        _, why = condensation_dofs(hb)
+        return {"condensed": False, "reason": why or "analysis.condense is false"}
+    return {"condensed": True, "dofs": problem.dof_names, "unknowns": problem.size, "full_unknowns": hb.size}
 
 
 def continuation_options(scene, lam_start: float, lam_end: float) -> ContinuationOptions:
@@ -85,9 +119,18 @@ class BranchRecorder:
         self.n_rows = self.rows.rows
         self._written_special: dict[int, int] = {}
         self._headers: set = set()
-        self.offsets: dict[int, int] = {}
+        self.offsets: dict[int, int] = {}  # branch id -> its first row (of this run or a resumed one)
+        self._engine_offsets: dict[int, int] = {}  # branch id -> row of the engine's index 0 in this run
         self.curves: dict[int, dict] = {}
         self.special_list: list[dict] = []
+        self.problems: dict = {}  # branch id -> its problem, to expand condensed unknowns
+
+    def _full(self, branch_id: int, u, lam: float, problem=None):
+        """Full coefficients of the engine's ``u`` (expanded when the branch's problem is condensed)."""
+        problem = self.problems.get(branch_id) if problem is None else problem
+        if problem is None or not hasattr(problem, "expand"):
+            return np.asarray(u)
+        return problem.expand(u, lam)
 
     def _measures(self, u, n, nu):
         out = point_measures(u, n, self.dof_names, self.harmonic_columns)
@@ -95,10 +138,13 @@ class BranchRecorder:
             out.update(self.observables(u, n, nu))
         return out
 
-    def point(self, branch_id: int, nu: int, branch, i: int, H: int | None = None) -> None:
+    def point(self, branch_id: int, nu: int, branch, i: int, H: int | None = None, problem=None) -> None:
         self.offsets.setdefault(branch_id, self.n_rows - i)
-        u = branch.unknowns[i]
+        self._engine_offsets.setdefault(branch_id, self.n_rows - i)
+        if problem is not None:
+            self.problems[branch_id] = problem
         lam = float(branch.parameter[i])
+        u = self._full(branch_id, branch.unknowns[i], lam)
         row = {"branch": branch_id, "nu": nu, self.parameter: lam}
         pd = branch.point_data
         if "stable" in pd:
@@ -112,9 +158,11 @@ class BranchRecorder:
         if branch_id not in self._headers:
             self._headers.add(branch_id)
             su = branch.info.get("unknown_scale")
+            kept = getattr(self.problems.get(branch_id), "dofs", None)
             self.state.write(json.dumps(encode({"type": "branch", "branch": branch_id, "nu": nu, "H": H,
                                                 "unknown_scale": None if su is None else np.asarray(su),
-                                                "parameter_scale": branch.info.get("parameter_scale")})) + "\n")
+                                                "parameter_scale": branch.info.get("parameter_scale"),
+                                                "dofs": None if kept is None else [int(d) for d in kept]})) + "\n")
         self.state.write(json.dumps({"type": "point", "row": self.n_rows, "branch": branch_id, "nu": nu, "H": H,
                                      "lam": lam, "u": u.tolist(), "tangent": branch.tangents[i].tolist()}) + "\n")
         self.state.flush()
@@ -125,8 +173,10 @@ class BranchRecorder:
         c["rows"].append(row)
         c["stable"].append(row.get("stable"))
 
-    def special_points(self, branch_id: int, branch) -> None:
-        off = self.offsets.get(branch_id, self.n_rows - len(branch))
+    def special_points(self, branch_id: int, branch, problem=None) -> None:
+        if problem is not None:
+            self.problems[branch_id] = problem
+        off = self._engine_offsets.get(branch_id, self.offsets.get(branch_id, self.n_rows - len(branch)))
         done = self._written_special.get(branch_id, 0)
         self._written_special[branch_id] = len(branch.special_points)
         for sp in branch.special_points[done:]:
@@ -136,7 +186,10 @@ class BranchRecorder:
             if i + 1 < len(branch) and abs(branch.parameter[i + 1] - sp.parameter) < abs(branch.parameter[i] - sp.parameter):
                 i += 1
             row = {"branch": branch_id, "kind": sp.kind.value, self.parameter: float(sp.parameter), "index": off + i}
-            row.update(self._measures(sp.unknowns, len(self.dof_names), self.curves.get(branch_id, {}).get("nu", 1)))
+            u_full = self._full(branch_id, sp.unknowns, float(sp.parameter))
+            if u_full is not sp.unknowns:
+                sp = dataclasses.replace(sp, unknowns=u_full)
+            row.update(self._measures(u_full, len(self.dof_names), self.curves.get(branch_id, {}).get("nu", 1)))
             lo, hi = sp.interval
             row.update({"interval_lo": float(lo), "interval_hi": float(hi), "located": bool(sp.located),
                         "detail": _detail(sp)})
@@ -148,6 +201,7 @@ class BranchRecorder:
     def restore(self, previous: dict) -> None:
         """Take up the rows and special points of an interrupted run (``--resume``)."""
         rows = read_csv(self.rows.path)
+        self.n_rows = len(rows.get("branch", []))  # the rows of this run continue the numbering
         for r in range(len(rows.get("branch", []))):
             bid = int(rows["branch"][r])
             self.offsets.setdefault(bid, r)
@@ -196,7 +250,7 @@ def _start(scene, model, hb, lam0: float):
     return hb.linear_solution(lam0)
 
 
-def _restore(outdir, parameter: str) -> dict:
+def _restore(outdir, parameter: str, n_dof: int) -> dict:
     """Branches of an interrupted run in ``outdir``, with its files cut back to complete rows."""
     n_rows = truncate_to_valid_rows(outdir / "branches.csv")
     truncate_to_valid_rows(outdir / "special_points.csv")
@@ -205,7 +259,25 @@ def _restore(outdir, parameter: str) -> dict:
     with open(outdir / "state.jsonl", "w") as fh:
         for r in records:
             fh.write(json.dumps(r) + "\n")
-    return rebuild_branches(records, parameter)
+    return rebuild_branches(_engine_records(records, n_dof), parameter)
+
+
+def _engine_records(records: list[dict], n_dof: int) -> list[dict]:
+    """Checkpoint records in the engine's unknowns: the full ``u`` of condensed branches restricted to their dofs."""
+    kept = {r["branch"]: r["dofs"] for r in records if r["type"] == "branch" and r.get("dofs") is not None}
+    if not kept:
+        return records
+    out = []
+    for r in records:
+        dofs = kept.get(r["branch"])
+        if dofs is not None and r["type"] == "point":
+            r = {**r, "u": restrict_coefficients(r["u"], n_dof, dofs).tolist()}
+        elif dofs is not None and r["type"] == "special":
+            point = decode(r["point"])
+            point["unknowns"] = restrict_coefficients(point["unknowns"], n_dof, dofs)
+            r = {**r, "point": encode(point)}
+        out.append(r)
+    return out
 
 
 def _detail(sp) -> str:
@@ -255,9 +327,10 @@ def run(ctx) -> dict:
         opts = continuation_options(sc, lam0, lam_b if lam0 != lam_b else lam_a)
         if a["guess"] is not None and len(a["guess"]) != hb.size:
             raise scene.error(f"{key}.guess", f"{hb.size} numbers (n*(2H+1) coefficients)", f"{len(a['guess'])} numbers")
-        setups.append((sc, hb, lam0, opts, stability_setup(a, hb)))
+        problem = engine_problem(sc, hb)
+        setups.append((sc, hb, problem, lam0, opts, stability_setup(a, problem)))
     hb = setups[0][1]
-    previous = _restore(ctx.outdir, hb.parameter) if ctx.resume else {}
+    previous = _restore(ctx.outdir, hb.parameter, model.n_dof) if ctx.resume else {}
     rec = BranchRecorder(ctx.outdir, model.dof_names, hb.parameter, scene.output["harmonic_columns"], hb.H,
                          append=bool(previous), model=model)
     if previous:
@@ -266,10 +339,12 @@ def run(ctx) -> dict:
     results = []
     t0 = time.perf_counter()
     try:
-        for sc, hb_i, lam0, opts, follow in setups:
+        for sc, hb_i, problem, lam0, opts, follow in setups:
             a = sc.analysis
             u0 = np.array(a["guess"], dtype=float) if a["guess"] is not None else _start(sc, model, hb_i, lam0)
-            results += follow(hb_i, u0, lam0, (lo, hi), opts, rec, ctx, previous, first_id=len(results))
+            if problem is not hb_i:  # the starts are full coefficients
+                u0 = problem.restrict(u0)
+            results += follow(problem, u0, lam0, (lo, hi), opts, rec, ctx, previous, first_id=len(results))
             if ctx.stop_requested or any(b.status == BranchStatus.INTERRUPTED for b, _ in results):
                 break
     finally:
@@ -296,6 +371,7 @@ def run(ctx) -> dict:
     return {
         "parameter": hb.parameter,
         "unknowns": hb.size,
+        "condensation": condensation_summary(hb, setups[0][2]),
         "harmonics": hb.H,
         "subharmonic": hb.nu,
         "samples": hb.N,

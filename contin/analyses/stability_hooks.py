@@ -43,7 +43,7 @@ def stability_setup(analysis: dict, hb):
     def follow(hb, u0, lam0, lam_range, options, rec, ctx, previous=None, first_id=0):
         def factory(index, problem):
             def callback(branch, i):
-                rec.point(index, problem.nu, branch, i, problem.H)
+                rec.point(index, problem.nu, branch, i, problem.H, problem=problem)
                 ctx.progress.update(f"branch {index} (nu={problem.nu})  {problem.parameter}={branch.parameter[i]:.6g}"
                                     f"  point {i}  ds={branch.step_sizes[i]:.3g}")
                 return not ctx.stop_requested
@@ -69,7 +69,7 @@ def stability_setup(analysis: dict, hb):
                 break
         out = []
         for j, (br, prob) in enumerate(pairs, start=first_id):
-            rec.special_points(j, br)
+            rec.special_points(j, br, prob)
             org = br.info.get("origin")
             out.append((br, {"nu": prob.nu, "harmonics": prob.H, "parent": br.info.get("parent"),
                              "origin": None if org is None else {k: org[k] for k in ("kind", "parameter") if k in org}}))

@@ -238,6 +238,11 @@ class ExpressionForce(ForceElement):
     def tau_orders(self):
         return self._tau_orders
 
+    def active_dofs(self):
+        used = set().union(*(ex.free_names(t) for t in self.totals))
+        return tuple(i for i, d in enumerate(self.dof_names)
+                     if self.totals[i] != ex.ZERO or d in used or f"{d}_dot" in used)
+
     def describe(self, dof_names=None, param_names=None):
         dof_names = self.dof_names if dof_names is None else dof_names
         deg = "not polynomial" if self.degree is None else f"degree {self.degree}"

@@ -131,6 +131,9 @@ class StringStretchingForce(ForceElement):
     def depends_on(self, k):
         return self.coefficient.depends_on(k)
 
+    def active_dofs(self):
+        return tuple(np.flatnonzero(self.weights != 0.0).tolist())  # q_i = 0: no force on i, no part in the sum
+
     def describe(self, dof_names, param_names):
         c = _format(self.coefficient, param_names)
         return (f"{self.label}: f_i += {c} * q_i x_i * sum_k q_k x_k^2 with q = "
@@ -178,6 +181,9 @@ class PointForce(ForceElement):
 
     def depends_on(self, k):
         return any(c.depends_on(k) for _, c in self.coefficients)
+
+    def active_dofs(self):
+        return tuple(np.flatnonzero(self.shape != 0.0).tolist())  # s_i = 0: neither pushed nor part of y
 
     def describe(self, dof_names, param_names):
         terms = " + ".join(f"{_format(c, param_names)}*y^{k}" for k, c in self.coefficients)

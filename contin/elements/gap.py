@@ -185,6 +185,9 @@ class GapForce(_ContactForce):
         _gap_switching_kernel(x, xd, self.dof, g, k, c, self.side, self.clip, val, gx, gxd, diff, jump, dx, dxd,
                               which)
 
+    def active_dofs(self):
+        return (int(self.dof),)
+
     def describe(self, dof_names, param_names):
         return (f"{self.label}: contact on {dof_names[self.dof]} beyond clearance (sides {self.sides}), "
                 f"k*(penetration) + c*velocity{', clipped at zero' if self.clip else ''}")
@@ -342,6 +345,9 @@ class RadialGapForce(_ContactForce):
         d, k, c = values
         _radial_switching_kernel(x, xd, self.ix, self.iy, d, k, c, self.clip, val, gx, gxd, diff, jump, dx, dxd,
                                  which)
+
+    def active_dofs(self):
+        return tuple(sorted((self.ix, self.iy)))
 
     def describe(self, dof_names, param_names):
         return (f"{self.label}: radial contact of ({dof_names[self.ix]}, {dof_names[self.iy]}) beyond a clearance, "

@@ -106,6 +106,11 @@ class PolynomialForce(ForceElement):
     def tau_orders(self):
         return tuple(float(o) for o in self.torder if o != 0.0)
 
+    def active_dofs(self):
+        used = set(int(t) for t in self.target)
+        used |= set(np.flatnonzero((self.ex != 0).any(axis=0) | (self.ev != 0).any(axis=0)).tolist())
+        return tuple(sorted(used))
+
     def describe(self, dof_names, param_names):
         parts = []
         for t, c in enumerate(self.coefs):

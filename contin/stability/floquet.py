@@ -60,7 +60,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from contin.branch import SpecialKind
-from contin.events import Event, PointInfo
+from contin.events import Event, PointInfo, narrow, predicted_zero
 from contin.model import suggest
 from contin.stability.hill import hill_spectrum
 from contin.stability.monodromy import (
@@ -152,7 +152,9 @@ class StabilityOptions:
     rtol : float
         Relative tolerance of the ``"dop853"`` integrator.
     eigenvectors : bool
-        Keep Hill's coefficient-space eigenvectors in the results.
+        Keep Hill's coefficient-space eigenvectors in the results (and, with
+        method ``floquet``, compute Hill's critical eigenvector at located
+        stability changes; the other methods always do).
     unit_check : float
         Method BOTH: when a Hill multiplier lies within this distance of
         ``+1`` or ``-1`` (where a fold, branch point or period doubling is
@@ -656,7 +658,10 @@ class StabilityMonitor:
         key = (np.asarray(u, dtype=float).tobytes(), float(lam))
         if key == self._last_key and self.last is not None:
             return self.last
-        res = floquet_multipliers(self.hb, u, lam, self.options, previous=None if self.last is None else self.last.counts)
+        # a condensed problem (contin.condensation): Hill and the monodromy on the full problem and coefficients
+        hb = getattr(self.hb, "full", self.hb)
+        uf = self.hb.expand(u, lam) if hb is not self.hb else u
+        res = floquet_multipliers(hb, uf, lam, self.options, previous=None if self.last is None else self.last.counts)
         self.evaluations += 1
         self.confirmations += int(res.confirmed)
         if res.disagreement:
@@ -725,8 +730,60 @@ def _turns(a: PointInfo, b: PointInfo) -> bool:
     return bool((fa < 0 <= fb) or (fa > 0 >= fb))
 
 
+def _pairing(mu_a: np.ndarray, mu_b: np.ndarray) -> np.ndarray:
+    """Index into ``mu_b`` of the partner of each multiplier of ``mu_a`` (closest overall pairing)."""
+    from scipy.optimize import linear_sum_assignment
+
+    if mu_a.shape != mu_b.shape:
+        return np.full(mu_a.shape, -1)
+    D = np.abs(mu_a[:, None] - mu_b[None, :])
+    r, c = linear_sum_assignment(D)
+    out = np.empty(mu_a.size, dtype=int)
+    out[r] = c
+    return out
+
+
+def _kind_mask(mu: np.ndarray, crossing: str, real_angle_tol: float) -> np.ndarray:
+    ang = np.abs(np.angle(mu))
+    if crossing == "+1":
+        return ang <= real_angle_tol
+    if crossing == "-1":
+        return ang >= np.pi - real_angle_tol
+    return (ang > real_angle_tol) & (ang < np.pi - real_angle_tol)
+
+
 class MultiplierCrossingEvent(Event):
-    """Integer-valued event: the number of unstable multipliers of one type.
+    """A multiplier crossing the unit circle at ``+1``, at ``-1`` or as a complex pair.
+
+    The counts of unstable multipliers (``|mu| > 1 + tolerance``) by type,
+    ``n_plus`` (real positive), ``n_minus`` (real negative) and ``n_complex``,
+    decide whether a crossing happened between two points, by what each
+    crossing changes and what it does not:
+
+    - a real multiplier crossing ``+1`` (``-1``) flips the parity of
+      ``n_plus`` (``n_minus``);
+    - a complex pair crossing changes ``n_unstable`` by 2 and neither parity;
+    - two complex multipliers colliding on the real axis (or two real ones
+      leaving it) outside the circle change ``n_complex`` by 2 and
+      ``n_minus`` (``n_plus``) by 2: no parity and not ``n_unstable``. Such a
+      collision is not a bifurcation and is never reported.
+
+    So ``pd`` is reported where the parity of ``n_minus`` changes (a real
+    multiplier crossing -1), ``ns`` where ``n_unstable`` changes by more
+    than the real crossings account for, and the ``+1`` kinds where the
+    parity of ``n_plus`` changes.
+
+    Location: the counts keep the bracket (bisection); the modulus of the
+    crossing multiplier, followed from one end of the bracket to the other
+    (the pairing of the two ends' multipliers that moves them least, then at
+    each solved point the multiplier nearest to where it is expected),
+    minus ``1 + tolerance``, is the continuous test that the Illinois
+    iteration of :func:`contin.events.narrow` solves, so a point costs a few
+    solves instead of the bisection's dozens. :meth:`step_limit` extrapolates
+    each multiplier's distance to the circle from the last two points: the
+    engine keeps the next step near where the closest one is predicted to
+    cross, so that two crossings close together (a narrow stable window) are
+    not taken in one step.
 
     Parameters
     ----------
@@ -739,12 +796,6 @@ class MultiplierCrossingEvent(Event):
         For ``+1`` with kind ``fold`` the event fires only where the
         parameter component of the tangent changes sign; with kind ``bp``
         only where it does not (the engine's own fold event covers folds).
-
-    Notes
-    -----
-    A change of the count also requires a change of ``n_unstable``: an
-    unstable real pair merging into an unstable complex pair is not a
-    stability change.
     """
 
     integer_valued = True
@@ -761,17 +812,114 @@ class MultiplierCrossingEvent(Event):
         self.key = _CROSSING_COUNT[crossing]
         self.name = f"stability {crossing} ({self.kind.value})"
 
+    # -- counts -----------------------------------------------------------
     def test(self, point: PointInfo) -> float:
-        return float(_counts_of(point, self.monitor)[self.key])
+        d = _counts_of(point, self.monitor)
+        return float(d["n_unstable"] if self.crossing == "complex" else d[self.key])
+
+    def _crossed(self, da: dict, db: dict) -> bool:
+        flip_plus = (int(da["n_plus"]) - int(db["n_plus"])) % 2
+        flip_minus = (int(da["n_minus"]) - int(db["n_minus"])) % 2
+        if self.crossing == "+1":
+            return bool(flip_plus)
+        if self.crossing == "-1":
+            return bool(flip_minus)
+        return abs(int(db["n_unstable"]) - int(da["n_unstable"])) - flip_plus - flip_minus >= 2
 
     def triggered(self, ga, gb, a, b):
-        da, db = _counts_of(a, self.monitor), _counts_of(b, self.monitor)
-        changed = (ga != gb) & (int(da["n_unstable"]) != int(db["n_unstable"]))
+        crossed = self._crossed(_counts_of(a, self.monitor), _counts_of(b, self.monitor))
         if self.crossing == "+1" and self.kind is SpecialKind.FOLD:
-            return changed & _turns(a, b)
-        if self.crossing == "+1" and self.kind is SpecialKind.BP:
-            return changed & (not _turns(a, b))
-        return changed
+            crossed = crossed and _turns(a, b)
+        elif self.crossing == "+1" and self.kind is SpecialKind.BP:
+            crossed = crossed and not _turns(a, b)
+        return np.full(np.shape(ga), crossed)
+
+    # -- location ---------------------------------------------------------
+    def _threshold(self) -> float:
+        return 1.0 + self.monitor.options.tolerance
+
+    def _product(self, mu: np.ndarray) -> float:
+        """``prod (c -+ mu_i)``, ``c = 1 + tolerance``: the real crossings' continuous test.
+
+        Its sign flips exactly where a real multiplier crosses ``+c`` (``-c``),
+        that is where the parity of ``n_plus`` (``n_minus``) flips; conjugate
+        pairs contribute ``|c -+ mu|^2 > 0``, so a collision on the real axis
+        leaves it alone. It is smooth in the parameter even where the
+        multipliers sit on the circle until they meet at ``+-1`` (a
+        conservative system), where a modulus stays flat. (The determinant
+        tests ``det(Phi -+ I)`` of AUTO; Doedel et al., AUTO-07p manual.)
+        """
+        c = self._threshold()
+        terms = c - mu if self.crossing == "+1" else c + mu
+        mag = np.abs(terms)
+        if np.any(mag == 0.0):
+            return 0.0
+        sign = np.prod(terms / mag)  # unit complex; real up to rounding for a conjugate-closed set
+        return float(np.sign(sign.real) * math.exp(min(float(np.sum(np.log(mag))), 700.0)))
+
+    def _tracked(self, a: PointInfo, b: PointInfo):
+        """``(mu_a, mu_b)`` of the multiplier that crosses between ``a`` and ``b``, or None."""
+        mu_a, mu_b = _multipliers_of(a, self.monitor), _multipliers_of(b, self.monitor)
+        pair = _pairing(mu_a, mu_b)
+        if (pair < 0).any():
+            return None
+        tol, thr = self.monitor.options.real_angle_tol, self._threshold()
+        best = None
+        for i, j in enumerate(pair):
+            ma, mb = mu_a[i], mu_b[j]
+            if (abs(ma) > thr) == (abs(mb) > thr):
+                continue
+            if not (_kind_mask(np.array([ma]), "complex", tol)[0] and _kind_mask(np.array([mb]), "complex", tol)[0]):
+                continue
+            if ma.imag < 0:
+                ma, mb = ma.conjugate(), mb.conjugate()
+            size = abs(mb - ma)
+            if best is None or size < best[2]:
+                best = (complex(ma), complex(mb), size)
+        return None if best is None else best[:2]
+
+    def locate(self, component, point_at, h, a, b, ga, gb, *, tol=1e-10, max_iter=60):
+        da = _counts_of(a, self.monitor)
+        thr = self._threshold()
+        if self.crossing == "complex":
+            tracked = self._tracked(a, b)
+            span = b.s - a.s if math.isfinite(b.s - a.s) and b.s != a.s else h
+
+            def value(info):
+                # the modulus of the crossing multiplier, found near where it is expected
+                if tracked is None:
+                    return math.nan
+                q = (info.s - a.s) / span if math.isfinite(info.s) else 0.5
+                target = tracked[0] + q * (tracked[1] - tracked[0])
+                mu = _multipliers_of(info, self.monitor)
+                mu = np.concatenate([mu, mu.conjugate()])
+                return abs(mu[int(np.argmin(np.abs(mu - target)))]) - thr
+
+            v_a, v_b = (abs(tracked[0]) - thr, abs(tracked[1]) - thr) if tracked is not None else (math.nan, math.nan)
+        else:
+            def value(info):
+                return self._product(_multipliers_of(info, self.monitor))
+
+            v_a, v_b = value(a), value(b)
+
+        def side(info, v):
+            return not self._crossed(da, _counts_of(info, self.monitor))
+
+        loc = narrow(point_at, 0.0, h, a, b, v_a, v_b, h, side=side, value=value, tol=tol, max_iter=max_iter)
+        loc.value = self.test(loc.point)
+        return [loc]
+
+    def step_limit(self, a: PointInfo, b: PointInfo, h: float) -> float:
+        mu_a, mu_b = _multipliers_of(a, self.monitor), _multipliers_of(b, self.monitor)
+        pair = _pairing(mu_b, mu_a)
+        if (pair < 0).any():
+            return math.inf
+        thr = self._threshold()
+        mine = _kind_mask(mu_b, self.crossing, self.monitor.options.real_angle_tol)
+        limit = math.inf
+        for i in np.flatnonzero(mine):
+            limit = min(limit, predicted_zero(abs(mu_a[pair[i]]) - thr, abs(mu_b[i]) - thr, h))
+        return limit
 
     def describe(self, point: PointInfo) -> dict:
         return describe_crossing(self.monitor, point, self.crossing, self.kind)
@@ -836,7 +984,8 @@ def describe_crossing(monitor: StabilityMonitor, point: PointInfo, crossing: str
         ``exponent`` (complex), ``eigenvector`` (ndarray (m,) complex,
         coefficient space, unit 2-norm; Hill's, even when the monodromy's
         multipliers are reported; absent for a monitor without a
-        harmonic-balance problem, ``monitor.hb`` None), ``n_unstable``,
+        harmonic-balance problem, ``monitor.hb`` None, and for method
+        ``floquet`` unless ``StabilityOptions.eigenvectors``), ``n_unstable``,
         ``disagreement``.
     """
     opts = monitor.options
@@ -862,8 +1011,8 @@ def describe_crossing(monitor: StabilityMonitor, point: PointInfo, crossing: str
     }
     if kind is SpecialKind.BP or kind is SpecialKind.FOLD:
         data["turns"] = kind is SpecialKind.FOLD
-    if getattr(monitor, "hb", None) is None:
-        return data
+    if getattr(monitor, "hb", None) is None or (opts.method is StabilityMethod.FLOQUET and not opts.eigenvectors):
+        return data  # Hill's eigenproblem costs more than the monodromy at high H: only when asked for
     try:
         spec = hill_spectrum(monitor.hb, point.u, point.lam, vectors=True, shift_tol=opts.shift_tol)
         j = int(np.argmin(np.abs(spec.multipliers - mu)))
