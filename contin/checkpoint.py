@@ -2,7 +2,8 @@
 
 One JSON record per line, appended and flushed as the run goes:
 
-- ``{"type": "branch", "branch": j, "nu", "H", "unknown_scale", "parameter_scale"}`` when branch ``j`` stores its first point;
+- ``{"type": "branch", "branch": j, "nu", "H", "unknown_scale", "parameter_scale", "dofs"}`` when branch ``j``
+  stores its first point (``dofs``: the kept dofs of a condensed problem, else None);
 - ``{"type": "point", "row", "branch", "nu", "H", "lam", "u", "tangent"}`` for every row of ``branches.csv``;
 - ``{"type": "special", "branch": j, "point": {...}}`` for every special point (full :class:`SpecialPoint`).
 
@@ -84,9 +85,18 @@ def read_records(path: Path, max_row: int | None = None) -> list[dict]:
     return out
 
 
+def _kept(u, dofs, H) -> np.ndarray:
+    """The coefficients of the kept ``dofs`` out of a full coefficient vector (harmonic-major)."""
+    u = np.asarray(u, dtype=float)
+    return u if dofs is None else u.reshape(2 * int(H) + 1, -1)[:, np.asarray(dofs, dtype=int)].reshape(-1)
+
+
 def rebuild_branches(records: list[dict], parameter_name: str) -> dict[int, Branch]:
     """Branches (points, special points, scales) from checkpoint records.
 
+    The branches hold the continuation engine's unknowns: the coefficients of
+    the dofs a branch record lists as ``dofs`` when its problem was condensed
+    (:mod:`contin.condensation`; ``u`` is stored full), all of them otherwise.
     A branch that reached an end of its range (an ``end`` special point) is
     marked ``RANGE_END``; the others ``INTERRUPTED``, to be continued.
     """
@@ -97,14 +107,17 @@ def rebuild_branches(records: list[dict], parameter_name: str) -> dict[int, Bran
         if rec["type"] == "branch":
             headers[j] = decode(rec)
         elif rec["type"] == "point":
+            dofs = headers.get(j, {}).get("dofs")
+            u = _kept(rec["u"], dofs, rec.get("H") or headers.get(j, {}).get("H"))
             if j not in builders:
-                builders[j] = BranchBuilder(parameter_name, len(rec["u"]))
+                builders[j] = BranchBuilder(parameter_name, u.size)
             b = builders[j].branch
             s = 0.0 if not len(b) else b.arclength[-1] + 1.0
-            builders[j].append_point(np.asarray(rec["u"]), rec["lam"], np.asarray(rec["tangent"]), s, 0, 0.0, 0.0)
+            builders[j].append_point(u, rec["lam"], np.asarray(rec["tangent"]), s, 0, 0.0, 0.0)
         elif rec["type"] == "special" and j in builders:
-            sp = SpecialPoint.from_dict(decode(rec["point"]))
-            builders[j].branch.special_points.append(sp)
+            point = decode(rec["point"])
+            point["unknowns"] = _kept(point["unknowns"], headers.get(j, {}).get("dofs"), headers.get(j, {}).get("H"))
+            builders[j].branch.special_points.append(SpecialPoint.from_dict(point))
     out = {}
     for j, bld in builders.items():
         br = bld.branch

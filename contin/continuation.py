@@ -66,6 +66,7 @@ from .events import (
     PointInfo,
     changed_components,
     evaluate_test,
+    narrow,
     predicted_zero,
 )
 from .newton import NUMERICAL_ERRORS, LUFactor, SingularMatrixError, factorize, newton
@@ -340,15 +341,17 @@ JACOBIAN_GROWTH = 1e3
 #: retried shorter): Newton meandering on a piecewise-smooth residual costs more than a shorter step.
 NEWTON_STALL = 3
 
-#: A step capped by an event's prediction goes this far past the predicted change, so that it is
-#: taken in the step; and never below this fraction of the uncapped step.
-EVENT_OVERSHOOT = 1.25
+#: A step capped by an event's prediction is never below this fraction of the uncapped step.
 EVENT_FLOOR = 1e-3
-#: A failed step reaching this many times beyond a barrier event's predicted zero locates it.
+#: A barrier event is located from the current point when its predicted zero lies within the failed
+#: step (times BARRIER_REACH) and within BARRIER_AHEAD last steps.
 BARRIER_REACH = 1.0
+BARRIER_AHEAD = 2.0
 #: Solves spent locating a barrier, and its accuracy (relative to its distance where the steps failed).
 BARRIER_SOLVES = 12
-BARRIER_GTOL = 1e-8
+BARRIER_GTOL = 1e-9
+#: Newton updates of a solve expected to fail where there is no solution (beyond a barrier).
+QUICK_ITER = 8
 #: Past a barrier's point the branch passes it when, over the next PASS_POINTS points, a step of
 #: PASS_FRACTION of the step that reached it is taken again, fewer than PASS_FAILURES steps fail and
 #: the event does not change again; otherwise it cannot pass it and ends there. A single grazing
@@ -356,7 +359,7 @@ BARRIER_GTOL = 1e-8
 #: bouncing cascade, each tangential touch opening the next, is not.
 PASS_FRACTION = 1.0 / 16.0
 PASS_POINTS = 8
-PASS_FAILURES = 6
+PASS_FAILURES = 8
 
 
 def _condition(rcond: float) -> float:
@@ -572,7 +575,7 @@ class _Engine:
         self._options_dict = options.to_dict()
         self._e_last = np.zeros(self.m + 1)
         self._e_last[-1] = 1.0
-        self.event_cap = math.inf  # the events' prediction of the arclength to their next change
+        self.event_cap = math.inf  # the longest next step the events allow
         self.ds_free = options.ds  # the step the step control wants (before an event's cap)
         self.prev_info: PointInfo | None = None
         self.barrier_tried = -1  # branch length at the last barrier location
@@ -673,8 +676,9 @@ class _Engine:
             raise _StepFailed("non-finite tangent", lu.rcond)
         return z / nz
 
-    def _bordered_solve(self, guess, x_ref, normal, offset, lu0=None):
-        """Newton on ``[R = 0; normal . (x - x_ref) = offset]`` from ``guess`` (``lu0``: see :func:`newton`)."""
+    def _bordered_solve(self, guess, x_ref, normal, offset, lu0=None, quick=False):
+        """Newton on ``[R = 0; normal . (x - x_ref) = offset]`` from ``guess`` (``lu0``: see :func:`newton`;
+        ``quick``: a solve expected to fail where there is no solution, given fewer updates and no retry)."""
         sp, m = self.sp, self.m
         F = np.empty(m + 1)
         A = np.empty((m + 1, m + 1))
@@ -687,6 +691,12 @@ class _Engine:
             A[:m] = Jh
             return F, A
 
+        if quick:
+            opt = self.opt
+            res = newton(fun_and_jac, guess, opt.newton_tol, min(opt.newton_max_iter, QUICK_ITER), stall=2,
+                         factor_final=True)
+            self.n_newton += res.iterations
+            return res
         return self._newton(fun_and_jac, guess, factor_final=True, lu0=lu0)
 
     def _newton(self, fun_and_jac, guess, **kw):
@@ -705,8 +715,7 @@ class _Engine:
         if res.converged or res.singular or not _cycles(res.residual_history):
             return res
         self.n_backtracked += 1
-        res = newton(fun_and_jac, guess, opt.newton_tol, 2 * opt.newton_max_iter, backtrack=8, stall=2 * NEWTON_STALL,
-                     **kw)
+        res = newton(fun_and_jac, guess, opt.newton_tol, opt.newton_max_iter, backtrack=4, stall=NEWTON_STALL, **kw)
         self.n_newton += res.iterations
         return res
 
@@ -1051,9 +1060,8 @@ class _Engine:
                 self.builder.finish(BranchStatus.MAX_POINTS, f"stored max_points={opt.max_points} points; last at {self.fmt(self.lam)}")
                 return self.branch
             ds_try = self.ds_free = ds
-            if self.event_cap < ds:  # an event predicted within the step: land just beyond it
-                ds_try = max(EVENT_OVERSHOOT * self.event_cap, opt.ds_min, min(ds, EVENT_FLOOR * ds))
-                ds_try = min(ds_try, ds)
+            if self.event_cap < ds:  # an event predicted within the step
+                ds_try = max(self.event_cap, opt.ds_min, EVENT_FLOOR * ds)
             try:
                 cand = self._attempt(ds_try)
             except _StepFailed as exc:
@@ -1149,9 +1157,13 @@ class _Engine:
             # judged against the step the step control wanted there, not one an event cut short
             self.at_barrier = _Barrier(ev, lam, max(h, self.ds_free), index, near_side)
             return
+        bar.index, bar.near_side = index, near_side
+        last = bar.last_parameter if bar.later else bar.parameter
+        if abs(lam - last) <= 1e3 * self.opt.locate_tol * max(1.0, abs(lam)):
+            return  # the same point again (located from both sides)
         # a cascade (more contact arcs opening one after the other): judged against the step that
         # reached the first one
-        bar.index, bar.near_side, bar.later = index, near_side, bar.later + 1
+        bar.later += 1
         bar.last_parameter = lam
 
     def _finish_at_barrier(self, why: str) -> None:
@@ -1168,11 +1180,12 @@ class _Engine:
 
         Called when a step of length ``ds`` failed. A barrier event
         (:attr:`contin.events.Event.barrier`) whose distance, extrapolated
-        from the last two stored points, reaches zero within that step is
-        located by the secant method on its distance, solving on the
-        hyperplanes normal to the current tangent from the near side (a
-        solve that fails, beyond the barrier, halves the way back). Tried
-        once per stored point.
+        from the last two stored points, reaches zero within that step and
+        within ``BARRIER_AHEAD`` last steps is located by
+        :func:`contin.events.narrow` on its distance, solving on the
+        hyperplanes normal to the current tangent; a solve that fails counts
+        as beyond the barrier, and the point is taken on the near side.
+        Tried once per stored point.
         """
         if self.barrier_tried == len(self.branch) or self.prev_info is None or len(self.branch) < 2:
             return None
@@ -1186,48 +1199,44 @@ class _Engine:
             except NUMERICAL_ERRORS:
                 continue
             ahead = predicted_zero(g_prev, g0, h_last)
-            if not ahead <= BARRIER_REACH * ds:
-                continue
-            cand = self._locate_barrier(ev, g0, min(ahead, ds))
+            if not (ahead <= BARRIER_REACH * ds and ahead <= BARRIER_AHEAD * h_last):
+                continue  # not predicted there, or too far for the solves from here: shorter steps first
+            cand = self._locate_barrier(ev, g0, (g0 - g_prev) / h_last, min(1.5 * ahead, ds))
             if cand is not None:
                 return cand
         return None
 
-    def _locate_barrier(self, ev: Event, g0: float, s1: float):
-        sp, m = self.sp, self.m
-        s0, g_start = 0.0, g0
-        tol_lam = self.opt.locate_tol * max(1.0, abs(self.lam))
-        lam_prev = self.lam
-        for _ in range(BARRIER_SOLVES):
-            if not s1 > 0:
-                return None
-            xp = self.x + s1 * self.t
+    def _locate_barrier(self, ev: Event, g0: float, rate: float, s_end: float):
+        """Locate ``ev``'s zero in ``(0, s_end]`` ahead of the current point (``g0``, ``rate``: its
+        distance here and its rate of change per arclength); a candidate on the near side, or None."""
+        solved = {}
+
+        def point_at(sigma):
+            xp = self.x + sigma * self.t
             try:
-                res = self._bordered_solve(xp.copy(), self.x, self.t, s1)
-            except NUMERICAL_ERRORS:
-                res = None
-            if res is None or not res.converged or res.lu is None:
-                s1 = s0 + 0.5 * (s1 - s0)  # beyond the barrier, or outside Newton's basin: back off
-                continue
+                res = self._bordered_solve(xp.copy(), self.x, self.t, sigma, quick=True)
+            except NUMERICAL_ERRORS as exc:
+                return None, f"{type(exc).__name__}: {exc}"
+            if not res.converged or res.lu is None:
+                return None, "no solution"
             try:
-                cand = self._check_new(res.x, xp, s1, res.lu, res.rcond, res.iterations)
-            except _StepFailed:
-                s1 = s0 + 0.5 * (s1 - s0)
-                continue
+                cand = self._check_new(res.x, xp, sigma, res.lu, res.rcond, res.iterations)
+            except _StepFailed as exc:
+                return None, exc.reason
             info = self._point_info(cand.u, cand.lam, cand.tangent, cand.lu, cand.Ju, cand.Jlam, self.s + cand.h, {})
-            try:
-                g1 = float(ev.distance(info))
-            except NUMERICAL_ERRORS:
-                return None
-            if not math.isfinite(g1) or (g1 < 0) != (g_start < 0) and g1 != 0.0:
-                return None  # solved beyond it: passable, the ordinary steps will locate it
-            if abs(g1) <= BARRIER_GTOL * abs(g_start) or abs(cand.lam - lam_prev) <= tol_lam:
-                cand.barrier = ev
-                return cand
-            lam_prev = cand.lam
-            s_new = s1 - g1 * (s1 - s0) / (g1 - g0) if g1 != g0 else 2.0 * s1
-            s0, g0, s1 = s1, g1, min(s_new, s1 + 4.0 * (s1 - s0))
-        return None
+            solved[id(info)] = (info, cand)
+            return info, ""
+
+        # the far end is not solved: its distance is the one predicted there
+        far = dataclasses.replace(self.info, lam=self.lam + s_end * float(self.t[-1]) * self.sp.sl)
+        loc = narrow(point_at, 0.0, s_end, self.info, far, g0, g0 + rate * s_end, s_end,
+                     side=lambda info, v: math.isfinite(v) and (v < 0) == (g0 < 0), value=ev.distance,
+                     tol=self.opt.locate_tol, max_iter=BARRIER_SOLVES, vtol=BARRIER_GTOL, failed_beyond=True)
+        if not loc.located or id(loc.point) not in solved:
+            return None
+        cand = solved[id(loc.point)][1]
+        cand.barrier = ev
+        return cand
 
     def _corner(self, failed: _StepFailed, ds: float):
         """A step across a corner of the branch, or None.

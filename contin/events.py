@@ -142,14 +142,15 @@ class Event(abc.ABC):
         return math.nan
 
     def step_limit(self, a: PointInfo, b: PointInfo, h: float) -> float:
-        """Predicted arclength beyond ``b`` to this event's next trigger (``inf``: none predicted).
+        """The longest next step (from ``b``) this event allows (``inf``: no limit).
 
-        The engine keeps its next step near this prediction, so that two
-        changes close together are not taken in one step (where a count
-        would change and change back unseen). The default extrapolates
-        :meth:`distance` linearly from ``a`` and ``b`` (``h`` apart).
+        The engine takes no longer step, so that two changes close together
+        are not taken in one step (where a count would change and change back
+        unseen). The default extrapolates :meth:`distance` linearly from
+        ``a`` and ``b`` (``h`` apart) and allows ``OVERSHOOT`` times the
+        arclength to its zero: the change then falls inside the step.
         """
-        return predicted_zero(self.distance(a), self.distance(b), h)
+        return OVERSHOOT * predicted_zero(self.distance(a), self.distance(b), h)
 
     def locate(self, component, point_at, h, a, b, ga, gb, *, tol=1e-10, max_iter=60) -> list["Location"]:
         """Locate the change of test ``component`` between ``a`` and ``b``.
@@ -298,6 +299,9 @@ class Location:
 
 
 _EPS = np.finfo(float).eps
+
+#: A step limited by a predicted change goes this far past it, so that the change falls inside it.
+OVERSHOOT = 1.25
 
 
 def locate(

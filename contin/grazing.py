@@ -39,7 +39,7 @@ import numpy as np
 from contin import aft
 from contin.branch import SpecialKind
 from contin.crossings import series_at
-from contin.events import Event, PointInfo, narrow, predicted_zero
+from contin.events import Event, PointInfo, narrow
 from contin.harmonics import coefficient_blocks
 
 __all__ = ["GrazingEvent", "OrbitContacts", "orbit_contacts", "grazing_events"]
@@ -199,9 +199,6 @@ class GrazingEvent(Event):
                      tol=tol, max_iter=max_iter, vtol=GTOL, failed_beyond=True)
         loc.value = self.test(loc.point)
         return [loc]
-
-    def step_limit(self, a: PointInfo, b: PointInfo, h: float) -> float:
-        return predicted_zero(self.distance(a), self.distance(b), h)
 
     def describe(self, point: PointInfo) -> dict:
         c = self.contacts(point)

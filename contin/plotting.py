@@ -14,7 +14,7 @@ import numpy as np  # noqa: E402
 __all__ = ["bifurcation_diagram", "axis_label", "two_parameter_diagram"]
 
 MARKERS = {"fold": ("o", "tab:red"), "pd": ("s", "tab:purple"), "ns": ("D", "tab:green"), "kink": ("v", "tab:gray"),
-           "bp": ("^", "tab:orange"), "stability": ("x", "k")}
+           "bp": ("^", "tab:orange"), "stability": ("x", "k"), "grazing": ("*", "tab:brown")}
 
 
 def axis_label(name: str, units: dict | None = None, labels: dict | None = None) -> str:

@@ -33,9 +33,10 @@ ROOT = Path(__file__).resolve().parents[1]
 SCENE = ROOT / "scenes" / "belt_static.yaml"
 
 
-def restoring_curve(beta, strength, outdir, p_range=(-100.0, 60.0)):
-    """Rows and special points of the static scene with the magnet scaled by ``strength``."""
-    sets = [f"model.parameters.beta={beta}", f"analysis.range=[{p_range[0]}, {p_range[1]}]"]
+def restoring_curve(beta, strength, outdir, p_range=(-100.0, 60.0), extra=()):
+    """Rows and special points of the static scene with the magnet scaled by ``strength`` (``extra``: more
+    ``--set`` overrides)."""
+    sets = [f"model.parameters.beta={beta}", f"analysis.range=[{p_range[0]}, {p_range[1]}]", *extra]
     sets += [f"model.parameters.gamma{k}={strength * g}" for k, g in enumerate(PAPER_MAGNET)]
     scene = load_scene(SCENE, sets)
     run_scene(scene, outdir, progress=False)
@@ -44,7 +45,7 @@ def restoring_curve(beta, strength, outdir, p_range=(-100.0, 60.0)):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="two magnet strengths only")
+    ap.add_argument("--quick", action="store_true", help="two magnet strengths only, longer steps")
     ap.add_argument("--out", default="results/belt", help="output directory")
     args = ap.parse_args(argv)
     limit_blas_threads(1)  # small matrices: one BLAS thread is faster (see README)
@@ -56,12 +57,14 @@ def main(argv=None):
     import matplotlib.pyplot as plt
 
     strengths = (0.0, 1.0) if args.quick else (0.0, 0.5, 1.0, 2.0)
+    # quick: longer steps, and no figure of each run (the script draws its own)
+    extra = ("analysis.continuation={ds: 0.04, ds_max: 0.2}", "output.plots=false") if args.quick else ()
     for fig_no, beta in ((4, 0.2), (5, 10.0)):
         fig, ax = plt.subplots(figsize=(6.4, 4.6), constrained_layout=True)
         print(f"Fig. {fig_no}: beta = {beta:g}, alpha = 0.005, w at xi = 0.6")
         for s in strengths:
             rows, sp = restoring_curve(beta, s, out / f"static_beta{beta:g}_s{s:g}",
-                                       (-250.0, 60.0) if beta < 1 else (-100.0, 60.0))
+                                       (-250.0, 60.0) if beta < 1 else (-100.0, 60.0), extra)
             at0 = rows["w"][np.argmin(np.abs(rows["p_s"]))]
             folds = sp["kind"] == "fold"
             fold_txt = ", ".join(f"p_s = {p:.4f} (w = {w:.4f})" for p, w in zip(sp["p_s"][folds], sp["w"][folds]))

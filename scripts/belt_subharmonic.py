@@ -82,17 +82,20 @@ def describe(label, rows, sp):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="narrower ranges")
+    ap.add_argument("--quick", action="store_true", help="narrower ranges, longer steps, fewer harmonics of the 1/3 subharmonic")
     ap.add_argument("--out", default="results/belt")
     args = ap.parse_args(argv)
     limit_blas_threads(1)  # small matrices: one BLAS thread is faster (see README)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     q = args.quick
+    # quick: the ranges just hold the period doublings and the fold, in longer steps; Hill's spectrum (an
+    # eigenvalue problem of order 2 n (2 H + 1) at every point) is what costs, hence H = 6 of w/3 for the 1/3
+    steps = "analysis.continuation={ds: 0.04, ds_max: 0.2, max_points: 1500}"
     runs = [("belt_subharmonic2.yaml", "1/2 subharmonic (magnet on, undamped): switching at period doubling",
-             ["analysis.range=[9.7, 10.0]", "analysis.stability=hill"] if q else []),
+             ["analysis.range=[9.8, 9.95]", "analysis.stability=hill", steps] if q else []),
             ("belt_subharmonic3.yaml", "1/3 subharmonic (no magnet, undamped): started from the mode-1 backbone",
-             ["analysis.range=[7.95, 8.7]", "analysis.harmonics=9"] if q else [])]
+             ["analysis.range=[7.95, 8.7]", "analysis.harmonics=6", steps] if q else [])]
     results = []
     for name, label, sets in runs:
         d = out / Path(name).stem

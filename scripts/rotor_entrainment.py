@@ -18,7 +18,7 @@ the period doublings of the integrated flow found by shooting (contin.shooting) 
 leaving its casing) and where it ends.
 
     python scripts/rotor_entrainment.py            # both scenes in full, ~10 min on two cores
-    python scripts/rotor_entrainment.py --quick    # short stretches of the curves, ~30 s
+    python scripts/rotor_entrainment.py --quick    # short stretches of the curves, ~10 s
 """
 
 from __future__ import annotations
@@ -37,11 +37,16 @@ from contin.scene import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 
+# --quick: H = 20 (still in permanent contact at f0 = 0.5, c2 = 0.05, where the truncation error is ~2e-3,
+# tests/models/test_rotor_floquet.py), short stretches of the curves; in (w, c2) only the lower period
+# doubling (w = 2.147), with one coarse shooting scan
+SMALL = ["analysis.harmonics=20", "analysis.samples=512"]
 QUICK = {
-    "f0": ["analysis.second_range=[0.45, 0.5]", "analysis.overlay=[]", "analysis.range=[2.1, 2.25]",
-           "analysis.shooting=[]"],
-    "c2": ["analysis.second_range=[0.05, 0.1]", "analysis.overlay=[5.0]", "analysis.range=[2.1, 2.25]",
-           "analysis.shooting=[0.05]", "analysis.shooting_points=6", "analysis.shooting_refine=0"],
+    "f0": SMALL + ["analysis.range=[2.1, 2.25]", "analysis.second_range=[0.45, 0.5]", "analysis.overlay=[]",
+                   "analysis.shooting=[]"],
+    "c2": SMALL + ["analysis.range=[2.1, 2.17]", "analysis.second_range=[0.05, 0.1]", "analysis.overlay=[5.0]",
+                   "analysis.shooting=[0.05]", "analysis.shooting_points=3", "analysis.shooting_refine=0",
+                   "analysis.shooting_options={steps_per_period: 1024, tol: 1e-8}"],
 }
 
 

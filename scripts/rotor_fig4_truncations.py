@@ -54,8 +54,8 @@ analysis:
   crossings: interval
   stability: floquet
   stability_options: {steps_per_period: 4096}
-  continuation: {ds: 0.005, ds_max: 0.03, newton_tol: 1.0e-9, stall_points: 20}
-output: {measure: whirl_fwd_half_disc}
+  continuation: {ds: %(ds)s, ds_max: %(ds_max)s, newton_tol: 1.0e-9, stall_points: 20}
+output: {measure: whirl_fwd_half_disc, plots: %(plots)s}
 """
 
 
@@ -101,14 +101,19 @@ def main(argv=None) -> int:
     if not (main_dir / "summary.json").exists():
         main_dir = out / "converged"
         # a smoke run: the harmonic branch over a short range, without the nu = 2 start
-        narrow = ["analysis.range=[2.15, 2.17]", "analysis.start=2.15", "analysis.starts=[]"] if args.quick else []
+        narrow = ["analysis.range=[2.15, 2.17]", "analysis.start=2.15", "analysis.starts=[]", "output.plots=false"] \
+            if args.quick else []
         run_scene(load_scene(ROOT / "scenes" / "rotor_f0_05.yaml", narrow), main_dir, progress=False)
     print(f"converged harmonic balance ({main_dir}):")
     for line in ends(main_dir):
         print(f"  {line}")
+    # --quick: a short stretch either side of the start in a few steps (relative to the range), without the
+    # scenes' own figures (this one is drawn)
     lo, hi = (W0 - 0.004, W0 + 0.004) if args.quick else (1.6, 2.6)
     scene_path = out / "paper_truncation.yaml"
-    scene_path.write_text(PAPER_TRUNCATION % {"lo": lo, "hi": hi, "transient": 300 if args.quick else 1500})
+    scene_path.write_text(PAPER_TRUNCATION % {"lo": lo, "hi": hi, "transient": 300 if args.quick else 1500,
+                                              "ds": 0.05 if args.quick else 0.005, "ds_max": 0.2 if args.quick else 0.03,
+                                              "plots": "false" if args.quick else "true"})
     run_scene(load_scene(scene_path), out / "paper_truncation", progress=False)
     print("the paper's truncation (10 harmonics of w/2):")
     for line in ends(out / "paper_truncation"):

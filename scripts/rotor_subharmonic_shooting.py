@@ -100,11 +100,12 @@ def drift(model, w: float, z: np.ndarray, revolutions: int = 400, kick: float = 
     return same_orbit(model, w, end, z)
 
 
-def harmonic_period_doublings(model, grid):
-    """The flow's period doublings on the harmonic orbit over ``grid`` (started from the harmonic balance)."""
+def harmonic_period_doublings(model, grid, xtol: float = 1e-10):
+    """The flow's period doublings on the harmonic orbit over ``grid`` (started from the harmonic balance),
+    located to ``xtol`` in w."""
     hb = HarmonicBalance(model, "w", HBOptions(harmonics=40, samples=1024, crossings="none"))
     u0 = model.start(hb, float(grid[0]))
-    return period_doubling_scan(model, {}, "w", grid, orbit_state(hb, u0, float(grid[0]), 0.0), HARMONIC)
+    return period_doubling_scan(model, {}, "w", grid, orbit_state(hb, u0, float(grid[0]), 0.0), HARMONIC, xtol=xtol)
 
 
 def report(label: str, br, seconds: float) -> None:
@@ -219,16 +220,16 @@ def fig4_branches(model, quick: bool, harmonic_balance: bool = False):
     Returns ``(rows, [w of the period doublings], [(w, stable) of the scan's harmonic orbits],
     [special points of the branch])``.
     """
-    grid = np.linspace(2.200, 2.212, 4) if quick else np.linspace(2.12, 2.22, 21)
+    grid = np.linspace(2.200, 2.212, 3) if quick else np.linspace(2.12, 2.22, 21)
     t = time.perf_counter()
-    scan = harmonic_period_doublings(model, grid)
+    scan = harmonic_period_doublings(model, grid, 1e-6 if quick else 1e-10)
     pds = sorted(scan.points, key=lambda o: o.params["w"])
     found = ", ".join(f"{o.params['w']:.8f}" for o in pds) or "none"
     print(f"period doublings of the flow's harmonic orbit on w = {grid[0]:g}..{grid[-1]:g}: {found} ({scan.status}) "
           f"[{time.perf_counter() - t:.0f} s]")
     if not pds:
         raise SystemExit("no period doubling found")
-    br, info = switched_branch(model, pds[-1], engine_options(max_points=8 if quick else 600))
+    br, info = switched_branch(model, pds[-1], engine_options(max_points=4 if quick else 600))
     rows = rows_of(br, info)
     special = [{"kind": sp.kind.value, "w": float(sp.parameter)} for sp in br.special_points]
     out = rows, [o.params["w"] for o in pds], [(o.params["w"], o.stable) for o in scan.orbits], special

@@ -110,7 +110,7 @@ def main(argv=None):
 
     if args.quick:
         ws = np.array([1.8, 2.0, 2.16, 2.2])
-        transient, record = args.transient or 600, args.record or 40
+        transient, record = args.transient or 300, args.record or 32
     else:
         lo, hi, step = args.w or (1.6, 2.6, 0.05)
         ws = np.round(np.arange(lo, hi + 0.5 * step, step), 10)

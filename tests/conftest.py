@@ -15,6 +15,30 @@ def rng():
     return np.random.default_rng(12345)
 
 
+@pytest.fixture(scope="session")
+def scene_run(tmp_path_factory):
+    """``scene_run(name)``: the result directory of ``contin run scenes/<name>`` as shipped, run once per session.
+
+    Several test modules check the same example scene's results against different truths; they read the
+    directory and never write to it.
+    """
+    from pathlib import Path
+
+    from contin.cli import main
+
+    scenes = Path(__file__).resolve().parents[1] / "scenes"
+    done = {}
+
+    def run(name):
+        if name not in done:
+            out = tmp_path_factory.mktemp(Path(name).stem) / "out"
+            assert main(["run", str(scenes / name), "-o", str(out), "-q"]) == 0
+            done[name] = out
+        return done[name]
+
+    return run
+
+
 def fd_jacobian(fun, x, eps=1e-7):
     """Central finite differences of ``fun`` at ``x`` (columns = d/dx_j)."""
     x = np.asarray(x, dtype=float)
@@ -39,6 +63,18 @@ def mathieu_boundaries(eps, rmax):
     for r in range(1, rmax + 1):
         out += [(mathieu_b(r, q) / 4, r), (mathieu_a(r, q) / 4, r)]
     return sorted(out)
+
+
+@pytest.fixture(scope="session")
+def dask_cluster():
+    """One local Dask cluster (two single-threaded worker processes) for the sweep tests of every module:
+    its start and the workers' first loading of the kernels are paid once."""
+    from distributed import LocalCluster
+
+    with no_hang(120):
+        c = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None)
+    yield c
+    c.close()
 
 
 class Hang(Exception):

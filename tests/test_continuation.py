@@ -595,16 +595,6 @@ def test_a_crawling_branch_stops_with_its_points_kept():
 # --------------------------------------------------------------------------
 # events that predict their change (step caps) and barriers
 # --------------------------------------------------------------------------
-class Line:
-    """u - lam = 0 (the branch u = lam)."""
-
-    def residual(self, u, lam):
-        return np.array([u[0] - lam])
-
-    def linearize(self, u, lam):
-        return self.residual(u, lam), np.array([[1.0]]), np.array([-1.0])
-
-
 def test_a_pair_of_close_changes_is_not_stepped_over_when_the_event_predicts_it():
     """A test out of [0.5, 0.52] and back: one long step would see the same sign at both ends.
 

@@ -11,7 +11,7 @@ import pytest
 from conftest import fd_jacobian
 from scipy.integrate import quad
 
-from contin import aft, crossings
+from contin import crossings
 from contin.branch import BranchStatus
 from contin.continuation import ContinuationOptions, continuation
 from contin.elements import GapForce, RadialGapForce
@@ -85,8 +85,13 @@ def test_resolved_crossings_converge_at_second_order_and_sampling_at_first():
 
 @pytest.mark.parametrize("mode", ["interval", "exact"])
 def test_coefficients_are_continuous_when_a_sample_crosses_the_surface(mode):
-    """Steps of the coefficients over a fine amplitude grid: the plain samples jump by ~c v / N, resolved do not."""
-    As = np.linspace(0.3, 0.4, 4001)
+    """Steps of the coefficients over a fine amplitude grid: the plain samples jump by ~c v / N, resolved do not.
+
+    The grid (spacing 2.5e-5) holds A = 0.3136, where the samples t = 2 pi 20/64 and 2 pi 44/64 cross the
+    lower stop (cos t = -(G + OFFSET) / A); over [0.3, 0.4] with the same spacing the ratios below were the
+    same (max/median 1.004 resolved, 10.3 plain, against 1.001 and 10.3 here).
+    """
+    As = np.linspace(0.308, 0.32, 481)
     steps = {}
     for m in ("none", mode):
         co = np.array([_sampled_coefficients(A, 64, 5, m) for A in As])

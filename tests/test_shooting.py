@@ -83,7 +83,8 @@ def test_rotor_period_doublings_match_the_harmonic_balance_in_permanent_contact(
     br = continuation(hb, u0, 2.12, (2.12, 2.22), ContinuationOptions(ds=0.02, ds_max=0.05),
                       events=[FlipTestEvent(hb)])
     hb_pd = sorted(p.parameter for p in br.points_of_kind("pd"))
-    sc = period_doubling_scan(model, {}, "w", np.arange(2.12, 2.2201, 0.02), orbit_state(hb, u0, 2.12, 0.0))
+    # located to 1e-9 in w (1e-9 from the location to 1e-10), a tenth of the tolerance below
+    sc = period_doubling_scan(model, {}, "w", np.arange(2.12, 2.2201, 0.02), orbit_state(hb, u0, 2.12, 0.0), xtol=1e-9)
     assert sc.status == "complete" and all(sc.located)
     got = sorted(p.params["w"] for p in sc.points)
     assert len(hb_pd) == 2 and len(got) == 2
@@ -96,13 +97,16 @@ def test_rotor_period_doublings_match_the_harmonic_balance_in_permanent_contact(
 def test_shooting_branch_passes_the_duffing_folds_of_the_converged_harmonic_balance():
     """The engine's pseudo-arclength steps on the flow map (ShootingProblem) against HB with H = 15."""
     model = build_model("duffing", {"c": 0.1, "g": 1.0, "F": 0.5})
-    opts = ContinuationOptions(ds=0.05, ds_max=0.1)
+    # folds at w = 1.4387 and 2.2119 (one orbit below the first, from rest); from w = 1 to 2.5 in steps of up to
+    # 0.5 (scaled) the shooting branch has 39 points, 14 between the folds and 8 beyond (from 0.5 to 3 with
+    # ds_max = 0.1: 205 points, the same folds to 1e-11)
+    opts = ContinuationOptions(ds=0.05, ds_max=0.5)
     hb = HarmonicBalance(model, "w", HBOptions(harmonics=15))
-    br = continuation(hb, hb.linear_solution(0.5), 0.5, (0.5, 3.0), opts)
+    br = continuation(hb, hb.linear_solution(1.0), 1.0, (1.0, 2.5), opts)
     hb_folds = sorted(p.parameter for p in br.points_of_kind("fold"))
     prob = ShootingProblem(model, "w", options=ShootingOptions(steps_per_period=1024))
-    z0 = periodic_orbit(model, {"w": 0.5}, [0.0, 0.0], prob.options).state
-    sb = continuation(prob, z0, 0.5, (0.5, 3.0), opts, monitors=[prob.monitor])
+    z0 = periodic_orbit(model, {"w": 1.0}, [0.0, 0.0], prob.options).state
+    sb = continuation(prob, z0, 1.0, (1.0, 2.5), opts, monitors=[prob.monitor])
     assert sb.status.value == "range_end"
     folds = sorted(p.parameter for p in sb.points_of_kind("fold"))
     assert len(hb_folds) == 2 and len(folds) == 2

@@ -31,14 +31,9 @@ FAST = ("analysis.harmonics=1", "output.plots=false")
 SLOW = ("analysis.harmonics=3", "output.plots=false", "analysis.continuation={ds: 0.08, ds_max: 0.08}")
 
 
-@pytest.fixture(scope="module")
-def cluster():
-    from distributed import LocalCluster
-
-    with no_hang(120):
-        c = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None)
-    yield c
-    c.close()
+@pytest.fixture
+def cluster(dask_cluster):
+    return dask_cluster
 
 
 def duffing_folds(F, c, lo=0.5, hi=3.0):

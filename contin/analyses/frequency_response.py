@@ -25,8 +25,8 @@ from contin.analyses import register_analysis
 from contin.branch import BranchStatus
 from contin.continuation import ContinuationOptions
 from contin.harmonic_balance import HarmonicBalance, HBOptions
-from contin.checkpoint import decode, encode, special_record
-from contin.condensation import condensation_dofs, condense, restrict_coefficients
+from contin.checkpoint import encode, special_record
+from contin.condensation import condensation_dofs, condense
 from contin.measures import measure_names, point_measures
 from contin.checkpoint import read_records, rebuild_branches
 from contin.results import CsvStream, read_csv, truncate_to_valid_rows
@@ -250,7 +250,7 @@ def _start(scene, model, hb, lam0: float):
     return hb.linear_solution(lam0)
 
 
-def _restore(outdir, parameter: str, n_dof: int) -> dict:
+def _restore(outdir, parameter: str) -> dict:
     """Branches of an interrupted run in ``outdir``, with its files cut back to complete rows."""
     n_rows = truncate_to_valid_rows(outdir / "branches.csv")
     truncate_to_valid_rows(outdir / "special_points.csv")
@@ -259,25 +259,7 @@ def _restore(outdir, parameter: str, n_dof: int) -> dict:
     with open(outdir / "state.jsonl", "w") as fh:
         for r in records:
             fh.write(json.dumps(r) + "\n")
-    return rebuild_branches(_engine_records(records, n_dof), parameter)
-
-
-def _engine_records(records: list[dict], n_dof: int) -> list[dict]:
-    """Checkpoint records in the engine's unknowns: the full ``u`` of condensed branches restricted to their dofs."""
-    kept = {r["branch"]: r["dofs"] for r in records if r["type"] == "branch" and r.get("dofs") is not None}
-    if not kept:
-        return records
-    out = []
-    for r in records:
-        dofs = kept.get(r["branch"])
-        if dofs is not None and r["type"] == "point":
-            r = {**r, "u": restrict_coefficients(r["u"], n_dof, dofs).tolist()}
-        elif dofs is not None and r["type"] == "special":
-            point = decode(r["point"])
-            point["unknowns"] = restrict_coefficients(point["unknowns"], n_dof, dofs)
-            r = {**r, "point": encode(point)}
-        out.append(r)
-    return out
+    return rebuild_branches(records, parameter)
 
 
 def _detail(sp) -> str:
@@ -330,7 +312,7 @@ def run(ctx) -> dict:
         problem = engine_problem(sc, hb)
         setups.append((sc, hb, problem, lam0, opts, stability_setup(a, problem)))
     hb = setups[0][1]
-    previous = _restore(ctx.outdir, hb.parameter, model.n_dof) if ctx.resume else {}
+    previous = _restore(ctx.outdir, hb.parameter) if ctx.resume else {}
     rec = BranchRecorder(ctx.outdir, model.dof_names, hb.parameter, scene.output["harmonic_columns"], hb.H,
                          append=bool(previous), model=model)
     if previous:

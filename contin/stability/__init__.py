@@ -18,6 +18,7 @@ from contin.stability.floquet import (
     floquet_multipliers,
     monodromy_result,
     multiplier_distance,
+    multiplier_step_limit,
     stability_events,
 )
 from contin.stability.hill import HillSpectrum, hill_spectrum
@@ -50,6 +51,7 @@ __all__ = [
     "monodromy_reference",
     "monodromy_rk4",
     "multiplier_distance",
+    "multiplier_step_limit",
     "orbit_state",
     "stability_events",
     "switching_events",

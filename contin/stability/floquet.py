@@ -60,7 +60,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from contin.branch import SpecialKind
-from contin.events import Event, PointInfo, narrow, predicted_zero
+from contin.events import OVERSHOOT, Event, PointInfo, narrow, predicted_zero
 from contin.model import suggest
 from contin.stability.hill import hill_spectrum
 from contin.stability.monodromy import (
@@ -83,6 +83,7 @@ __all__ = [
     "stability_events",
     "describe_crossing",
     "multiplier_distance",
+    "multiplier_step_limit",
 ]
 
 
@@ -811,6 +812,8 @@ class MultiplierCrossingEvent(Event):
         self.crossing = crossing
         self.key = _CROSSING_COUNT[crossing]
         self.name = f"stability {crossing} ({self.kind.value})"
+        #: whether this event gives the monitor's step limit (one of a set of events on one monitor does)
+        self.predicts = True
 
     # -- counts -----------------------------------------------------------
     def test(self, point: PointInfo) -> float:
@@ -910,16 +913,10 @@ class MultiplierCrossingEvent(Event):
         return [loc]
 
     def step_limit(self, a: PointInfo, b: PointInfo, h: float) -> float:
-        mu_a, mu_b = _multipliers_of(a, self.monitor), _multipliers_of(b, self.monitor)
-        pair = _pairing(mu_b, mu_a)
-        if (pair < 0).any():
+        if not self.predicts:
             return math.inf
-        thr = self._threshold()
-        mine = _kind_mask(mu_b, self.crossing, self.monitor.options.real_angle_tol)
-        limit = math.inf
-        for i in np.flatnonzero(mine):
-            limit = min(limit, predicted_zero(abs(mu_a[pair[i]]) - thr, abs(mu_b[i]) - thr, h))
-        return limit
+        return multiplier_step_limit(_multipliers_of(a, self.monitor), _multipliers_of(b, self.monitor), h,
+                                     self._threshold())
 
     def describe(self, point: PointInfo) -> dict:
         return describe_crossing(self.monitor, point, self.crossing, self.kind)
@@ -1051,4 +1048,64 @@ def stability_events(monitor: StabilityMonitor, *, folds: bool = False, branch_p
         evs.append(MultiplierCrossingEvent(monitor, "-1", SpecialKind.PD))
     if neimark_sacker:
         evs.append(MultiplierCrossingEvent(monitor, "complex", SpecialKind.NS))
+    for ev in evs[1:]:
+        ev.predicts = False  # the multipliers' prediction is made once
     return evs
+
+
+#: Multipliers this close to the unit circle (in modulus) can be pushed across it by a collision.
+COLLISION_NEAR = 0.05
+#: Steps across a predicted collision of multipliers near the circle (scaled arclength): the
+#: narrowest window of instability after one that the steps resolve.
+COLLISION_STEP = 1e-3
+
+
+def multiplier_step_limit(mu_a: np.ndarray, mu_b: np.ndarray, h: float, threshold: float = 1.0) -> float:
+    """Predicted arclength beyond ``b`` to the next change of stability.
+
+    Two ways a multiplier crosses the unit circle between two points:
+
+    - it moves across it: each multiplier's distance to the circle,
+      ``|mu| - threshold``, is extrapolated linearly from the two points;
+    - two multipliers near the circle collide (a complex pair on the real
+      axis, two pairs meeting on the circle) and split off it, one outwards:
+      a period-doubling or Neimark-Sacker window that can be narrower than
+      the step, with the multipliers inside the circle at both ends. The
+      distance between any two multipliers within ``COLLISION_NEAR`` of the
+      circle is extrapolated the same way.
+
+    Multipliers are paired between the two points by the assignment that
+    moves them least.
+
+    Parameters
+    ----------
+    mu_a, mu_b : ndarray, shape (k,) complex
+        Multipliers at the two points, ``h`` apart.
+    h : float
+    threshold : float
+        ``1 + tolerance``.
+
+    Returns
+    -------
+    float
+        The longest next step: ``OVERSHOOT`` times the nearest predicted
+        crossing (it then falls inside the step); half the way to the
+        nearest predicted collision, but at least ``COLLISION_STEP``; ``inf``
+        when nothing approaches.
+    """
+    pair = _pairing(mu_b, mu_a)
+    if (pair < 0).any():
+        return math.inf
+    mu_a = mu_a[pair]  # aligned with mu_b
+    limit = OVERSHOOT * min((predicted_zero(abs(p) - threshold, abs(q) - threshold, h) for p, q in zip(mu_a, mu_b)),
+                            default=math.inf)
+    near = np.flatnonzero(np.abs(np.abs(mu_b) - 1.0) < COLLISION_NEAR)
+    meet = math.inf
+    for k, i in enumerate(near):
+        for j in near[k + 1:]:
+            meet = min(meet, predicted_zero(abs(mu_a[i] - mu_a[j]), abs(mu_b[i] - mu_b[j]), h))
+    # the window a collision opens can be narrower than any overshoot: approach the meeting
+    # point halving the way each step, then pass it in steps of COLLISION_STEP
+    if math.isfinite(meet):
+        limit = min(limit, max(0.5 * meet, COLLISION_STEP))
+    return limit

@@ -13,18 +13,14 @@ from contin.results import read_csv
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def run(scene, tmp_path, *sets):
-    out = tmp_path / Path(scene).stem
-    args = ["run", str(ROOT / "scenes" / scene), "-o", str(out), "-q"]
-    for s in sets:
-        args += ["--set", s]
+def run(scene, scene_run):
     assert main(["check", str(ROOT / "scenes" / scene)]) == 0
-    assert main(args) == 0
+    out = scene_run(scene)  # the run shared with tests/hard/test_invariants.py
     return read_csv(out / "branches.csv"), read_csv(out / "special_points.csv")
 
 
-def test_mathieu_scene_stability_changes_on_the_transition_curves(tmp_path):
-    rows, sp = run("mathieu.yaml", tmp_path)
+def test_mathieu_scene_stability_changes_on_the_transition_curves(scene_run):
+    rows, sp = run("mathieu.yaml", scene_run)
     q = 2 * 0.4
     ref = {"bp": [mathieu_a(0, q) / 4, mathieu_b(2, q) / 4, mathieu_a(2, q) / 4],
            "pd": [mathieu_b(1, q) / 4, mathieu_a(1, q) / 4]}
@@ -56,8 +52,8 @@ def damped_mathieu_pd(c, eps):
     return brentq(trace_plus_det, 0.0, 0.25), brentq(trace_plus_det, 0.25, 0.6)
 
 
-def test_mathieu_duffing_scene_switches_at_period_doubling(tmp_path):
-    rows, sp = run("mathieu_duffing_pd.yaml", tmp_path)
+def test_mathieu_duffing_scene_switches_at_period_doubling(scene_run):
+    rows, sp = run("mathieu_duffing_pd.yaml", scene_run)
     pds = np.sort(sp["delta"][(sp["kind"] == "pd") & (sp["branch"] == 0)])
     np.testing.assert_allclose(pds, damped_mathieu_pd(0.1, 0.4), atol=1e-6)
     nu2 = rows["nu"] == 2
@@ -71,8 +67,8 @@ def test_mathieu_duffing_scene_switches_at_period_doubling(tmp_path):
         assert np.min(np.abs(pds - start)) < 1e-2
 
 
-def test_absorber_exercise_matches_den_hartog_and_the_closed_form_frf(tmp_path):
-    rows, sp = run("absorber_exercise.yaml", tmp_path)
+def test_absorber_exercise_matches_den_hartog_and_the_closed_form_frf(scene_run):
+    rows, sp = run("absorber_exercise.yaml", scene_run)
     m1, k1, m2, F = 100.0, 5e5, 10.0, 1.0
     beta = m2 / m1
     p = np.sqrt(k1 / m1)
@@ -91,8 +87,8 @@ def test_absorber_exercise_matches_den_hartog_and_the_closed_form_frf(tmp_path):
     assert height <= peak < 1.03 * height
 
 
-def test_gap_oscillator_is_linear_inside_the_clearance_and_folds_beyond(tmp_path):
-    rows, sp = run("gap_oscillator.yaml", tmp_path)
+def test_gap_oscillator_is_linear_inside_the_clearance_and_folds_beyond(scene_run):
+    rows, sp = run("gap_oscillator.yaml", scene_run)
     c, F, g = 0.05, 0.2, 1.0
     w = rows["w"]
     free = rows["max_x"] < g - 1e-9  # never touches a stop: exactly the linear oscillator

@@ -16,11 +16,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from contin.analyses.frequency_response import build_problem
+from contin.analyses.frequency_response import build_problem, engine_problem
 from contin.branch import BranchBuilder, BranchStatus
 from contin.catalog import build_model
 from contin.checkpoint import read_records, rebuild_branches
-from contin.cli import main
 from contin.continuation import connection_report, continuation
 from contin.harmonic_balance import HarmonicBalance, HBOptions
 from contin.models.polynomial import polynomial_model
@@ -55,9 +54,8 @@ def test_the_report_catches_a_jump_between_sheets():
     assert [f[0] for f in rep["failures"]] == [i]
 
 
-def scene_branches(name, tmp_path):
-    out = tmp_path / Path(name).stem
-    assert main(["run", str(ROOT / "scenes" / name), "-o", str(out), "-q"]) == 0
+def scene_branches(name, scene_run):
+    out = scene_run(name)  # the run shared with tests/cli/test_example_scenes.py
     scene = load_scene(ROOT / "scenes" / name)
     model = scene_model(scene)
     hb = build_problem(scene, model)
@@ -66,13 +64,14 @@ def scene_branches(name, tmp_path):
         nu = int(br.info["subharmonic"])
         problem = hb if nu == hb.nu else doubled_problem(hb, nu // hb.nu)
         assert problem.H == br.info["harmonics"]
-        yield j, problem, br
+        # the branches hold the engine's unknowns: those of the condensed problem where it was condensed
+        yield j, engine_problem(scene, problem), br
 
 
 @pytest.mark.parametrize("name", [pytest.param(n, marks=() if n in QUICK else pytest.mark.slow) for n in SCENES])
-def test_example_scene_branches_are_connected(name, tmp_path):
+def test_example_scene_branches_are_connected(name, scene_run):
     n = 0
-    for j, problem, br in scene_branches(name, tmp_path):
+    for j, problem, br in scene_branches(name, scene_run):
         assert np.all(np.isfinite(br.unknowns)) and np.all(np.isfinite(br.parameter))
         rep = connection_report(problem, br)
         assert rep["ok"], f"{name} branch {j}: {rep['failures'][:3]}"

@@ -13,7 +13,7 @@ from contin.bifurcation_curves import FlipTestEvent, curve_from_point
 from contin.catalog import build_model
 from contin.continuation import ContinuationOptions, continuation
 from contin.harmonic_balance import HarmonicBalance, HBOptions
-from contin.shooting import period_doubling_scan
+from contin.shooting import period_doubling_scan, periodic_orbit
 from contin.stability import StabilityMonitor, StabilityOptions, floquet_multipliers, orbit_state, stability_events
 
 OPTIONS = HBOptions(harmonics=40, samples=1024, crossings="none")  # plainly sampled contact: the cheapest form, exact enough in permanent contact
@@ -68,6 +68,44 @@ def test_one_parameter_period_doublings_lie_on_the_curve(rotor, f0):
     assert np.min(np.abs(mu + 1)) < 1e-7
 
 
+def _tip_branch(model, f0):
+    """The harmonic branch at ``f0`` over w = 2.16 .. 2.21 with its period doublings (the flip test)."""
+    hb = HarmonicBalance(model, "w", OPTIONS, {"f0": f0})
+    u0 = model.start(hb, 2.16)
+    br = continuation(hb, u0, 2.16, (2.16, 2.21), ContinuationOptions(ds=0.01, ds_max=0.02),
+                      events=[FlipTestEvent(hb)])
+    return hb, u0, br
+
+
+def test_tip_of_the_region_in_f0_by_the_flow_at_the_harmonic_balances_period_doublings():
+    """Either side of the tongue's tip, the flow's orbit (contin.shooting) at a few speeds only.
+
+    At f0 = 0.145 the harmonic balance has the pair w1 < w2 (2.18493, 2.18785); the flow's flip test
+    det(Phi + I) changes sign between w - 1e-7 and w + 1e-7 at each (measured +-2e-10 there, linear in the
+    offset: its zeros lie within 3e-9 of the harmonic balance's) and is negative between them. At f0 = 0.135
+    the harmonic balance has none and the flow's flip test is positive where the pair was. (The scan of the
+    flow over a grid, with the pair hidden between grid values: the slow test below.)
+    """
+    model = build_model("bearing_rotor", {"f0": 0.5})
+
+    def flip(f0, hb, br, w):
+        i = int(np.argmin(np.abs(br.parameter - w)))  # the HB orbit nearest w: Newton's start on the flow
+        orb = periodic_orbit(model, {"f0": f0, "w": w}, orbit_state(hb, br.unknowns[i], float(br.parameter[i]), 0.0))
+        assert orb.converged, (f0, w, orb.message)
+        return orb.flip_test
+
+    hb, _, br = _tip_branch(model, 0.145)
+    w1, w2 = sorted(p.parameter for p in br.points_of_kind("pd"))
+    assert 2.184 < w1 < w2 < 2.189
+    assert flip(0.145, hb, br, w1 - 1e-7) > 0 > flip(0.145, hb, br, w1 + 1e-7)
+    assert flip(0.145, hb, br, w2 - 1e-7) < 0 < flip(0.145, hb, br, w2 + 1e-7)
+    assert flip(0.145, hb, br, 0.5 * (w1 + w2)) < 0
+    hb, _, br = _tip_branch(model, 0.135)
+    assert not br.points_of_kind("pd")
+    assert flip(0.135, hb, br, 0.5 * (w1 + w2)) > 0
+
+
+@pytest.mark.slow
 def test_tip_of_the_region_in_f0_by_shooting_and_by_harmonic_balance():
     """Either side of the tongue's tip (f0 = 0.14045 on the curve of scenes/rotor_entrainment_f0.yaml).
 

@@ -90,7 +90,9 @@ def test_time_integration_confirms_entrainment(f05, w, entrained):
     rows, _ = f05
     model = build_model("bearing_rotor", {"f0": 0.5})
     rng = np.random.default_rng(1)
-    _, res = steady_state(model, {"w": w}, x0=1e-3 * rng.normal(size=4), v0=np.zeros(4), transient=1500, record=40)
+    # 800 revolutions: entrained at 2.16 and 2.18, |+w/2| within 8e-5 and 2.6e-4 of the branch's (4e-9 and
+    # 8e-4 after 1500: at 2.18 the interpolation between the branch's points dominates)
+    _, res = steady_state(model, {"w": w}, x0=1e-3 * rng.normal(size=4), v0=np.zeros(4), transient=800, record=40)
     assert (res.label == "period-2") == entrained, res.note
     if entrained:
         m = (rows["nu"] == 2) & rows["stable"]
@@ -107,7 +109,9 @@ def test_no_period_doubling_and_no_subharmonic(tmp_path_factory, scene):
     (period-1). (From rest, the f0 = 0 rotor at 2.17 settles instead on a
     motion with a +w/2 whirl that coexists with the stable harmonic orbit.)
     """
-    rows, sp, out = _run(tmp_path_factory, scene, outdir=True)
+    # steps of 0.04 of the narrowed range: about 0.01 in w, as the scenes' 0.01 of their whole range
+    rows, sp, out = _run(tmp_path_factory, scene, NARROW + ["--set", "analysis.continuation={ds: 0.04, ds_max: 0.04}"],
+                         outdir=True)
     assert np.all(rows["nu"] == 1) and rows["stable"].all()
     assert not np.isin(sp["kind"], ["pd", "ns"]).any()
     params = {"f0": 0.0} if scene == "rotor_f0_0" else {"f0": 0.5, "c2": 5.0}

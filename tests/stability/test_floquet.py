@@ -448,3 +448,28 @@ def test_locating_a_tongue_boundary_of_a_conservative_system_takes_a_few_solves(
     (bp,) = br.points_of_kind("bp")
     assert bp.parameter == pytest.approx(0.4 + np.log(1 + TOL) ** 2, abs=1e-10)
     assert int(bp.message.split("located in ")[1].split()[0]) <= 12
+
+
+def test_a_window_opened_by_a_collision_near_the_circle_is_not_stepped_over():
+    """A lightly damped pair (|mu| = 0.99) meets on the negative real axis at 0.6, splits into two real
+    multipliers, one of which stays beyond -1 until they meet again at 0.604: a period-doubling window
+    narrower than any step the moduli alone would allow (both ends of a long step are stable)."""
+    lo, hi, r = 0.6, 0.604, 0.99
+
+    def collide(lam):
+        if lo < lam < hi:
+            a = 2.0 * np.sqrt((lam - lo) * (hi - lam)) / (hi - lo)  # 1 in the middle of the window
+            pair = -r * np.exp(np.array([1.0, -1.0]) * 0.05 * a)
+        else:
+            b = 0.5 * min(abs(lam - lo), abs(lam - hi))
+            pair = -r * np.exp(np.array([1j, -1j]) * b)
+        return np.concatenate([pair, [0.2, 0.1]]).astype(complex)
+
+    mon = _ClosedFormMonitor(collide)
+    br = continuation(_Line(), [0.0], 0.0, (0.0, 1.0), ContinuationOptions(ds=0.05, ds_max=0.5),
+                      monitors=[mon], events=stability_events(mon))
+    # -r exp(0.05 a) = -(1 + tolerance) where a = log((1 + TOL)/r)/0.05
+    a = np.log((1 + TOL) / r) / 0.05
+    half = 0.5 * (hi - lo) * np.sqrt(1 - a * a)
+    pd = [p.parameter for p in br.points_of_kind("pd")]
+    assert pd == pytest.approx([0.602 - half, 0.602 + half], abs=1e-10)

@@ -173,11 +173,13 @@ def test_impacting_rotor_monodromy_equals_the_simulated_flow_map():
     w = 2.0
     u = model.start(hb, w)
     Phi = flow_jacobian(model, w, orbit_state(hb, u, w, 0.0), steps=16384)
-    ref = monodromy_reference(hb, u, w, rtol=1e-9, atol=1e-10)  # as close to Phi as with rtol 1e-11, faster
+    # rtol 1e-7: the difference to Phi is Phi's own error (measured 1.42e-8 with rtol 1e-9 and 1e-8, 1.49e-8
+    # here; 1.61e-5 without the saltation matrices at each), in half the time of rtol 1e-9
+    ref = monodromy_reference(hb, u, w, rtol=1e-7, atol=1e-8)
     assert len(ref.switches) == 4  # in and out twice (the HB orbit adds a spurious graze: 6 switches)
     err = np.abs(ref.matrix - Phi).max()
-    bare = np.abs(monodromy_reference(hb, u, w, rtol=1e-9, atol=1e-10, switches="piecewise").matrix - Phi).max()
-    assert err < 1e-7 and bare > 30 * err, (err, bare)  # measured 9e-9 and 1.6e-5
+    bare = np.abs(monodromy_reference(hb, u, w, rtol=1e-7, atol=1e-8, switches="piecewise").matrix - Phi).max()
+    assert err < 1e-7 and bare > 30 * err, (err, bare)  # measured 1.5e-8 and 1.6e-5
     mono = monodromy_rk4(hb, u, w, 8192)
     assert mono.switches and ref.orbit_error < 5e-3
     assert np.abs(mono.matrix - Phi).max() < 10 * ref.orbit_error  # measured 1.9e-2
