@@ -218,7 +218,7 @@ class ForceElement:
     numba kernel; they accumulate into the output arrays. Non-smooth laws also
     implement :meth:`switching_functions`, through which the monodromy locates
     the switches and builds saltation matrices
-    (:mod:`contin.stability.monodromy`).
+    (:mod:`contin.stability.saltation`).
     """
 
     kind: ClassVar[str] = ""

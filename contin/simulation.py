@@ -67,6 +67,7 @@ and return a wrong answer instead of blowing up (:meth:`CompiledModel.fastest_ra
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import inspect
 import math
@@ -597,15 +598,26 @@ def integrate(y, mode, k0, k1, S, h, p, Minv, C, K, cst, locate, max_events, rec
 '''
 
 
+@functools.lru_cache(maxsize=None)
+def _source_of(fn) -> bytes:
+    # reading and tokenising the source file is most of the cost of a CompiledModel
+    py = getattr(fn, "py_func", fn)
+    try:
+        return inspect.getsource(py).encode()
+    except (OSError, TypeError):
+        return repr(py).encode()
+
+
 def _fingerprint(functions) -> str:
     h = hashlib.sha256()
     for fn in functions:
-        py = getattr(fn, "py_func", fn)
-        try:
-            h.update(inspect.getsource(py).encode())
-        except (OSError, TypeError):
-            h.update(repr(py).encode())
+        h.update(_source_of(fn))
     return h.hexdigest()[:16]
+
+
+@functools.lru_cache(maxsize=256)
+def _check_syntax(src: str) -> None:
+    compile(src, "<generated simulation module>", "exec")  # loaded by codegen
 
 
 class CompiledModel:
@@ -706,7 +718,7 @@ class CompiledModel:
             "        V[0, i] = y[N + i]",
         ] + (switch or ["    return"])
         src = "\n".join(head + rhs) + "\n" + _INTEGRATOR
-        compile(src, "<generated simulation module>", "exec")  # syntax check; loaded by codegen
+        _check_syntax(src)
         return src
 
     @property

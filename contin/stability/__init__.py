@@ -1,7 +1,11 @@
 """Stability of periodic solutions: Floquet multipliers and bifurcation events.
 
 - :mod:`contin.stability.hill`: Hill's method on the harmonic-balance matrices;
-- :mod:`contin.stability.monodromy`: monodromy matrix by time integration;
+- :mod:`contin.stability.monodromy`: monodromy matrix by time integration,
+  built on :mod:`contin.stability.rk4` (the compiled fixed-step variational
+  kernels) and :mod:`contin.stability.saltation` (switches of contact laws and
+  their saltation matrices); :mod:`contin.stability.monodromy_reference`
+  holds the adaptive ``solve_ivp`` references;
 - :mod:`contin.stability.floquet`: options, results, the verdict, and the
   monitor and events used by the continuation engine.
 """

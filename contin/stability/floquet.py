@@ -63,12 +63,8 @@ from contin.branch import SpecialKind
 from contin.events import OVERSHOOT, Event, PointInfo, narrow, predicted_zero
 from contin.model import suggest
 from contin.stability.hill import hill_spectrum
-from contin.stability.monodromy import (
-    _switching_elements,
-    monodromy_reference,
-    monodromy_rk4,
-    switching_events,
-)
+from contin.stability.monodromy import monodromy_reference, monodromy_rk4, switching_events
+from contin.stability.saltation import _switching_elements
 
 __all__ = [
     "StabilityMethod",

@@ -141,6 +141,7 @@ def test_duffing_h1_peak_is_the_closed_form_amplitude_and_errors_decay_spectrall
     assert "no setting" in capsys.readouterr().out
 
 
+@pytest.mark.slow  # the convergence analysis is checked on the Duffing oscillator by default
 def test_clearance_contact_errors_decay_algebraically(tmp_path):
     rows, _, _ = run(tmp_path, GAP)
     H = rows["analysis.harmonics"][:-1]

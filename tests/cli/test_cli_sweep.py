@@ -33,6 +33,7 @@ def finished_points(outdir):
     return out
 
 
+@pytest.mark.slow  # a killed worker's point is rerun in tests/test_sweep.py
 def test_an_interrupted_sweep_reruns_only_the_unfinished_points(tmp_path, capsys, dask_cluster):
     out = tmp_path / "sweep"
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))

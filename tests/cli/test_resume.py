@@ -37,7 +37,8 @@ def reference(tmp_path_factory):
     return out
 
 
-@pytest.mark.parametrize("kill_at", [60, 330])  # inside the first branch; inside a switched branch
+# inside the first branch; inside a switched branch (slow: the whole reference run is redone)
+@pytest.mark.parametrize("kill_at", [60, pytest.param(330, marks=pytest.mark.slow)])
 def test_killed_run_resumes_to_the_same_result(tmp_path, reference, kill_at):
     out = tmp_path / "run"
     proc = subprocess.Popen([sys.executable, "-m", "contin", "run", SCENE, "-o", str(out), "-q", *SETS],

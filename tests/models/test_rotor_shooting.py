@@ -65,6 +65,7 @@ def switched(model, pd, callback=None, **kw):
                         callback=callback)
 
 
+@pytest.mark.slow  # by default the rotor's shooting period doublings are checked against the harmonic balance (tests/test_shooting.py)
 def test_branch_switched_at_F_is_the_converged_harmonic_balance_branch(model):
     """Near F the bearing stays on its casing (the gap closes to 6e-6): both methods give one orbit.
 

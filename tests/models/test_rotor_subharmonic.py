@@ -101,7 +101,7 @@ def test_time_integration_confirms_entrainment(f05, w, entrained):
         assert abs(abs(res.whirl["+w/2"]) - hb) < 2e-3
 
 
-@pytest.mark.parametrize("scene", ["rotor_f0_0", "rotor_c2_5"])
+@pytest.mark.parametrize("scene", ["rotor_f0_0", pytest.param("rotor_c2_5", marks=pytest.mark.slow)])
 def test_no_period_doubling_and_no_subharmonic(tmp_path_factory, scene):
     """f0 = 0 and c2 = 5.0: the harmonic solution is stable, no pd, no nu = 2 branch.
 

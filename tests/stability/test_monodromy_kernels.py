@@ -17,20 +17,18 @@ from contin.harmonic_balance import HarmonicBalance, HBOptions
 from contin.model import Monomial
 from contin.models.polynomial import polynomial_model
 from contin.stability import monodromy_rk4, orbit_state, switching_events
-from contin.stability.monodromy import (
+from contin.stability.monodromy import state_matrices
+from contin.stability.rk4 import (
     RK4_STABILITY,
-    _brentq_all,
     _full_state_matrices,
     _lower_blocks,
     _row_bound,
     _row_bounds,
-    _switching_elements,
-    _synthesize_at,
     _variational_rk4,
     rk4_propagate,
     rk4_segments,
-    state_matrices,
 )
+from contin.stability.saltation import _brentq_all, _switching_elements, _synthesize_at
 
 
 def numpy_state_matrices(Minv, K, C, dfdx, dfdxd):

@@ -157,6 +157,7 @@ def test_gap_oscillator_monodromy_equals_the_simulated_flow_map(gap_orbit):
 
 
 # ------------------------------------------------------- the rotor with c2 = 5 (impacting orbits, paper Fig. 8)
+@pytest.mark.slow  # saltation against the flow map is checked on the clearance oscillator by default
 def test_impacting_rotor_monodromy_equals_the_simulated_flow_map():
     """The bearing hits its casing twice per revolution at w = 2 (c2 = 5, H = 40; the paper's law).
 
