@@ -1729,6 +1729,9 @@ def continuation(
     return branch
 
 
+CONNECTION_SUBSTEPS = 4  # hyperplanes from a stored point to the chord's midpoint when the direct solve fails
+
+
 def connection_report(problem: Problem, branch: Branch, *, max_angle_deg: float = 45.0, midpoint: bool = True,
                       max_offset: float = 0.5, newton_tol: float | None = None, skip_kinks: bool = True) -> dict:
     """Check that consecutive stored points of a branch lie on one connected curve.
@@ -1744,7 +1747,11 @@ def connection_report(problem: Problem, branch: Branch, *, max_angle_deg: float 
     - with ``midpoint``, the problem is solved again on the hyperplane
       through the chord's midpoint normal to the chord; the solution must
       lie within ``max_offset * L`` of the midpoint, i.e. between the two
-      points, not on another sheet.
+      points, not on another sheet. Newton starts from the cubic Hermite
+      midpoint; where that lies outside the basin (contact orbits with many
+      harmonics), the midpoint hyperplane is reached from point ``index``
+      over ``CONNECTION_SUBSTEPS`` hyperplanes parallel to it, each solve
+      started on the previous solution's tangent.
 
     Steps across a recorded corner (``kink`` special point) are skipped with
     ``skip_kinks``: the tangent jumps there by construction.
@@ -1798,6 +1805,27 @@ def connection_report(problem: Problem, branch: Branch, *, max_angle_deg: float 
     def angle(a, b):
         return math.degrees(math.acos(float(np.clip(abs(a @ b), -1.0, 1.0))))
 
+    def on_plane(xm, d):
+        def fun(x):  # the residual bordered by the hyperplane through xm normal to d
+            R, Jh = jac(x)
+            return np.concatenate([R, [d @ (x - xm)]]), np.vstack([Jh, d])
+        return fun
+
+    def march(x, d, L, tol, substeps=CONNECTION_SUBSTEPS):
+        # a contact orbit's basin can be narrower than the Hermite midpoint's distance to the curve: reach the
+        # midpoint hyperplane from point i over hyperplanes normal to the chord, with the tangent's predictor
+        x0, s_prev, res = x, 0.0, None
+        for k in range(1, substeps + 1):
+            s = 0.5 * L * k / substeps
+            t = tangent(x, d)
+            if t is None:
+                break
+            res = newton(on_plane(x0 + s * d, d), x + (s - s_prev) * t / (t @ d), tol, 30)
+            if not res.converged:
+                break
+            x, s_prev = res.x, s
+        return res
+
     for i in range(n - 1):
         if i in kinks or (i + 1) in kinks:
             continue
@@ -1819,14 +1847,11 @@ def connection_report(problem: Problem, branch: Branch, *, max_angle_deg: float 
         if not midpoint:
             continue
         xm = 0.5 * (X[i] + X[i + 1])
-
-        def fun(x, xm=xm, d=d):
-            R, Jh = jac(x)
-            return np.concatenate([R, [d @ (x - xm)]]), np.vstack([Jh, d])
-
         # Newton starts from the cubic Hermite midpoint of the two ends and their tangents (O(L^3) off the
         # curve, where the chord midpoint is O(L^2) off: small basins, a stiff contact, need the former)
-        res = newton(fun, xm + 0.125 * L * (ends[0] - ends[1]), tol, 30)
+        res = newton(on_plane(xm, d), xm + 0.125 * L * (ends[0] - ends[1]), tol, 30)
+        if not res.converged:
+            res = march(X[i], d, L, tol)
         if not res.converged:
             failures.append((i, f"no solution on the midpoint hyperplane ({res.message})"))
             continue

@@ -37,6 +37,48 @@ def _segments(x, y, stable):
     return segs
 
 
+# offsets (points) tried in turn for a label, and the box (points) a label of a few letters covers
+_LABEL_OFFSETS = ((4, 4), (4, -11), (-6, 4), (-6, -11), (4, 14), (4, -21))
+_LABEL_BOX = (34.0, 9.0)
+
+
+def _label_points(ax, points):
+    """Name each special point beside its marker without letting two names overlap.
+
+    Points of one kind closer than a label's height are named once, with their
+    count (``grazing (2)``); a name that would cover another is moved to the
+    next free offset of ``_LABEL_OFFSETS``, or left out where none is free
+    (the legend still names the marker).
+    """
+    if not points:
+        return
+    ax.autoscale_view()
+    fig = ax.figure
+    xy = ax.transData.transform(np.array([[float(p["x"]), float(p["y"])] for p in points]))
+    xy = xy * 72.0 / fig.dpi  # display pixels to points
+    groups = []  # [kind, index of the first point, count]
+    for i, p in enumerate(points):
+        for g in groups:
+            if g[0] == p["kind"] and np.all(np.abs(xy[i] - xy[g[1]]) < _LABEL_BOX[1]):
+                g[2] += 1
+                break
+        else:
+            groups.append([p["kind"], i, 1])
+    boxes = []  # lower-left and upper-right corners of the labels placed, in points
+    for kind, i, count in groups:
+        text = kind if count == 1 else f"{kind} ({count})"
+        width = _LABEL_BOX[0] * max(len(text), 4) / 7.0
+        for dx, dy in _LABEL_OFFSETS:
+            x0 = xy[i, 0] + (dx if dx > 0 else dx - width)
+            box = (x0, xy[i, 1] + dy, x0 + width, xy[i, 1] + dy + _LABEL_BOX[1])
+            if all(box[2] <= b[0] or b[2] <= box[0] or box[3] <= b[1] or b[3] <= box[1] for b in boxes):
+                boxes.append(box)
+                ax.annotate(text, (float(points[i]["x"]), float(points[i]["y"])), textcoords="offset points",
+                            xytext=(dx, dy), ha="left" if dx > 0 else "right", fontsize=7,
+                            color=MARKERS[kind][1])
+                break
+
+
 def bifurcation_diagram(branches, special, parameter: str, measure: str, path: Path, *,
                         units=None, labels=None, title: str | None = None, extra=None):
     """Draw and save a bifurcation diagram.
@@ -64,15 +106,14 @@ def bifurcation_diagram(branches, special, parameter: str, measure: str, path: P
                     label=br.get("label") if first else None)
             first = False
     seen = set()
-    for sp in special:
+    drawn = [sp for sp in special if sp["kind"] in MARKERS]
+    for sp in drawn:
         kind = sp["kind"]
-        if kind not in MARKERS:
-            continue
         m, c = MARKERS[kind]
         ax.plot(sp["x"], sp["y"], m, color=c, ms=6, mfc="none" if kind != "stability" else c,
                 label=kind if kind not in seen else None, zorder=5)
-        ax.annotate(kind, (sp["x"], sp["y"]), textcoords="offset points", xytext=(4, 4), fontsize=7, color=c)
         seen.add(kind)
+    _label_points(ax, drawn)
     if extra is not None:
         extra(ax)
     ax.set_xlabel(axis_label(parameter, units, labels))

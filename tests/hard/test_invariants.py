@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -30,7 +31,7 @@ from contin.switching import doubled_problem
 pytestmark = pytest.mark.hard
 ROOT = Path(__file__).resolve().parents[2]
 SCENES = sorted(p.name for p in (ROOT / "scenes").glob("*.yaml")
-                if "type: frequency_response" in p.read_text())
+                if (yaml.safe_load(p.read_text()).get("analysis") or {}).get("type") == "frequency_response")
 QUICK = {"duffing.yaml", "custom_duffing.yaml", "gap_oscillator.yaml", "mathieu.yaml", "mathieu_duffing_pd.yaml"}
 
 

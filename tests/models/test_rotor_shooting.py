@@ -114,6 +114,11 @@ def test_fig4_script_follows_the_branch_from_F_to_D_through_E_and_C(tmp_path):
     assert rows["contact_switches"].max() >= 20  # the bearing bounces on the way
     gap = float(re.search(r"settles on an orbit ([0-9.e+-]+) from the branch's", out.stdout).group(1))
     assert gap < 1e-7
+    decided = set()
     for verdict, mu, end in re.findall(r"\((stable|unstable), largest multiplier ([0-9.]+)\): 400 revolutions from "
                                        r"1e-6 off the orbit end ([0-9.e+-]+)", out.stdout):
-        assert (float(end) < 1e-6) == (verdict == "stable")
+        # 400 revolutions tell only where the multiplier grows or damps the kick tenfold (1.0004^400 = 1.17 does not)
+        if not 0.1 <= float(mu) ** 400 <= 10.0:
+            assert (float(end) < 1e-6) == (verdict == "stable")
+            decided.add(verdict)
+    assert decided == {"stable", "unstable"}
