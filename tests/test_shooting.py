@@ -94,6 +94,7 @@ def test_rotor_period_doublings_match_the_harmonic_balance_in_permanent_contact(
         assert np.abs(flow_map(model, p.params, p.state) - p.state).max() < 1e-9
 
 
+@pytest.mark.slow  # shooting against closed forms and the rotor's harmonic balance by default
 def test_shooting_branch_passes_the_duffing_folds_of_the_converged_harmonic_balance():
     """The engine's pseudo-arclength steps on the flow map (ShootingProblem) against HB with H = 15."""
     model = build_model("duffing", {"c": 0.1, "g": 1.0, "F": 0.5})

@@ -67,6 +67,7 @@ def assert_same_csv(a, b):
 
 
 # ---------------------------------------------------------------- on the cluster
+@pytest.mark.slow  # the cluster runs a sweep in test_a_worker_killed_in_the_middle_of_a_run_does_not_lose_its_point
 def test_sweep_on_two_workers_equals_the_runs_one_by_one(cluster, tmp_path):
     grid = (parse_grid("model.parameters.F=0.3,0.5"), parse_grid("model.parameters.c=0.05,0.1,0.2"))
     opts = SweepOptions(DUFFING, grid, str(tmp_path / "sweep"), overrides=FAST, scheduler=cluster.scheduler_address,

@@ -83,6 +83,7 @@ def test_mathieu_scene_curves_are_the_transition_curves(tmp_path):
     assert np.any(ends["delta"][landed] == -0.2)  # a curve leaves the delta range: it ends on the bound
 
 
+@pytest.mark.slow  # the curves against the transition curves: test_mathieu_scene_curves_are_the_transition_curves
 def test_shooting_reference_finds_the_transition_curves_and_the_curves(tmp_path):
     """Period doublings of the integrated flow (contin.shooting) at eps = 0.2, 0.6: scipy's curves, on the HB curves."""
     out = run("mathieu_pd_curve.yaml", tmp_path, "analysis.overlay=[]", "analysis.shooting=[0.2, 0.6]",

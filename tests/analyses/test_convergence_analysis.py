@@ -237,6 +237,7 @@ analysis:
     assert rows["stable_nu1_to_error"][0] > 100 * rows["stable_nu1_to_error"][1] > 0
 
 
+@pytest.mark.slow  # fourth order of the integrator: tests/test_simulation.py
 def test_time_integration_steps_converge_at_fourth_order(tmp_path):
     text = """
 model:

@@ -130,6 +130,7 @@ def subharmonic():
     return model, hb, dict(zip(ws, us))
 
 
+@pytest.mark.slow  # the same agreement on the harmonic branch by default
 def test_hill_and_monodromy_agree_on_the_subharmonic_branch(subharmonic):
     model, hb, sols = subharmonic
     for w in (2.16, 2.154, 2.149):
