@@ -62,6 +62,7 @@ model:
 
 
 # ---------------------------------------------------------------- equivalence
+@pytest.mark.slow  # the custom Duffing scene against the built-in: test_custom_duffing_scene_runs_like_the_builtin
 def test_custom_duffing_equals_builtin_duffing(rng):
     mc = build_model(load_scene(ROOT / "scenes/custom_duffing.yaml"))
     mb = build_builtin("duffing")

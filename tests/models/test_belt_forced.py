@@ -82,6 +82,7 @@ def test_fold_of_the_hardening_resonance_is_where_time_integration_jumps():
     assert res.converged and w_rms(res.x) == pytest.approx(rms_lo, rel=5e-3)
 
 
+@pytest.mark.slow  # the 1/2 subharmonic against time integration by default
 def test_one_third_subharmonic_agrees_with_time_integration():
     # undamped, no magnet: the 1/3 subharmonic near three times the first natural frequency (2.67)
     model = build_model("timing_belt", {"p_d": 2.0}, ["rotor_mass", "stretching", "periodic_load"])

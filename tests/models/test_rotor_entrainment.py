@@ -77,6 +77,7 @@ def _tip_branch(model, f0):
     return hb, u0, br
 
 
+@pytest.mark.slow  # the region's curve from f0 = 0.5 to 0.3 by default
 def test_tip_of_the_region_in_f0_by_the_flow_at_the_harmonic_balances_period_doublings():
     """Either side of the tongue's tip, the flow's orbit (contin.shooting) at a few speeds only.
 
