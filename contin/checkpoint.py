@@ -20,7 +20,40 @@ import numpy as np
 
 from contin.branch import Branch, BranchBuilder, BranchStatus, SpecialKind, SpecialPoint
 
-__all__ = ["encode", "decode", "read_records", "rebuild_branches", "special_record"]
+__all__ = ["CheckpointError", "encode", "decode", "read_records", "rebuild_branches", "special_record"]
+
+
+class CheckpointError(ValueError):
+    """A line of a checkpoint that parses but is not a record contin writes."""
+
+
+#: the keys each kind of record holds (what :func:`rebuild_branches` reads)
+RECORD_KEYS = {"point": ("row", "branch", "lam", "u", "tangent"), "branch": ("branch",),
+               "special": ("branch", "point")}
+
+
+def _is_numbers(v) -> bool:
+    return isinstance(v, list) and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v)
+
+
+def _checked(rec, path, lineno: int) -> dict:
+    where = f"{path} line {lineno}"
+    if not isinstance(rec, dict):
+        raise CheckpointError(f"{where}: a JSON object, found {type(rec).__name__}")
+    kind = rec.setdefault("type", "point")
+    if kind not in RECORD_KEYS:
+        raise CheckpointError(f"{where}: a record of type {', '.join(RECORD_KEYS)}, found {kind!r}")
+    missing = [k for k in RECORD_KEYS[kind] if k not in rec]
+    if missing:
+        raise CheckpointError(f"{where}: a {kind} record with the keys {', '.join(missing)}")
+    if not (isinstance(rec["branch"], int) and rec["branch"] >= 0):
+        raise CheckpointError(f"{where}: a branch number, found {rec['branch']!r}")
+    if kind == "point" and not (isinstance(rec["row"], int) and isinstance(rec["lam"], (int, float))
+                                and _is_numbers(rec["u"]) and _is_numbers(rec["tangent"])
+                                and len(rec["tangent"]) >= 1):
+        raise CheckpointError(f"{where}: a point record with an integer row, a number lam and lists of numbers "
+                              "u and tangent")
+    return rec
 
 
 def encode(obj):
@@ -68,17 +101,23 @@ def read_records(path: Path, max_row: int | None = None) -> list[dict]:
     ----------
     max_row : int, optional
         Drop point records with ``row >= max_row`` (rows missing from ``branches.csv``).
+
+    Raises
+    ------
+    CheckpointError
+        At a line that parses as JSON but is not a record contin writes (a
+        line cut by a killed run does not parse and ends the records).
     """
     out = []
     if not Path(path).exists():
         return out
-    with open(path) as fh:
-        for line in fh:
+    with open(path, encoding="utf-8", errors="replace") as fh:
+        for lineno, line in enumerate(fh, 1):
             try:
                 rec = json.loads(line)
             except json.JSONDecodeError:
                 break
-            rec.setdefault("type", "point")
+            rec = _checked(rec, path, lineno)
             if rec["type"] == "point" and max_row is not None and rec["row"] >= max_row:
                 break
             out.append(rec)

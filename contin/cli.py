@@ -180,6 +180,9 @@ def cmd_run(args) -> int:
         overrides.append(f"analysis.budget={args.budget!r}")
     scene = load_scene(args.scene, overrides)
     outdir = Path(args.outdir) if args.outdir else Path("results") / Path(args.scene).stem
+    if outdir.exists() and not outdir.is_dir():
+        raise SceneError("-o", "a directory for the results (new or existing)", str(outdir),
+                         hint=" (a file of that name exists)")
     summary = run_scene(scene, outdir, progress=not args.quiet, resume=args.resume)
     a = summary.get("analysis", {})
     for line in a.get("table", []) if scene.analysis["type"] == "convergence" else []:
@@ -299,6 +302,9 @@ def main(argv=None) -> int:
         return _fail(str(exc), EXIT_FAILED)
     except KeyboardInterrupt:
         return _fail("interrupted", EXIT_INTERRUPTED)
+    except OSError as exc:  # a place that cannot be written or read: a message, not a traceback
+        where = f"{exc.filename}: " if exc.filename else ""
+        return _fail(f"{where}{exc.strerror or exc}", EXIT_BAD_INPUT)
 
 
 if __name__ == "__main__":

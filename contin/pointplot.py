@@ -48,7 +48,13 @@ def plot_point(outdir: Path, row: int, samples: int = 512) -> Path:
     from contin.runner import build_model
 
     outdir = Path(outdir)
-    summary = json.loads((outdir / "summary.json").read_text())
+    if not (outdir / "summary.json").is_file():
+        raise SceneError(str(outdir), "a result directory written by `contin run` (with summary.json)", None)
+    try:
+        summary = json.loads((outdir / "summary.json").read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise SceneError(str(outdir / "summary.json"), "a summary written by `contin run`", None,
+                         hint=f" ({exc})") from None
     scene = parse_scene(yaml.safe_dump(summary["scene"]), str(outdir / "summary.json"))
     rec = load_state_row(outdir, row)
     scene.analysis["subharmonic"] = rec["nu"]  # the row's own order and harmonic count

@@ -12,6 +12,7 @@ import numpy as np
 
 import contin
 from contin.catalog import get_spec
+from contin.checkpoint import CheckpointError, read_records
 from contin.model import Model
 from contin.progress import Progress
 from contin.results import write_json_atomic
@@ -140,7 +141,18 @@ def _check_resumable(scene: Scene, outdir: Path):
     path = outdir / "summary.json"
     if not path.exists() or not (outdir / "state.jsonl").exists():
         return None  # nothing to resume: a fresh run
-    old = json.loads(path.read_text())
+    try:
+        old = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise SceneError("--resume", f"a summary.json written by contin in {outdir}", "a file that does not parse",
+                         hint=f" ({exc}); run again without --resume, or use another -o") from None
+    if not isinstance(old, dict):
+        raise SceneError("--resume", f"a summary.json written by contin in {outdir}", type(old).__name__)
+    try:
+        read_records(outdir / "state.jsonl")
+    except CheckpointError as exc:
+        raise SceneError("--resume", "a state.jsonl written by contin", str(exc),
+                         hint="; run again without --resume, or use another -o") from None
     if old.get("scene") != json.loads(json.dumps(scene.data)):
         raise SceneError("--resume", f"the same scene as the run in {outdir}", "a different scene",
                          hint="; resume with the scene and --set options of that run, or use another -o")

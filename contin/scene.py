@@ -24,7 +24,25 @@ __all__ = ["SceneError", "Scene", "load_scene", "parse_scene", "scene_from_data"
 
 
 class SceneLoader(yaml.SafeLoader):
-    """Safe YAML loader that reads ``1e-6`` as a number, as YAML 1.2 does."""
+    """Safe YAML loader that reads ``1e-6`` as a number, as YAML 1.2 does, and refuses a key given twice
+    in one mapping (PyYAML keeps the last silently; a merge ``<<`` may still be overridden)."""
+
+    def construct_mapping(self, node, deep=False):
+        if isinstance(node, yaml.MappingNode):
+            seen: dict = {}
+            for key_node, _ in node.value:
+                if key_node.tag == "tag:yaml.org,2002:merge":
+                    continue
+                key = self.construct_object(key_node, deep=deep)
+                try:
+                    if key in seen:
+                        raise yaml.constructor.ConstructorError(
+                            "while constructing a mapping", node.start_mark,
+                            f"the key {key!r} is given twice (first on line {seen[key]})", key_node.start_mark)
+                except TypeError:  # an unhashable key: the base class reports it
+                    continue
+                seen[key] = key_node.start_mark.line + 1
+        return super().construct_mapping(node, deep)
 
 
 SceneLoader.yaml_implicit_resolvers = {k: list(v) for k, v in yaml.SafeLoader.yaml_implicit_resolvers.items()}
@@ -39,8 +57,37 @@ SceneLoader.add_implicit_resolver(
 )
 
 
-def _load(text: str):
-    return yaml.load(text, Loader=SceneLoader)  # noqa: S506  (a SafeLoader subclass)
+#: values a scene may hold once its YAML aliases are expanded (a scene has a few hundred)
+MAX_VALUES = 100_000
+#: nesting depth a scene may have (a scene has about five levels)
+MAX_DEPTH = 64
+
+
+def _load(text: str, source: str = "<string>"):
+    data = yaml.load(text, Loader=SceneLoader)  # noqa: S506  (a SafeLoader subclass)
+    _check_expansion(data, source)
+    return data
+
+
+def _check_expansion(data, source: str) -> None:
+    """Refuse what YAML aliases can build: a structure that contains itself, or one that expands
+    to more values than any scene holds (the "billion laughs" of nested aliases)."""
+    count = 0
+    stack = [(data, 0, ())]
+    while stack:
+        node, depth, path = stack.pop()
+        count += 1
+        if count > MAX_VALUES:
+            raise SceneError(source, f"a scene of at most {MAX_VALUES} values with its YAML aliases expanded",
+                             "more (aliases nested within aliases)")
+        if isinstance(node, (dict, list)):
+            if id(node) in path:
+                raise SceneError(source, "YAML whose aliases do not refer to themselves", "a recursive alias")
+            if depth >= MAX_DEPTH:
+                raise SceneError(source, f"YAML nested at most {MAX_DEPTH} levels deep", "deeper nesting")
+            inner = (*path, id(node))
+            items = list(node.keys()) + list(node.values()) if isinstance(node, dict) else node
+            stack.extend((v, depth + 1, inner) for v in items)
 
 
 # ---------------------------------------------------------------- schema
@@ -179,7 +226,7 @@ def apply_override(data: dict, assignment: str) -> None:
     if not key or any(not part for part in key.split(".")):
         raise SceneError("--set", "a dotted key such as model.parameters.f0", key)
     try:
-        value = _load(text) if text.strip() else None
+        value = _load(text, f"--set {key}") if text.strip() else None
     except yaml.YAMLError as exc:
         raise SceneError(f"--set {key}", "a YAML value", text, hint=f" ({str(exc).splitlines()[0]})") from None
     node = data
@@ -203,7 +250,7 @@ def parse_scene(text: str, source: str = "<string>", overrides=()) -> Scene:
         On malformed YAML or any schema violation.
     """
     try:
-        data = _load(text)
+        data = _load(text, source)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         line = mark.line + 1 if mark is not None else None
@@ -275,6 +322,9 @@ def load_scene(path: str | Path, overrides=()) -> Scene:
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
         raise SceneError(str(path), "a readable scene file", None, hint=f" ({exc.strerror})") from None
+    except UnicodeDecodeError as exc:
+        raise SceneError(str(path), "a scene file in UTF-8", f"byte 0x{exc.object[exc.start]:02x} at offset {exc.start}",
+                         hint=" (save the file as UTF-8)") from None
     return parse_scene(text, str(path), overrides)
 
 
