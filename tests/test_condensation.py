@@ -126,6 +126,7 @@ def test_rotor_nu1_condensed_equals_full(rotor_nu1, rng):
     check_rotor(hb, u, 2.0, rng)
 
 
+@pytest.mark.slow  # by default the rotor's nu = 1 problem and its doubled embedding are checked
 def test_rotor_nu2_condensed_equals_full(rotor_nu2, rng):
     hb, u, w = rotor_nu2
     ch, u_c = check_rotor(hb, u, w, rng)

@@ -78,7 +78,7 @@ def slope(S, err):
     return -np.polyfit(np.log(S), np.log(err), 1)[0]
 
 
-@pytest.mark.parametrize("clip", [False, True])
+@pytest.mark.parametrize("clip", [pytest.param(False, marks=pytest.mark.slow), True])  # one contact law by default
 def test_event_location_restores_fourth_order(clip):
     T = 2 * math.pi / OSC["w"]
     yref, n_events = reference_oscillator(PERIODS * T, clip)
