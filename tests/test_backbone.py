@@ -83,6 +83,7 @@ def test_belt_backbones_harden_without_the_magnet_and_soften_first_with_it():
     assert W[-1] > w_min * 1.05
 
 
+@pytest.mark.slow  # the backbone against the exact elliptic frequency by default
 def test_backbone_orbit_is_periodic_under_time_integration():
     from contin.simulation import simulate
 

@@ -181,6 +181,7 @@ def test_compiled_rhs_equals_the_elements(clips, rng):
                                rtol=1e-12)
 
 
+@pytest.mark.slow  # located contact events: test_event_location_restores_fourth_order
 def test_contact_model_runs_with_located_events():
     model = contact_model(False, True, False)
     r = {S: simulate(model, None, [0.5, -0.2, 0.1], [0.0, 1.0, -1.0], periods=2, steps_per_period=S)
@@ -193,6 +194,7 @@ def test_contact_model_runs_with_located_events():
     assert any("not located" in note for note in r.notes)
 
 
+@pytest.mark.slow  # expression forces against built-in ones: tests/test_custom.py
 def test_expression_excitation_equals_harmonic_element():
     base = dict(OSC)
     m1 = oscillator()

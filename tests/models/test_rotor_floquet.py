@@ -159,6 +159,7 @@ def impacting():
     return model, w, hbs, sols
 
 
+@pytest.mark.slow  # impacting orbits: saltation against the flow map in tests/stability/test_saltation.py
 def test_hill_spectrum_holds_the_critical_multipliers_of_an_impacting_orbit(impacting):
     _, w, hbs, sols = impacting
     hb, u = hbs[40], sols[40]
@@ -196,6 +197,7 @@ def test_permanent_contact_orbits_agree_with_simulation_spectrally(harmonic):
         assert errs[80][0] < 1e-10
 
 
+@pytest.mark.slow  # impacting orbits: saltation against the flow map in tests/stability/test_saltation.py
 def test_impacting_orbits_agree_with_simulation_algebraically(impacting):
     """err_x(H) <= 0.03 / H: first order in H (fitted 1.14), below 5e-4 at H = 40."""
     model, w, hbs, sols = impacting

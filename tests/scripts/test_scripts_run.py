@@ -1,4 +1,4 @@
-"""Every script in scripts/ runs at its small (--quick) settings.
+"""Every script in scripts/ runs at its small (--quick) settings (the benchmarks in the slow tier).
 
 The scripts run in this process (``runpy``, ``sys.argv`` patched, in the test's
 temporary directory): each one's check is the same as from a shell, it exits
@@ -37,7 +37,9 @@ def isolated(tmp_path, monkeypatch):
         sys.modules["matplotlib.pyplot"].close("all")
 
 
-@pytest.mark.parametrize("name", SCRIPTS)
+# the benchmarks (bench_*.py) in the slow tier: they time, the others reproduce the papers' figures
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n.startswith("bench_") else n
+                                  for n in SCRIPTS])
 def test_script_runs_quick(name, isolated, monkeypatch, capsys):
     path = str(ROOT / "scripts" / name)
     monkeypatch.setattr(sys, "argv", [path, "--quick"])
