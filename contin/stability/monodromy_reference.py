@@ -123,6 +123,37 @@ def _clamped(a, b, inner_a, inner_b):
     return lambda t: min(max(t, lo), hi)
 
 
+def _variational_ivp(pieces, events, linear, rtol, atol):
+    """``Phi`` over one period by DOP853, piece by piece, with the switches' saltation matrices between.
+
+    ``pieces``: ``(a, b, state)`` with ``state(t)`` the orbit's state on ``[a, b]`` (its ends evaluated
+    just inside); ``events[s]`` follows piece ``s``; ``linear = (Minv, C, K, forces, n)``.
+    Returns ``(Phi, number of right-hand side evaluations)``.
+    """
+    Minv, C, K, forces, n = linear
+    d = 2 * n
+    Phi, nfev = np.eye(d), 0
+    for s, (a, b, state) in enumerate(pieces):
+        if b > a:
+            clamp = _clamped(a, b, s > 0, s < len(pieces) - 1)
+
+            def rhs(t, y, clamp=clamp, state=state):
+                tt = clamp(t)
+                z = state(tt)
+                _, dfdx, dfdxd = forces(z[:n], z[n:], tt)
+                A = _state_matrix(Minv, C, K, dfdx, dfdxd, n)
+                return (A @ y.reshape(d, d)).reshape(-1)
+
+            sol = solve_ivp(rhs, (a, b), Phi.reshape(-1), method="DOP853", rtol=rtol, atol=atol)
+            if not sol.success:
+                raise ArithmeticError(f"solve_ivp failed on the variational equations: {sol.message}")
+            Phi = sol.y[:, -1].reshape(d, d)
+            nfev += int(sol.nfev)
+        if s < len(events):
+            Phi = events[s].saltation @ Phi
+    return Phi, nfev
+
+
 def monodromy_orbit_ivp(hb, u: np.ndarray, lam: float, rtol: float = 1e-11, atol: float = 1e-12,
                         switches: str = "saltation", samples: int = 4096) -> Monodromy:
     """Monodromy of the variational equations along the HB orbit, adaptive DOP853.
@@ -141,29 +172,9 @@ def monodromy_orbit_ivp(hb, u: np.ndarray, lam: float, rtol: float = 1e-11, atol
     Omega = _frequency(hb, lam)
     T = 2.0 * np.pi / Omega
     _, C, K, Minv, forces, _ = _pointwise(hb, p)
-    d = 2 * n
     events = [] if switches == "ignore" else switching_events(hb, u, lam, samples, saltation=switches == "saltation")
-    segs = _segments(events, T)
-    Phi = np.eye(d)
-    nfev = 0
-    for s, (a, b) in enumerate(segs):
-        if b > a:
-            clamp = _clamped(a, b, s > 0, s < len(segs) - 1)
-
-            def rhs(t, y, clamp=clamp):
-                tt = clamp(t)
-                z = orbit_state(hb, u, lam, tt)
-                _, dfdx, dfdxd = forces(z[:n], z[n:], tt)
-                A = _state_matrix(Minv, C, K, dfdx, dfdxd, n)
-                return (A @ y.reshape(d, d)).reshape(-1)
-
-            sol = solve_ivp(rhs, (a, b), Phi.reshape(-1), method="DOP853", rtol=rtol, atol=atol)
-            if not sol.success:
-                raise ArithmeticError(f"solve_ivp failed on the variational equations: {sol.message}")
-            Phi = sol.y[:, -1].reshape(d, d)
-            nfev += int(sol.nfev)
-        if s < len(events):
-            Phi = events[s].saltation @ Phi
+    pieces = [(a, b, lambda t: orbit_state(hb, u, lam, t)) for a, b in _segments(events, T)]
+    Phi, nfev = _variational_ivp(pieces, events, (Minv, C, K, forces, n), rtol, atol)
     return Monodromy(Phi, T, "orbit-dop853", evaluations=nfev, switches=tuple(events),
                      saltation=bool(events) and switches == "saltation")
 
@@ -236,7 +247,6 @@ def monodromy_reference(hb, u: np.ndarray, lam: float, rtol: float = 1e-11, atol
 def _reference_with_switches(hb, p, T, z0, sw, rtol, atol, saltation, max_switches):
     """:func:`monodromy_reference` for a model with switching functions (see there)."""
     n = hb.n
-    d = 2 * n
     w = float(p[hb.kw])
     _, C, K, Minv, forces, excitation = _pointwise(hb, p)
     funcs = [(e, el, i) for e, el, m in sw for i in range(m)]
@@ -290,24 +300,7 @@ def _reference_with_switches(hb, p, T, z0, sw, rtol, atol, saltation, max_switch
         mode[k] = not mode[k]
         skip[0] = (k, tc, 1e-300 if mode[k] else -1e-300)
         t0, z = tc, zc
-    Phi = np.eye(d)
-    for s, (a, b, dense) in enumerate(pieces):
-        if b > a:
-            clamp = _clamped(a, b, s > 0, s < len(pieces) - 1)
-
-            def rhs(t, y, clamp=clamp, dense=dense):
-                tt = clamp(t)
-                zz = dense(tt)
-                _, dfdx, dfdxd = forces(zz[:n], zz[n:], tt)
-                A = _state_matrix(Minv, C, K, dfdx, dfdxd, n)
-                return (A @ y.reshape(d, d)).reshape(-1)
-
-            sol = solve_ivp(rhs, (a, b), Phi.reshape(-1), method="DOP853", rtol=rtol, atol=atol)
-            if not sol.success:
-                raise ArithmeticError(f"solve_ivp failed on the variational equations: {sol.message}")
-            Phi = sol.y[:, -1].reshape(d, d)
-            nfev += int(sol.nfev)
-        if s < len(events):
-            Phi = events[s].saltation @ Phi
+    Phi, nfev_var = _variational_ivp(pieces, events, (Minv, C, K, forces, n), rtol, atol)
+    nfev += nfev_var
     return Monodromy(Phi, T, "dop853", evaluations=nfev, orbit_error=float(np.max(np.abs(zT - z0))),
                      switches=tuple(events), saltation=bool(events) and saltation)

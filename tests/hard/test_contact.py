@@ -141,13 +141,6 @@ def test_peak_fold_moves_up_ever_less_as_the_stop_stiffens():
 def test_peak_fold_converges_as_the_stop_stiffens():
     """Through the impacting resonance to w = 1.3: one fold (the jump down) whose location
     converges as kc grows to the rigid-stop limit (measured 1.1429, 1.1487, ..., 1.1503)."""
-    folds = []
-    for kc in (1e3, 1e4, 1e5, 1e6):
-        hb, br = trace(kc, 20, 512, w_end=1.3)
-        assert br.status == BranchStatus.RANGE_END, br.message
-        f = [sp.parameter for sp in br.special_points if sp.kind == SpecialKind.FOLD]
-        assert len(f) == 1, f
-        folds.append(f[0])
-        assert connection_report(hb, br, midpoint=False)["ok"]
+    folds = peak_folds((1e3, 1e4, 1e5, 1e6))
     steps = np.abs(np.diff(folds))
     assert np.all(np.diff(folds) > 0) and steps[0] > steps[1] > steps[2] and steps[-1] < 1e-3
