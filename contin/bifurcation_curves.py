@@ -449,8 +449,8 @@ class BifurcationCurve:
 
     @property
     def complete(self) -> bool:
-        """Every traced direction ended at a range bound or closed the loop."""
-        ok = (BranchStatus.RANGE_END.value, BranchStatus.CLOSED_LOOP.value)
+        """Every traced direction ended at a range bound (also after turning back) or closed the loop."""
+        ok = (BranchStatus.RANGE_END.value, BranchStatus.TURNED_BACK.value, BranchStatus.CLOSED_LOOP.value)
         return bool(self.ends) and all(e["status"] in ok for e in self.ends)
 
     def points_of_kind(self, kind) -> list:

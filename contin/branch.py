@@ -39,9 +39,27 @@ class BranchStatus(str, enum.Enum):
     #: the branch reached a located point it cannot pass (a boundary of the problem's smooth
     #: domain, such as grazing: a contact arc appearing or vanishing tangentially)
     BOUNDARY = "boundary"
+    #: reached the end of the parameter range opposite to the one it set out towards (it turned
+    #: back at a fold): the part of the range beyond its furthest point is not covered by it
+    TURNED_BACK = "turned_back"
 
     def __str__(self) -> str:
         return self.value
+
+    @property
+    def as_asked(self) -> bool:
+        """True if the branch ended where the problem or the options end it, False if the numerics gave up.
+
+        A branch ends as asked at a range end (also after turning back), at
+        a closed loop, at a located point it cannot pass (``BOUNDARY``) or
+        after ``max_points`` points; it falls short when its start, Newton,
+        the step size or the conditioning failed (or it was interrupted).
+        """
+        return self in _AS_ASKED
+
+
+_AS_ASKED = frozenset({BranchStatus.RANGE_END, BranchStatus.TURNED_BACK, BranchStatus.CLOSED_LOOP,
+                       BranchStatus.BOUNDARY, BranchStatus.MAX_POINTS})
 
 
 class SpecialKind(str, enum.Enum):

@@ -1,18 +1,47 @@
 """The catalogue of built-in models, filled by :func:`register_model`.
 
 Each entry is a :class:`ModelSpec`: its parameters with defaults, its named
-effects, and a function that builds a :class:`contin.model.Model` holding
-exactly the enabled effects.
+effects, a function that builds a :class:`contin.model.Model` holding
+exactly the enabled effects, and the values of its parameters that make
+physical sense (``constraints``, by the rules of :data:`RULES`): a model is
+never built with a value its table forbids (a negative mass, damping or
+contact stiffness, ...), and a scene holding one is refused with the key
+named before anything runs (:mod:`contin.scene`).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Callable, Mapping
 
 from contin.model import Model, suggest
 
-__all__ = ["ModelSpec", "register_model", "MODELS", "build_model", "get_spec"]
+__all__ = ["ModelSpec", "RULES", "register_model", "MODELS", "build_model", "get_spec", "rule_violation"]
+
+#: rules a parameter value may be held to: name -> (test of a finite float, what it asks for)
+RULES: dict[str, tuple[Callable[[float], bool], str]] = {
+    "positive": (lambda v: v > 0, "a number > 0"),
+    "nonnegative": (lambda v: v >= 0, "a number >= 0"),
+    "position": (lambda v: 0 < v < 1, "a position strictly between 0 and 1"),
+    "terms": (lambda v: v == int(v) and 1 <= v <= 200, "an integer from 1 to 200"),
+}
+
+
+def rule_violation(rule: tuple[str, str], value) -> str | None:
+    """What ``value`` should have been under ``rule = (RULES name, meaning)``, or None if it obeys it.
+
+    Values that are not finite numbers are left to the checks of their type.
+    """
+    name, meaning = rule
+    try:
+        v = float(value)
+    except (TypeError, ValueError, OverflowError):
+        return None
+    if isinstance(value, bool) or not math.isfinite(v):
+        return None
+    test, expected = RULES[name]
+    return None if test(v) else f"{expected} ({meaning})"
 
 
 @dataclass(frozen=True)
@@ -34,6 +63,15 @@ class ModelSpec:
         ``builder(parameters: dict, effects: tuple, **options) -> Model``.
     options : dict
         Model options (not parameters) with defaults, e.g. ``{"clip": True}``.
+    constraints : dict
+        Parameter name -> ``(rule, meaning)``: the values that make physical
+        sense, ``rule`` a key of :data:`RULES` (``positive`` for masses and
+        inertias, ``nonnegative`` for stiffnesses, dampings, clearances and
+        frequencies whose negative values mean nothing), ``meaning`` what the
+        parameter is (for the message). A scene's values and the ranges it
+        continues such a parameter over are held to them.
+    frequency : str
+        The excitation-frequency parameter.
     """
 
     name: str
@@ -43,6 +81,26 @@ class ModelSpec:
     default_effects: tuple
     builder: Callable[..., Model]
     options: dict = field(default_factory=dict)
+    constraints: dict = field(default_factory=dict)
+    frequency: str = "w"
+
+    def parameter_constraints(self, options: Mapping | None = None) -> dict:
+        """Parameter name -> ``(rule, meaning)`` for the model built with ``options`` (see ``constraints``)."""
+        return dict(self.constraints)
+
+    def check_parameters(self, parameters: Mapping, options: Mapping | None = None) -> None:
+        """Refuse a parameter value that breaks its constraint.
+
+        Raises
+        ------
+        ValueError
+            ``model.parameters.NAME: expected ..., found ...``.
+        """
+        rules = self.parameter_constraints(options)
+        for k, v in parameters.items():
+            bad = rule_violation(rules[k], v) if k in rules else None
+            if bad:
+                raise ValueError(f"model.parameters.{k}: expected {bad}, found {v!r}")
 
     def build(self, parameters: Mapping | None = None, effects=None, **options) -> Model:
         """Build the model with parameter overrides and the enabled effects."""
@@ -68,6 +126,7 @@ class ModelSpec:
                     f"model.options.{k}: unknown option of '{self.name}'{suggest(k, opts)}; expected one of {list(opts)}"
                 )
             opts[k] = v
+        self.check_parameters(params, opts)
         return self.builder(params, eff, **opts)
 
 

@@ -1,9 +1,11 @@
 """The ``contin`` command: ``run``, ``sweep``, ``check``, ``models``, ``absorber``, ``budget`` and ``plot``.
 
-Exit status: 0 on success, 1 when a run failed for numerical reasons (for
-``sweep``: when at least one grid point failed; the sweep still runs every
-other point and lists the failures in ``sweep.csv``), 2 on bad input, 130 when
-interrupted.
+Exit status: 0 when the run did everything the scene asked, 1 when it fell
+short or failed for numerical reasons (a branch that ended ``start_failed``,
+``newton_failed``, ``step_too_small``, ...; the reasons are printed and
+recorded in ``summary.json``; for ``sweep``: when at least one grid point fell
+short or failed; the sweep still runs every other point and lists them in
+``sweep.csv``), 2 on bad input, 130 when interrupted.
 """
 
 from __future__ import annotations
@@ -39,7 +41,8 @@ def _parser() -> argparse.ArgumentParser:
                         description="Run SCENE once per point of the outer product of the --grid axes, each "
                         "point in OUTDIR/points/<name>, indexed in OUTDIR/sweep.csv. Points already complete "
                         "in OUTDIR (same scene) are not run again. Exit status 0 when every point is "
-                        "complete, 1 when some failed (recorded with their messages), 2 on bad input, "
+                        "complete, 1 when some failed or fell short (recorded with their messages; a rerun runs "
+                        "them again), 2 on bad input, "
                         "130 when interrupted.")
     sw.add_argument("scene", help="scene file (YAML)")
     sw.add_argument("--grid", action="append", required=True, metavar="dotted.key=SPEC",
@@ -110,26 +113,24 @@ def cmd_models() -> int:
 
 
 def cmd_check(args) -> int:
+    from contin.analyses import check_scene
     from contin.runner import build_model
     from contin.scene import load_scene
 
+    # the same steps as `contin run` before it writes anything, so that check refuses what run would
     scene = load_scene(args.scene, args.overrides)
     model = build_model(scene)
+    plan = check_scene(scene, model)
     a = scene.analysis
     print(f"scene: {scene.source}")
     print(model.describe())
     print("parameters: " + ", ".join(f"{k}={v:g}" for k, v in model.parameters.items()))
     print(f"analysis: {a['type']}")
     if a["type"] == "frequency_response":
-        from contin.analyses.frequency_response import build_problem
-
-        hb = build_problem(scene, model)
+        _, hb, problem, *_ = plan[0]
         print(f"  parameter {hb.parameter} over {a['range']}, harmonics H={hb.H}, subharmonic nu={hb.nu}, "
               f"samples N={hb.N}")
         print(f"  unknowns: {hb.size} = {hb.n} dof x (2H+1)")
-        from contin.analyses.frequency_response import engine_problem
-
-        problem = engine_problem(scene, hb)
         if problem is not hb:
             print(f"  {problem.describe()}")
         print(f"  stability: {a['stability']}; switching at: {', '.join(a['switch']) or 'none'}")
@@ -143,11 +144,11 @@ def cmd_check(args) -> int:
     elif a["type"] == "bifurcation_curve":
         from contin.analyses.bifurcation_curve import describe
 
-        print(describe(scene, model))
+        print(describe(scene, model, plan))
     elif a["type"] == "convergence":
-        from contin.analyses.convergence import setting_label, settings_of
+        from contin.analyses.convergence import setting_label
 
-        settings, iref = settings_of(a)
+        settings, iref = plan["settings"], plan["iref"]
         print(f"  the {a['base']['type']} analysis of analysis.base run at {len(settings)} settings of "
               f"{', '.join(a['vary'])} ({a['combine']}); reference {setting_label(settings[iref], a['labels'])}")
         print("  settings: " + "; ".join(setting_label(s, a["labels"]) for s in settings))
@@ -195,7 +196,16 @@ def cmd_run(args) -> int:
         print(f"curve {c['curve']} ({c['kind']}, nu={c['nu']}): {c['points']} points, {ends}"
               + (f"; {found}" if found else ""))
     print(f"results in {outdir} ({summary['timings']['total']:.2f} s)")
-    return EXIT_INTERRUPTED if summary["status"] == "interrupted" else EXIT_OK
+    if summary["status"] == "interrupted":
+        sys.stderr.write(f"contin: interrupted; the same command with --resume (and -o {outdir}) continues "
+                         "from the last stored point\n")
+        return EXIT_INTERRUPTED
+    if summary["status"] == "incomplete":
+        lines = summary.get("shortfalls") or []
+        sys.stderr.write("contin: the run fell short of what the scene asked:\n"
+                         + "".join(f"  {line}\n" for line in lines))
+        return EXIT_FAILED
+    return EXIT_OK
 
 
 def cmd_budget(args) -> int:
@@ -263,11 +273,11 @@ def cmd_sweep(args) -> int:
     result = run_sweep(opts)
     c = result.counts
     print(f"sweep: {len(result.records)} points, {c.get('complete', 0)} complete ({c.get('reused', 0)} from "
-          f"before), {len(result.failed)} failed; index in {Path(opts.outdir) / 'sweep.csv'} "
+          f"before), {len(result.failed)} failed or incomplete; index in {Path(opts.outdir) / 'sweep.csv'} "
           f"({result.seconds:.1f} s)")
     for r in result.failed:
         msg = " ".join(str(r.get("message", "")).split())
-        print(f"  failed {r['point']}: {msg}")
+        print(f"  {r['status']} {r['point']}: {msg}")
     return EXIT_FAILED if result.failed else EXIT_OK
 
 

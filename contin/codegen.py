@@ -4,9 +4,9 @@ numba's ``cache=True`` needs a function defined in a real source file (its
 cache index is keyed by the file's path and time stamp), so generated code is
 written to a module file in a cache directory and imported from there:
 
-- the directory is ``$CONTIN_CACHE_DIR`` if set, else ``~/.cache/contin/kernels``
-  (falling back to a per-user directory under the system temporary directory
-  when that one cannot be written);
+- the directory is the first acceptable one of ``$CONTIN_CACHE_DIR`` (if
+  set), ``~/.cache/contin/kernels`` and a per-user directory
+  ``contin-kernels-<uid>`` under the system temporary directory;
 - the file is named by a hash of its content, so the same model in another
   process finds the same file, and numba finds its compiled code next to it
   (in ``__pycache__``);
@@ -15,8 +15,31 @@ written to a module file in a cache directory and imported from there:
   existing file with the right content is never rewritten (a new time stamp
   would invalidate numba's cache).
 
+Importing a module file (and numba loading its pickled cache next to it) runs
+whatever that file holds, so a directory is used only if nobody but the
+current user (and root) can have put or changed anything in it
+(:func:`check_private_dir`):
+
+- missing components are created one by one with mode 0700;
+- the directory itself (``os.lstat``, not following links) must be a real
+  directory, not a symbolic link, owned by the effective uid and not writable
+  by group or others;
+- every directory on the way to it, both as written and after resolving
+  symbolic links, must be owned by root or by the effective uid and be either
+  not writable by group or others, or sticky (like ``/tmp``: others can then
+  neither rename nor delete our entries).
+
+A directory that fails is skipped with one :class:`RuntimeWarning` naming it
+and the reason (once per process). If none is acceptable, the kernels are
+compiled in memory with numba's on-disk cache turned off: correct, only the
+compilation is paid again by every process.
+
 Only source produced by :mod:`contin.expressions` from checked expressions is
 ever loaded; user text is never executed.
+
+contin itself never sets ``NUMBA_CACHE_DIR``: the compiled code of the
+package's own ``cache=True`` functions goes to the package's ``__pycache__``
+(numba's default), or where the user points ``NUMBA_CACHE_DIR``.
 """
 
 from __future__ import annotations
@@ -24,21 +47,28 @@ from __future__ import annotations
 import hashlib
 import importlib.util
 import os
+import stat
 import sys
 import tempfile
 import types
+import warnings
 from pathlib import Path
 
-__all__ = ["CODEGEN_VERSION", "kernel_cache_dir", "load_module", "module_name"]
+__all__ = ["CODEGEN_VERSION", "check_private_dir", "kernel_cache_dir", "load_module", "module_name"]
 
 #: bumped when the generated code changes meaning (part of the hashed text)
 CODEGEN_VERSION = "1"
 
 _LOADED: dict[str, types.ModuleType] = {}
+#: refused directories already warned about in this process, with the reason
+_WARNED: set[tuple[str, str]] = set()
 
 
 def kernel_cache_dir() -> Path:
-    """Directory of generated kernel modules (``$CONTIN_CACHE_DIR`` or ``~/.cache/contin/kernels``)."""
+    """Preferred directory of generated kernel modules (``$CONTIN_CACHE_DIR`` or ``~/.cache/contin/kernels``).
+
+    It is used only if :func:`check_private_dir` accepts it; see :func:`load_module`.
+    """
     env = os.environ.get("CONTIN_CACHE_DIR")
     if env:
         return Path(env).expanduser()
@@ -78,10 +108,120 @@ def _write_atomic(path: Path, source: str) -> None:
             pass
 
 
+def _euid() -> int | None:
+    """Effective uid, or None where the platform has no POSIX owners (Windows)."""
+    return os.geteuid() if hasattr(os, "geteuid") else None
+
+
+def _ancestor_problem(directory: str, uid: int) -> str | None:
+    """Why ``directory`` (an existing ancestor) lets someone else swap what lies below it, or None."""
+    try:
+        st = os.stat(directory)  # following links: the directory the path goes through
+    except OSError as exc:
+        return f"cannot inspect {directory}: {exc.strerror or exc}"
+    if st.st_uid not in (0, uid):
+        return f"{directory} belongs to another user (uid {st.st_uid})"
+    if st.st_mode & (stat.S_IWGRP | stat.S_IWOTH) and not st.st_mode & stat.S_ISVTX:
+        return f"{directory} is writable by group or others (mode {stat.S_IMODE(st.st_mode):04o}) and not sticky"
+    return None
+
+
+def _make_dirs(path: str) -> None:
+    """Create the missing components of ``path`` one by one, each with mode 0700."""
+    missing = []
+    p = path
+    while not os.path.lexists(p):
+        missing.append(p)
+        parent = os.path.dirname(p)
+        if parent == p:
+            break
+        p = parent
+    for p in reversed(missing):
+        try:
+            os.mkdir(p, 0o700)
+        except FileExistsError:
+            pass  # made meanwhile (by us in another process, or by someone else: the checks decide)
+
+
+def check_private_dir(path, *, create: bool = True) -> str | None:
+    """Whether ``path`` is a safe place to import generated code from.
+
+    Parameters
+    ----------
+    path : str or Path
+        Candidate directory (``~`` is expanded; relative paths are taken from
+        the current directory).
+    create : bool
+        Create missing components (mode 0700) first.
+
+    Returns
+    -------
+    str or None
+        None if the directory is accepted; otherwise why it is refused. The
+        directory must be a real directory (not a symbolic link) owned by the
+        effective uid and not writable by group or others; each directory on
+        the way to it, as written and after resolving links, must be owned by
+        root or the effective uid and not writable by group or others unless
+        it is sticky.
+    """
+    path = os.path.abspath(os.path.expanduser(os.fspath(path)))
+    if create:
+        try:
+            _make_dirs(path)
+        except OSError as exc:
+            return f"cannot create it: {exc.strerror or exc}"
+    try:
+        st = os.lstat(path)
+    except OSError as exc:
+        return f"cannot inspect it: {exc.strerror or exc}"
+    if stat.S_ISLNK(st.st_mode):
+        return "it is a symbolic link"
+    if not stat.S_ISDIR(st.st_mode):
+        return "it is not a directory"
+    uid = _euid()
+    if uid is None:
+        return None  # no POSIX owners or modes to check
+    if st.st_uid != uid:
+        return f"it belongs to another user (uid {st.st_uid}, not {uid})"
+    if st.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
+        return f"it is writable by group or others (mode {stat.S_IMODE(st.st_mode):04o})"
+    parents = []
+    for base in (os.path.dirname(path), os.path.realpath(os.path.dirname(path))):
+        d = base
+        while True:
+            if d not in parents:
+                parents.append(d)
+            up = os.path.dirname(d)
+            if up == d:
+                break
+            d = up
+    for d in parents:
+        problem = _ancestor_problem(d, uid)
+        if problem is not None:
+            return problem
+    return None
+
+
 def _candidate_dirs():
     yield kernel_cache_dir()
-    uid = os.getuid() if hasattr(os, "getuid") else "user"
-    yield Path(tempfile.gettempdir()) / f"contin-kernels-{uid}"
+    uid = _euid()
+    yield Path(tempfile.gettempdir()) / f"contin-kernels-{'user' if uid is None else uid}"
+
+
+def _accepted(d: Path) -> Path | None:
+    """``d`` made absolute if :func:`check_private_dir` accepts it, else None.
+
+    Checked on every call (a few ``stat`` calls; a directory accepted earlier
+    may have been replaced since); a refusal is warned about once per process.
+    """
+    key = os.path.abspath(os.path.expanduser(os.fspath(d)))
+    reason = check_private_dir(key)
+    if reason is None:
+        return Path(key)
+    if (key, reason) not in _WARNED:
+        _WARNED.add((key, reason))
+        warnings.warn(f"contin: not caching generated kernels in {key}: {reason}", RuntimeWarning, stacklevel=3)
+    return None
 
 
 def load_module(source: str) -> types.ModuleType:
@@ -96,15 +236,20 @@ def load_module(source: str) -> types.ModuleType:
     -------
     module
         Registered in ``sys.modules`` under :func:`module_name`, so numba can
-        rebuild cached functions.
+        rebuild cached functions. Loaded from the first candidate directory
+        that :func:`check_private_dir` accepts and where the file can be
+        written; compiled in memory, without numba's disk cache, if there is
+        none.
     """
     name = module_name(source)
     if name in _LOADED:
         return _LOADED[name]
     path = None
-    for d in _candidate_dirs():
+    for candidate in _candidate_dirs():
+        d = _accepted(candidate)
+        if d is None:
+            continue
         try:
-            d.mkdir(parents=True, exist_ok=True)
             p = d / f"{name}.py"
             _write_atomic(p, source)
             path = p
@@ -121,7 +266,8 @@ def load_module(source: str) -> types.ModuleType:
             sys.modules.pop(name, None)
             raise
     else:
-        # No writable directory: run without numba's on-disk cache (compiled once per process).
+        # No private, writable directory: no file at all, and numba's on-disk cache off (each process
+        # compiles the kernels once; nothing is read from or written to a place others could reach).
         module = types.ModuleType(name)
         module.__file__ = f"<{name}>"
         sys.modules[name] = module

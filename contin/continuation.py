@@ -538,9 +538,20 @@ class _StepFailed(Exception):
         self.turn = turn
 
 
+#: the engine state's arrays and plain values, besides ``RESTART_KEYS``'s others (see ``_Engine.state``)
+STATE_ARRAYS = ("x", "t", "t_prev", "prev_x", "x_start", "t_start", "groups")
+STATE_SCALARS = ("s", "jac_norm_start", "max_dist", "n_rejected", "n_newton", "n_backtracked", "adaptive_scale",
+                 "min_rcond", "min_rcond_index", "last_rcond", "last_failure", "event_cap", "ds_free", "barrier_tried")
+#: every key of an engine state (what a ``restart`` reads)
+RESTART_KEYS = ("points", "ds", "recent", "turns", "su", "sl", "calls", "rescalings", "tests", "monitors",
+                "barrier") + STATE_ARRAYS + STATE_SCALARS
+
+
 class _Engine:
-    def __init__(self, problem, u0, lam0, lam_range, options, parameter_name, events, monitors, tangent, callback, solve_start):
+    def __init__(self, problem, u0, lam0, lam_range, options, parameter_name, events, monitors, tangent, callback,
+                 solve_start, checkpoint=None):
         self.problem = problem
+        self.checkpoint = checkpoint
         self.opt = options
         self.name = parameter_name
         self.u0 = u0
@@ -830,6 +841,74 @@ class _Engine:
         )
         return self._after_store()
 
+    # -- restart -----------------------------------------------------------
+    _STATE_ARRAYS = STATE_ARRAYS
+    _STATE_SCALARS = STATE_SCALARS
+
+    def state(self, ds: float, recent) -> dict:
+        """What the main loop carries from the last stored point to the next step (see :meth:`restart`).
+
+        JSON-able except for numpy arrays (:func:`contin.checkpoint.encode`);
+        ``points`` is the number of stored points it belongs to.
+        """
+        bar = self.at_barrier
+        out = {"points": len(self.branch), "ds": float(ds), "recent": [float(v) for v in recent],
+               "turns": [[a, d] for a, d in self.turns], "su": self.sp.su.copy(), "sl": float(self.sp.sl),
+               "calls": int(self.sp.calls), "rescalings": [list(r) for r in self.rescalings],
+               "tests": [np.asarray(g, dtype=float).copy() for g in self.g],
+               "monitors": [mon.state() if hasattr(mon, "state") else None for mon in self.monitors],
+               "barrier": None if bar is None else {**{f.name: getattr(bar, f.name) for f in dataclasses.fields(bar)},
+                                                    "event": self.events.index(bar.event)}}
+        for name in self._STATE_ARRAYS:
+            out[name] = np.array(getattr(self, name))
+        for name in self._STATE_SCALARS:
+            v = getattr(self, name)
+            out[name] = v if isinstance(v, (str, bool, int)) else float(v)
+        return out
+
+    def restart(self, branch: Branch, state: Mapping[str, Any]) -> tuple[float, list]:
+        """Take up ``branch`` (the points stored so far) where :meth:`state` left it.
+
+        The last two points are linearized again (their test values come from
+        ``state``), so the next step is the one the interrupted run would have
+        taken. Returns the ``ds`` and ``recent`` arguments of :meth:`run`.
+        """
+        if len(branch) != state["points"] or len(branch) < 1:
+            raise ValueError(f"restart: the state belongs to {state['points']} points, the branch has {len(branch)}")
+        branch.status, branch.message = BranchStatus.RUNNING, ""
+        self.builder.branch = self.branch = branch
+        m = self.m
+        self.sp = sp = _ScaledProblem(self.problem, m, np.array(state["su"], dtype=float), float(state["sl"]))
+        for name in self._STATE_ARRAYS:
+            setattr(self, name, np.array(state[name], dtype=np.intp if name == "groups" else float))
+        for name in self._STATE_SCALARS:
+            setattr(self, name, state[name])
+        self.turns = [(a, d) for a, d in state["turns"]]
+        self.rescalings = [tuple(r) for r in state["rescalings"]]
+        self.g = [np.asarray(g, dtype=float) for g in state["tests"]]
+        for mon, st in zip(self.monitors, state["monitors"]):
+            if st is not None and hasattr(mon, "restore"):
+                mon.restore(st)
+        k = len(branch) - 1
+        self.u, self.lam = branch.unknowns[k].copy(), float(branch.parameter[k])
+
+        def info_at(i, tangent, row, s):
+            u, lam = branch.unknowns[i], float(branch.parameter[i])
+            R, Ju, Jlam = sp.evaluate(u, lam)
+            A = np.empty((m + 1, m + 1))
+            A[:m, :m] = Ju * sp.su
+            A[:m, m] = Jlam * sp.sl
+            A[m] = row
+            data = {name: values[i] for name, values in branch.point_data.items()}
+            return self._point_info(u, lam, tangent, factorize(A), Ju, Jlam, s, data)
+
+        self.info = info_at(k, self.t, self.t_prev, self.s)
+        self.prev_info = info_at(k - 1, self.t_prev, self.t_prev, float(branch.arclength[k - 1])) if k else None
+        bar = state["barrier"]
+        self.at_barrier = None if bar is None else _Barrier(**{**bar, "event": self.events[bar["event"]]})
+        sp.calls = int(state["calls"])
+        return float(state["ds"]), list(state["recent"])
+
     def _diagnosis(self) -> str:
         """What the last stored point says about a stop: condition and growth of the Jacobian."""
         parts = []
@@ -1051,10 +1130,10 @@ class _Engine:
         return cand
 
     # -- main loop -------------------------------------------------------
-    def run(self) -> Branch:
+    def run(self, ds: float | None = None, recent=()) -> Branch:
         opt = self.opt
-        ds = opt.ds  # the step the step control wants; events may cap the one taken
-        recent = collections.deque(maxlen=opt.stall_points)  # steps of the last stored points
+        ds = opt.ds if ds is None else ds  # the step the step control wants; events may cap the one taken
+        recent = collections.deque(recent, maxlen=opt.stall_points)  # steps of the last stored points
         while True:
             if len(self.branch) >= opt.max_points:
                 self.builder.finish(BranchStatus.MAX_POINTS, f"stored max_points={opt.max_points} points; last at {self.fmt(self.lam)}")
@@ -1150,6 +1229,8 @@ class _Engine:
                 return self.branch
             if cand.iterations <= opt.newton_easy:
                 ds = min(ds * opt.grow, opt.ds_max)
+            if self.checkpoint is not None:
+                self.checkpoint(self.branch, self.state(ds, recent))
 
     def _barrier_reached(self, ev: Event, lam: float, h: float, index: int, near_side: bool = False) -> None:
         bar = self.at_barrier
@@ -1415,7 +1496,32 @@ class _Engine:
                          message="end of the parameter range", event="end",
                          tangent=self.branch.tangents[index].copy())
         )
-        self.builder.finish(BranchStatus.RANGE_END, f"reached the end of the parameter range at {self.fmt(lam)}")
+        toward = self._toward()
+        if lam == toward:
+            self.builder.finish(BranchStatus.RANGE_END, f"reached the end of the parameter range at {self.fmt(lam)}")
+            return
+        furthest, gap = self._uncovered()
+        self.builder.finish(
+            BranchStatus.TURNED_BACK,
+            f"turned back: it set out towards {self.fmt(toward)} but reached the other end of the range at "
+            f"{self.fmt(lam)}; its furthest point is at {self.fmt(furthest)}, so [{gap[0]:.10g}, {gap[1]:.10g}] "
+            "is not covered by this branch")
+
+    def _toward(self) -> float:
+        """The end of the range the branch set out towards (its start tangent's parameter direction)."""
+        t = getattr(self, "t_start", None)
+        up = self.opt.direction > 0 if t is None or t[-1] == 0 else t[-1] > 0
+        return self.hi if up else self.lo
+
+    def _uncovered(self) -> tuple[float, tuple[float, float]]:
+        """The furthest parameter reached towards :meth:`_toward` and the interval beyond it, left uncovered."""
+        b, toward = self.branch, self._toward()
+        lams = [float(v) for v in b.parameter] + [sp.parameter for sp in b.special_points if sp.kind is SpecialKind.FOLD]
+        lams = lams or [self.lam0]
+        furthest = max(lams) if toward == self.hi else min(lams)
+        gap = (furthest, toward) if toward == self.hi else (toward, furthest)
+        b.info["uncovered"] = gap
+        return furthest, gap
 
     def _accept(self, cand: _Candidate) -> bool:
         prev_x, prev_info, prev_g = self.x, self.info, self.g
@@ -1457,6 +1563,7 @@ class _Engine:
                 cap = min(cap, limit)
         self.event_cap = cap
         self.prev_info = prev_info
+        self.t_prev = t_prev  # the bordering row of the new point's Jacobian (for a restart)
         self.x, self.u, self.lam, self.t, self.s = cand.x, cand.u, lam_new, cand.tangent, s_new
         self.info, self.g = info, g_new
         return self._after_store()
@@ -1624,6 +1731,8 @@ def continuation(
     tangent=None,
     callback: Callable[[Branch, int], Any] | None = None,
     solve_start: bool = True,
+    checkpoint: Callable[[Branch, dict], Any] | None = None,
+    restart: tuple[Branch, Mapping[str, Any]] | None = None,
 ) -> Branch:
     """Trace the solution branch of ``R(u, lam) = 0`` through ``(u0, lam0)``.
 
@@ -1661,6 +1770,18 @@ def continuation(
         ``(u0, lam0)`` is taken as the start when it meets ``newton_tol``,
         otherwise it is corrected on the hyperplane through it normal to the
         tangent (usable at a fold).
+    checkpoint : callable, optional
+        ``checkpoint(branch, state)`` after each step that stored a point and
+        did not end the branch, with the state the next step starts from
+        (``_Engine.state``: arrays and plain values; with the branch's points
+        it is everything a ``restart`` needs), and once more when the branch
+        ends, with ``state = {"monitors": [...]}`` (the monitors' final states).
+    restart : (Branch, dict), optional
+        Continue ``branch`` (its points, point data and special points, as an
+        interrupted run stored them) from a ``state`` given to ``checkpoint``
+        at its last point: the run goes on exactly as the interrupted one
+        would have (``u0``, ``lam0`` and ``tangent`` are then ignored; the
+        same problem, options, events and monitors must be given).
 
     Returns
     -------
@@ -1702,11 +1823,16 @@ def continuation(
         if not isinstance(ev, Event):
             raise TypeError(f"events must be Event instances, got {type(ev).__name__}")
 
-    eng = _Engine(problem, u0, lam0, (lo, hi), options, parameter_name, events, monitors, tangent, callback, solve_start)
+    eng = _Engine(problem, u0, lam0, (lo, hi), options, parameter_name, events, monitors, tangent, callback, solve_start,
+                  checkpoint)
+    if restart is not None:
+        ds, recent = eng.restart(*restart)
     branch = eng.branch
     try:
         try:
-            if eng.start():
+            if restart is not None:
+                eng.run(ds, recent)
+            elif eng.start():
                 eng.run()
         except _Failure as exc:
             eng.builder.finish(exc.status, exc.message)
@@ -1722,10 +1848,15 @@ def continuation(
             pass
         raise
     finally:
+        if branch.status is BranchStatus.MAX_POINTS or (
+                branch.status not in (BranchStatus.RUNNING, BranchStatus.INTERRUPTED) and not branch.status.as_asked):
+            eng._uncovered()
         if len(branch):
             eng._update_info()
         elif hasattr(eng, "sp"):
             branch.info.update(lam_range=(lo, hi), n_linearizations=eng.sp.calls, n_newton_iterations=eng.n_newton)
+    if checkpoint is not None and branch.status is not BranchStatus.INTERRUPTED:
+        checkpoint(branch, {"monitors": [mon.state() if hasattr(mon, "state") else None for mon in eng.monitors]})
     return branch
 
 

@@ -404,13 +404,28 @@ class _Builder:
         return value
 
     def contact_values(self, item, key):
+        """Clearance, stiffness and damping of a contact element; none of them may be negative.
+
+        A negative clearance would put the stop inside the free play, a
+        negative stiffness or damping would pull the body into the stop. Zero
+        is allowed: a stop touching at rest, a stop without elastic or viscous
+        force (a limiting case, e.g. in a sweep of the stiffness).
+        """
         clearance = self.coefficient(item["clearance"], f"{key}.clearance")
         if clearance.value(self.p0) < 0:
             raise self.error(f"{key}.clearance", "a clearance >= 0 at the default parameters",
                              _short(item["clearance"]))
         stiffness = self.coefficient(item["stiffness"], f"{key}.stiffness")
+        if stiffness.value(self.p0) < 0:
+            raise self.error(f"{key}.stiffness", "a contact stiffness >= 0 at the default parameters (a negative "
+                             "one would pull the body into the stop)", _short(item["stiffness"]),
+                             f"; it is {stiffness.value(self.p0):g}")
         damping = item.get("damping")
         damping = self.coefficient(0.0 if damping is None else damping, f"{key}.damping")
+        if damping.value(self.p0) < 0:
+            raise self.error(f"{key}.damping", "a contact damping >= 0 at the default parameters (a negative one "
+                             "would feed energy in at every impact)", _short(item["damping"]),
+                             f"; it is {damping.value(self.p0):g}")
         return clearance, stiffness, damping
 
     def forces(self):
@@ -504,6 +519,40 @@ class _Builder:
             elements.insert(0, ExpressionExcitation(self.dofs, self.pnames, exprs, label="excitation (expr)"))
         return elements
 
+    def check_mass(self, Mv: np.ndarray) -> None:
+        """A mass matrix is symmetric positive definite: refuse one that is not (at the default parameters)."""
+        given_as_rows = isinstance(self.m["mass"], list)
+        for i in range(self.n):
+            if not Mv[i, i] > 0:
+                key = f"model.mass[{i}][{i}]" if given_as_rows else "model.mass"
+                raise self.error(key, f"a positive mass on the diagonal (the inertia of dof {self.dofs[i]}: a mass "
+                                 "matrix is positive definite)", _short(self.m["mass"][i][i] if given_as_rows
+                                                                       else self.m["mass"]),
+                                 f"; it is {Mv[i, i]:g} at the default parameters")
+        scale = np.abs(Mv).max()
+        asym = np.abs(Mv - Mv.T)
+        if asym.max() > 1e-12 * scale:
+            i, j = np.unravel_index(int(np.argmax(asym)), asym.shape)
+            raise self.error("model.mass", "a symmetric matrix (a mass matrix is symmetric positive definite)", None,
+                             f"; at the default parameters entry [{i}][{j}] is {Mv[i, j]:g} and entry [{j}][{i}] "
+                             f"is {Mv[j, i]:g}")
+        if _singular(Mv):
+            raise self.error("model.mass", "a nonsingular matrix at the default parameters", _short(Mv.tolist()))
+        s = 1.0 / np.sqrt(np.diag(Mv))  # scaled, so masses of 1e-8 and 1e8 side by side are fine
+        lowest = float(np.linalg.eigvalsh(Mv * s[:, None] * s[None, :]).min())
+        if not lowest > 0:
+            raise self.error("model.mass", "a positive definite matrix (a mass matrix: every motion has kinetic "
+                             "energy > 0)", _short(Mv.tolist()),
+                             f"; scaled to a unit diagonal its lowest eigenvalue is {lowest:.3g} at the default "
+                             "parameters")
+
+    def check_frequency_value(self, freq: str) -> None:
+        """The excitation frequency is never negative."""
+        v = self.independent[freq]
+        if v < 0:
+            key = f"model.parameters.{freq}"
+            raise self.error(key, "a number >= 0 (the excitation frequency)", self.m["parameters"][freq])
+
     # -- the model -------------------------------------------------------------
     def build(self) -> Model:
         m = self.m
@@ -516,6 +565,7 @@ class _Builder:
         if freq not in self.independent:
             raise self.error("model.frequency", "the name of the excitation-frequency parameter", freq,
                              f"; add it under model.parameters{_suggest(freq, self.pnames)}")
+        self.check_frequency_value(freq)
         M, m_used = self.matrix("model.mass", m["mass"], required=True)
         C, c_used = self.matrix("model.damping", m["damping"])
         K, k_used = self.matrix("model.stiffness", m["stiffness"])
@@ -533,9 +583,7 @@ class _Builder:
             C = C + G
             c_used |= g_used
             G_text = f"gyroscopic: ({ex.to_text(speed)})*G ({self.n}x{self.n}) added to the damping"
-        Mv = M.value(self.p0)
-        if _singular(Mv):
-            raise self.error("model.mass", "a nonsingular matrix at the default parameters", _short(Mv.tolist()))
+        self.check_mass(M.value(self.p0))
         forces, force_kinds = self.forces()
         excitations = self.excitations()
 

@@ -8,6 +8,10 @@ as ``"g*x**3 + d*abs(x_dot)*x_dot"`` (SPEC 4.2). The text is parsed with
 - unary ``+``/``-``, binary ``+ - * / **`` and parentheses,
 - calls of the functions in :data:`FUNCTIONS` with their arity.
 
+Names must be written in Unicode normal form NFKC, the form in which Python
+reads identifiers: ``ﬁ`` (U+FB01) or a fullwidth ``ｘ`` would otherwise be
+read as ``fi`` and ``x`` and merge with those names.
+
 Everything else (attribute access, subscripts, strings, comparisons, boolean
 operators, conditional expressions, lambdas, comprehensions, keyword or
 starred arguments, f-strings, ``:=``, ...) raises :class:`ExpressionError`
@@ -30,6 +34,8 @@ from __future__ import annotations
 
 import ast
 import math
+import re
+import unicodedata
 import warnings
 from typing import Callable, Iterable, Mapping
 
@@ -518,6 +524,22 @@ def _describe_forbidden(node: ast.AST, text: str) -> str | None:
     return f"'{t.__name__}' construct{seg} is not allowed"
 
 
+def _check_normal_form(node: ast.Name, text: str, where: str) -> None:
+    """Refuse a name written otherwise than Python reads it (NFKC): ``ﬁ`` would silently be ``fi``."""
+    try:
+        raw = ast.get_source_segment(text, node)
+    except Exception:  # noqa: BLE001  (positions are best effort)
+        raw = None
+    if raw is None:
+        raw = next((w for w in re.findall(r"\w+", text, re.UNICODE)
+                    if w != node.id and unicodedata.normalize("NFKC", w) == node.id), None)
+    if raw is not None and raw != node.id:
+        chars = ", ".join(f"{c!r} (U+{ord(c):04X})" for c in dict.fromkeys(raw)
+                          if unicodedata.normalize("NFKC", c) != c) or "combining characters"
+        raise ExpressionError(where, f"name {raw!r} is not in Unicode normal form NFKC: Python reads it as "
+                              f"{node.id!r} ({chars}), so it would merge with that name; write {node.id!r}")
+
+
 def parse(text, where: str = "expression", names: Iterable[str] | None = None) -> Node:
     """Parse and check an expression.
 
@@ -566,6 +588,8 @@ def parse(text, where: str = "expression", names: Iterable[str] | None = None) -
         raise ExpressionError(where, f"expression nested too deeply (the limit is {MAX_DEPTH} levels)")
     callee = set()
     for node in ast.walk(tree):
+        if isinstance(node, ast.Name):
+            _check_normal_form(node, text.strip(), where)
         if isinstance(node, ast.Call):
             callee.add(id(node.func))
         if id(node) in callee and isinstance(node, ast.Name):

@@ -25,16 +25,20 @@ def axis_label(name: str, units: dict | None = None, labels: dict | None = None)
 
 
 def _segments(x, y, stable):
-    """Split a curve where the stability flag changes; each segment shares its end point."""
+    """Split a curve where the stability flag (True, False, or None: no verdict) changes; segments share ends."""
     if stable is None or len(x) < 2:
         return [(x, y, True)]
     segs, start = [], 0
     for i in range(1, len(x)):
         if stable[i] != stable[start]:
-            segs.append((x[start:i + 1], y[start:i + 1], bool(stable[start])))
+            segs.append((x[start:i + 1], y[start:i + 1], stable[start]))
             start = i
-    segs.append((x[start:], y[start:], bool(stable[start])))
-    return segs
+    segs.append((x[start:], y[start:], stable[start]))
+    return [(xs, ys, None if st is None else bool(st)) for xs, ys, st in segs]
+
+
+#: line style and width of stable, unstable and unknown (no stability verdict) parts of a branch
+_STYLES = {True: ("-", 1.6), False: ("--", 1.1), None: (":", 1.1)}
 
 
 # offsets (points) tried in turn for a label, and the box (points) a label of a few letters covers
@@ -86,7 +90,8 @@ def bifurcation_diagram(branches, special, parameter: str, measure: str, path: P
     Parameters
     ----------
     branches : list of dict
-        Each with ``x`` (P,), ``y`` (P,), ``stable`` ((P,) bool or None), ``label``.
+        Each with ``x`` (P,), ``y`` (P,), ``stable`` (None, or (P,) of True, False or None where a
+        point has no stability verdict), ``label``.
     special : list of dict
         Each with ``x``, ``y``, ``kind``.
     parameter, measure : str
@@ -98,13 +103,14 @@ def bifurcation_diagram(branches, special, parameter: str, measure: str, path: P
     """
     fig, ax = plt.subplots(figsize=(7.0, 4.6), constrained_layout=True)
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    unknown = False
     for i, br in enumerate(branches):
         c = colors[i % len(colors)]
-        first = True
         for xs, ys, st in _segments(np.asarray(br["x"]), np.asarray(br["y"]), br.get("stable")):
-            ax.plot(xs, ys, "-" if st else "--", color=c, lw=1.6 if st else 1.1,
-                    label=br.get("label") if first else None)
-            first = False
+            ax.plot(xs, ys, _STYLES[st][0], color=c, lw=_STYLES[st][1])
+            unknown = unknown or st is None
+        if br.get("label"):  # the legend shows the branch's colour; the styles are keyed below
+            ax.plot([], [], "-", color=c, lw=1.6, label=br["label"])
     seen = set()
     drawn = [sp for sp in special if sp["kind"] in MARKERS]
     for sp in drawn:
@@ -124,7 +130,10 @@ def bifurcation_diagram(branches, special, parameter: str, measure: str, path: P
     if any(br.get("stable") is not None for br in branches):
         ax.plot([], [], "k-", label="stable")
         ax.plot([], [], "k--", label="unstable")
-    ax.legend(fontsize=8, loc="best")
+    if unknown:
+        ax.plot([], [], "k:", label="no stability verdict")
+    if ax.get_legend_handles_labels()[0]:  # an empty diagram (a start that failed) has none
+        ax.legend(fontsize=8, loc="best")
     fig.savefig(path, dpi=130)
     plt.close(fig)
     return path

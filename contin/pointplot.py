@@ -10,6 +10,7 @@ import yaml
 
 from contin import aft
 from contin.harmonics import coefficient_blocks, harmonic_amplitudes
+from contin.checkpoint import CheckpointError, read_records
 from contin.scene import SceneError, parse_scene
 
 __all__ = ["load_state_row", "plot_point"]
@@ -18,17 +19,16 @@ __all__ = ["load_state_row", "plot_point"]
 def load_state_row(outdir: Path, row: int) -> dict:
     """The stored solution of ``branches.csv`` row ``row`` (0-based, header excluded)."""
     path = Path(outdir) / "state.jsonl"
-    if not path.exists():
+    if not path.is_file():
         raise SceneError(str(outdir), "a result directory written by `contin run` (with state.jsonl)", None)
-    with open(path) as fh:
-        for line in fh:
-            try:
-                rec = json.loads(line)
-            except json.JSONDecodeError:
-                break  # a run killed mid-line: the rows before it are valid
-            if rec.get("type", "point") == "point" and rec["row"] == row:
-                return rec
-    raise SceneError("--point", f"a row number of {path.parent / 'branches.csv'}", row)
+    try:
+        records = read_records(path)
+    except (CheckpointError, OSError) as exc:
+        raise SceneError(str(path), "a state.jsonl written by `contin run`", None, hint=f" ({exc})") from None
+    for rec in records:
+        if rec["type"] == "point" and rec["row"] == row:
+            return rec
+    raise SceneError("--point", f"a row number of {path.parent / 'branches.csv'} stored in state.jsonl", row)
 
 
 def plot_point(outdir: Path, row: int, samples: int = 512) -> Path:
@@ -55,15 +55,22 @@ def plot_point(outdir: Path, row: int, samples: int = 512) -> Path:
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise SceneError(str(outdir / "summary.json"), "a summary written by `contin run`", None,
                          hint=f" ({exc})") from None
+    if not (isinstance(summary, dict) and isinstance(summary.get("scene"), dict)):
+        raise SceneError(str(outdir / "summary.json"), "a summary written by `contin run` (with its scene)", None)
     scene = parse_scene(yaml.safe_dump(summary["scene"]), str(outdir / "summary.json"))
     rec = load_state_row(outdir, row)
-    scene.analysis["subharmonic"] = rec["nu"]  # the row's own order and harmonic count
-    scene.analysis["harmonics"] = rec["H"]
+    nu = rec.get("nu") if isinstance(rec.get("nu"), int) and rec["nu"] >= 1 else scene.analysis.get("subharmonic", 1)
+    scene.analysis["subharmonic"] = nu  # the row's own order and harmonic count
+    if isinstance(rec.get("H"), int) and rec["H"] >= 1:
+        scene.analysis["harmonics"] = rec["H"]
     scene.analysis["samples"] = None
     model = build_model(scene)
     hb = build_problem(scene, model)
     u = np.asarray(rec["u"], float)
-    nu, lam = rec["nu"], rec["lam"]
+    if u.shape != (hb.size,) or not np.all(np.isfinite(u)):
+        raise SceneError(str(outdir / "state.jsonl"), f"row {row} with {hb.size} finite coefficients",
+                         f"{u.size} values")
+    lam = rec["lam"]
     n = model.n_dof
     p = hb.params_at(lam)
     w = p[hb.kw]

@@ -50,11 +50,11 @@ class CsvStream:
         self.columns = list(columns)
         exists = append and self.path.exists() and self.path.stat().st_size > 0
         if exists:
-            with open(self.path, newline="") as fh:
+            with open(self.path, newline="", encoding="utf-8") as fh:
                 header = next(csv.reader(fh), [])
             if header != self.columns:
                 raise ValueError(f"{self.path}: cannot resume, its columns differ from this run's")
-        self._fh = open(self.path, "a" if exists else "w", newline="")
+        self._fh = open(self.path, "a" if exists else "w", newline="", encoding="utf-8")
         self._w = csv.writer(self._fh)
         if not exists:
             self._w.writerow(self.columns)
@@ -114,12 +114,12 @@ def read_csv(path: Path) -> dict[str, np.ndarray]:
     return out
 
 
-def truncate_to_valid_rows(path: Path) -> int:
-    """Drop a last row cut short by a killed run; returns the number of data rows kept."""
+def truncate_to_valid_rows(path: Path, max_rows: int | None = None) -> int:
+    """Drop a last row cut short by a killed run (and rows beyond ``max_rows``); returns the data rows kept."""
     path = Path(path)
     if not path.exists():
         return 0
-    with open(path, newline="") as fh:
+    with open(path, newline="", encoding="utf-8") as fh:
         text = fh.read()
     lines = text.splitlines(keepends=True)
     if not lines:
@@ -127,6 +127,8 @@ def truncate_to_valid_rows(path: Path) -> int:
     width = len(next(csv.reader([lines[0]])))
     keep = [lines[0]]
     for line in lines[1:]:
+        if max_rows is not None and len(keep) > max_rows:
+            break
         if not line.endswith("\n") or len(next(csv.reader([line]))) != width:
             break
         keep.append(line)

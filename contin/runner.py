@@ -12,7 +12,7 @@ import numpy as np
 
 import contin
 from contin.catalog import get_spec
-from contin.checkpoint import CheckpointError, read_records
+from contin.checkpoint import CheckpointError, read_records, rebuild_branches, resumable_prefix
 from contin.model import Model
 from contin.progress import Progress
 from contin.results import write_json_atomic
@@ -39,6 +39,8 @@ class RunContext:
     plot: object = None
     recorder: object = None
     resume: bool = False
+    #: what the analysis's check returned (see :func:`contin.analyses.check_scene`)
+    plan: object = None
 
 
 def build_model(scene: Scene) -> Model:
@@ -80,6 +82,9 @@ def versions() -> dict:
 def run_scene(scene: Scene, outdir: str | Path, progress: bool = True, resume: bool = False) -> dict:
     """Run a validated scene and write its results into ``outdir``.
 
+    Every check of the scene (:func:`contin.analyses.check_scene`) is made
+    before anything is written.
+
     Parameters
     ----------
     resume : bool
@@ -89,18 +94,22 @@ def run_scene(scene: Scene, outdir: str | Path, progress: bool = True, resume: b
     Returns
     -------
     dict
-        The content of ``summary.json``.
+        The content of ``summary.json``. Its ``status`` is ``complete`` when
+        the analysis did everything the scene asked, ``incomplete`` when it
+        fell short (``shortfalls`` says where and why), ``interrupted``, or
+        ``failed`` (a run that could not proceed; :class:`RunError` is raised).
     """
-    from contin.analyses import get_runner
+    from contin.analyses import check_scene, get_runner
 
     t0 = time.perf_counter()
     outdir = Path(outdir)
-    outdir.mkdir(parents=True, exist_ok=True)
     model = build_model(scene)
+    plan = check_scene(scene, model)
     resumed_from = None
     if resume:
         resumed_from = _check_resumable(scene, outdir)
-    ctx = RunContext(scene, model, outdir, Progress(progress), resume=resumed_from is not None)
+    outdir.mkdir(parents=True, exist_ok=True)
+    ctx = RunContext(scene, model, outdir, Progress(progress), resume=resumed_from is not None, plan=plan)
     ctx.timings["model"] = time.perf_counter() - t0
     summary = {"status": "running", "scene": scene.data, "source": scene.source, "versions": versions(),
                "model": {"name": model.name, "dofs": list(model.dof_names), "effects": list(model.effects),
@@ -113,23 +122,34 @@ def run_scene(scene: Scene, outdir: str | Path, progress: bool = True, resume: b
 
     previous = signal.signal(signal.SIGINT, on_sigint) if _main_thread() else None
     try:
-        result = get_runner(scene.analysis["type"])(ctx)
-    except RunError as exc:
-        summary.update({"status": "failed", "message": str(exc), "timings": ctx.timings})
+        try:
+            result = get_runner(scene.analysis["type"])(ctx)
+            files = []
+            if scene.output["plots"] and ctx.plot is not None:
+                tp = time.perf_counter()
+                files += ctx.plot()
+                ctx.timings["plots"] = time.perf_counter() - tp
+        finally:
+            if previous is not None:
+                signal.signal(signal.SIGINT, previous)
+            ctx.progress.close()
+    except BaseException as exc:
+        # never leave the files saying `running`
+        message = str(exc) if isinstance(exc, (RunError, SceneError)) else f"{type(exc).__name__}: {exc}"
+        summary.update({"status": "interrupted" if isinstance(exc, KeyboardInterrupt) else "failed",
+                        "message": message, "timings": ctx.timings})
         write_json_atomic(outdir / "summary.json", summary)
         raise
-    finally:
-        if previous is not None:
-            signal.signal(signal.SIGINT, previous)
-        ctx.progress.close()
-    files = []
-    if scene.output["plots"] and ctx.plot is not None:
-        tp = time.perf_counter()
-        files += ctx.plot()
-        ctx.timings["plots"] = time.perf_counter() - tp
     ctx.timings["total"] = time.perf_counter() - t0
-    summary.update({"status": "interrupted" if (ctx.interrupted or ctx.stop_requested) else "complete",
-                    "analysis": result, "plots": files, "timings": ctx.timings})
+    shortfalls = list(result.get("shortfalls") or []) if isinstance(result, dict) else []
+    if ctx.interrupted or ctx.stop_requested:
+        status = "interrupted"
+    else:
+        status = "incomplete" if shortfalls else "complete"
+    summary.update({"status": status, "shortfalls": shortfalls, "analysis": result, "plots": files,
+                    "timings": ctx.timings})
+    if status == "incomplete":
+        summary["message"] = "; ".join(shortfalls)
     write_json_atomic(outdir / "summary.json", summary)
     return summary
 
@@ -148,9 +168,16 @@ def _check_resumable(scene: Scene, outdir: Path):
                          hint=f" ({exc}); run again without --resume, or use another -o") from None
     if not isinstance(old, dict):
         raise SceneError("--resume", f"a summary.json written by contin in {outdir}", type(old).__name__)
+    for name in ("branches.csv", "special_points.csv"):
+        try:
+            (outdir / name).read_bytes().decode("utf-8") if (outdir / name).exists() else None
+        except UnicodeDecodeError as exc:
+            raise SceneError("--resume", f"a {name} written by contin", "a file that is not UTF-8",
+                             hint=f" ({exc}); run again without --resume, or use another -o") from None
     try:
-        read_records(outdir / "state.jsonl")
-    except CheckpointError as exc:
+        records, _, _ = resumable_prefix(read_records(outdir / "state.jsonl"), 1 << 62)
+        rebuild_branches(records, "lambda")
+    except (CheckpointError, ValueError, KeyError, TypeError, IndexError) as exc:  # what contin never writes
         raise SceneError("--resume", "a state.jsonl written by contin", str(exc),
                          hint="; run again without --resume, or use another -o") from None
     if old.get("scene") != json.loads(json.dumps(scene.data)):

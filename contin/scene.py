@@ -5,11 +5,21 @@ Loading uses PyYAML's safe loader, with YAML 1.2's float syntax (PyYAML
 follows YAML 1.1, where ``1e-6`` without a dot is a string); the schema check then reports every problem
 as a :class:`SceneError` naming the dotted key, the expected form, what was
 found and, where the YAML parser knows it, the line.
+
+Beyond the schema a scene is refused for names that are not in Unicode
+normal form NFKC (:func:`check_names`: Python reads identifiers in that form,
+so look-alikes would merge), for parameter values that make no physical
+sense in a built-in model (:attr:`contin.catalog.ModelSpec.constraints`), and
+for values an analysis gives a parameter against the same rules, a negative
+excitation frequency included (:func:`check_parameter_values`). The checks
+that need the built model are each analysis's ``check``
+(:func:`contin.analyses.check_scene`). docs/scenes.md lists them all.
 """
 
 from __future__ import annotations
 
 import re
+import unicodedata
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -20,7 +30,9 @@ from contin.model import suggest
 from contin.schema import (Key, SceneError, anything, check_section, integer, is_int, is_number, listing,
                            mapping, number, string)
 
-__all__ = ["SceneError", "Scene", "load_scene", "parse_scene", "scene_from_data", "apply_override", "analysis_schemas", "SceneLoader"]
+__all__ = ["SceneError", "Scene", "load_scene", "parse_scene", "scene_from_data", "apply_override", "analysis_schemas",
+           "SceneLoader", "START_SIMULATION", "check_names", "check_parameter_values", "model_frequency",
+           "parameter_rule"]
 
 
 class SceneLoader(yaml.SafeLoader):
@@ -64,7 +76,13 @@ MAX_DEPTH = 64
 
 
 def _load(text: str, source: str = "<string>"):
-    data = yaml.load(text, Loader=SceneLoader)  # noqa: S506  (a SafeLoader subclass)
+    try:
+        data = yaml.load(text, Loader=SceneLoader)  # noqa: S506  (a SafeLoader subclass)
+    except RecursionError:
+        raise SceneError(source, f"YAML nested at most {MAX_DEPTH} levels deep", "deeper nesting") from None
+    except ValueError as exc:  # Python refuses to convert integers of more than 4300 digits
+        raise SceneError(source, "numbers a scene can hold", "a number too long to read",
+                         hint=f" ({exc})") from None
     _check_expansion(data, source)
     return data
 
@@ -97,6 +115,18 @@ CONTINUATION_KEYS = mapping()  # validated by ContinuationOptions.from_dict
 START_KEYS = ("start", "start_from", "start_simulation", "subharmonic", "harmonics", "samples", "crossings", "both_ways",
               "guess", "stability_options", "switch", "continuation")
 
+
+def _start_simulation_ok(v) -> bool:
+    if not isinstance(v, dict) or set(v) - {"transient", "steps_per_period"}:
+        return False
+    t, s = v.get("transient"), v.get("steps_per_period")
+    return (t is None or (is_number(t) and t > 0)) and (s is None or (is_int(s) and 4 <= s <= 2**20))
+
+
+#: ``start_simulation``: how :func:`contin.start.simulation_start` integrates to its start
+START_SIMULATION = Key("a mapping with keys among transient (revolutions, a number > 0) and steps_per_period "
+                       "(an integer from 4 to 2**20)", _start_simulation_ok, {})
+
 FREQUENCY_RESPONSE = {
     "type": string(required=True),
     "parameter": string(),
@@ -118,7 +148,7 @@ FREQUENCY_RESPONSE = {
     "max_branches": integer(8, 1),
     "continuation": CONTINUATION_KEYS,
     "start_from": string("model", ("model", "linear", "simulation")),
-    "start_simulation": mapping(),
+    "start_simulation": START_SIMULATION,
     "both_ways": Key("true or false", lambda v: isinstance(v, bool), False),
     "guess": Key("a list of numbers (the harmonic coefficients) or null",
                  lambda v: v is None or (isinstance(v, list) and all(is_number(x) for x in v)), None),
@@ -156,6 +186,156 @@ CUSTOM_MODEL = {
     "excitation": listing([]),
     "frequency": string("w"),
 }
+
+
+# ---------------------------------------------------------------- names
+#: keys whose values are free text (titles, axis labels, units, a model's name), not names
+FREE_TEXT_KEYS = ("title", "name")
+#: mappings whose keys are names but whose values are free text
+FREE_TEXT_MAPPINGS = ("labels", "units")
+
+
+def _look_alike(text: str) -> str:
+    """The characters of ``text`` that NFKC changes, each with the text it becomes."""
+    parts = [f"{c!r} (U+{ord(c):04X}) reads as {unicodedata.normalize('NFKC', c)!r}"
+             for c in dict.fromkeys(text) if unicodedata.normalize("NFKC", c) != c]
+    return ", ".join(parts) if parts else "its characters combine into others"
+
+
+def check_names(data, lines: dict | None = None, prefix: str = "") -> None:
+    """Refuse a key or name that is not in Unicode normal form NFKC.
+
+    Python's parser reads identifiers in NFKC, so an expression would read
+    ``ﬁ`` (U+FB01) as ``fi`` and a fullwidth ``ｘ`` as ``x``: names that look
+    distinct in a scene would silently be one. Every mapping key and every
+    string value must equal its NFKC form, except free text (``title``,
+    ``name``, and the values under ``labels`` and ``units``).
+
+    Raises
+    ------
+    SceneError
+        Naming the key, the offending characters and the NFKC spelling.
+    """
+    lines = lines or {}
+    stack = [(data, prefix, False)]
+    while stack:
+        node, path, free = stack.pop()
+        if isinstance(node, dict):
+            for k, v in node.items():
+                key = f"{path}.{k}" if path else str(k)
+                if isinstance(k, str):
+                    _normal(k, key, lines)
+                text_only = k in FREE_TEXT_KEYS or path.rsplit(".", 1)[-1] in FREE_TEXT_MAPPINGS
+                stack.append((v, key, text_only))
+        elif isinstance(node, list):
+            stack.extend((v, f"{path}[{i}]", free) for i, v in enumerate(node))
+        elif isinstance(node, str) and not free:
+            _normal(node, path, lines)
+
+
+def _normal(text: str, key: str, lines: dict) -> None:
+    norm = unicodedata.normalize("NFKC", text)
+    if norm != text:
+        raise SceneError(key, "a name in Unicode normal form NFKC (expressions read every name in that form: "
+                         "a look-alike would merge with another name)", text, lines.get(key),
+                         hint=f"; {_look_alike(text)}: write {norm!r}")
+
+
+# ---------------------------------------------------------------- physical values
+def parameter_rule(model: dict, name: str, analysis: dict | None = None):
+    """``(rule, meaning)`` that the values of parameter ``name`` must obey, or None.
+
+    Built-in models give theirs (:attr:`contin.catalog.ModelSpec.constraints`);
+    the excitation frequency (``analysis.frequency``, else the model's) is
+    never negative.
+
+    Parameters
+    ----------
+    model : dict
+        The checked ``model`` section.
+    name : str
+    analysis : dict, optional
+        The checked ``analysis`` section (for ``frequency``).
+    """
+    rules, freq = {}, model.get("frequency")
+    if "builtin" in model:
+        from contin.catalog import get_spec
+
+        try:
+            spec = get_spec(model["builtin"])
+        except (TypeError, ValueError):
+            return None  # the model's build names it
+        options = model.get("options") if isinstance(model.get("options"), dict) else {}
+        rules, freq = spec.parameter_constraints(options), spec.frequency
+    if analysis is not None and isinstance(analysis.get("frequency"), str):
+        freq = analysis["frequency"]
+    if name in rules:
+        return rules[name]
+    if name == freq:
+        return ("nonnegative", "the excitation frequency")
+    return None
+
+
+def check_parameter_values(model: dict, analysis: dict, name, items, lines: dict | None = None) -> None:
+    """Refuse values of parameter ``name`` that its rule (:func:`parameter_rule`) forbids.
+
+    Parameters
+    ----------
+    model, analysis : dict
+        The checked sections.
+    name : str or None
+        The parameter (None: nothing to check).
+    items : iterable of (str, value)
+        Scene key and its value: a number or a list of numbers (a range).
+    """
+    from contin.catalog import rule_violation
+
+    if not isinstance(name, str):
+        return
+    rule = parameter_rule(model, name, analysis)
+    if rule is None:
+        return
+    for key, value in items:
+        for v in value if isinstance(value, list) else [value]:
+            bad = rule_violation(rule, v)
+            if bad:
+                raise SceneError(key, f"values of {name}, each {bad}", value, (lines or {}).get(key))
+
+
+def _check_builtin_parameters(model: dict, lines: dict) -> None:
+    """A built-in model's parameter values against its constraints (before the model is built)."""
+    from contin.catalog import get_spec, rule_violation
+
+    try:
+        spec = get_spec(model["builtin"])
+    except (TypeError, ValueError):
+        return  # the model's build names it
+    rules = spec.parameter_constraints(model["options"] if isinstance(model["options"], dict) else {})
+    for k, v in model["parameters"].items():
+        bad = rule_violation(rules[k], v) if k in rules else None
+        if bad:
+            key = f"model.parameters.{k}"
+            raise SceneError(key, bad, v, lines.get(key))
+
+
+def model_frequency(model: dict) -> str | None:
+    """The excitation-frequency parameter of a checked ``model`` section (None for an unknown built-in)."""
+    if "builtin" not in model:
+        return model.get("frequency")
+    from contin.catalog import get_spec
+
+    try:
+        return get_spec(model["builtin"]).frequency
+    except (TypeError, ValueError):
+        return None
+
+
+def _check_frequency_response(model: dict, analysis: dict, lines: dict) -> None:
+    """Values of the continued parameter: ``range``, ``start`` and the starts' ``start``."""
+    name = analysis["parameter"] or analysis["frequency"] or model_frequency(model)
+    items = [("analysis.range", analysis["range"]), ("analysis.start", analysis["start"])]
+    items += [(f"analysis.starts[{i}].start", extra.get("start")) for i, extra in enumerate(analysis["starts"])]
+    check_parameter_values(model, analysis, name, [(k, v) for k, v in items if v is not None], lines)
 
 
 @dataclass
@@ -197,7 +377,7 @@ def _line_map(text: str) -> dict:
     lines: dict = {}
     try:
         root = yaml.compose(text, Loader=SceneLoader)
-    except yaml.YAMLError:
+    except (yaml.YAMLError, RecursionError, ValueError):
         return lines
 
     def walk(node, prefix):
@@ -283,6 +463,7 @@ def scene_from_data(data: dict, source: str = "<string>", lines: dict | None = N
         On any schema violation.
     """
     lines = lines or {}
+    check_names(data, lines)
     for k in data:
         if k not in ("model", "analysis", "output"):
             raise SceneError(k, "one of the sections model, analysis, output", None, lines.get(k),
@@ -293,6 +474,8 @@ def scene_from_data(data: dict, source: str = "<string>", lines: dict | None = N
     model = data["model"]
     schema = BUILTIN_MODEL if "builtin" in model else CUSTOM_MODEL
     model = check_section(model, schema, "model", lines)
+    if "builtin" in model:
+        _check_builtin_parameters(model, lines)
     analysis = data["analysis"]
     atype = analysis.get("type")
     schemas = analysis_schemas()
@@ -304,6 +487,7 @@ def scene_from_data(data: dict, source: str = "<string>", lines: dict | None = N
         start_schema = {k: FREQUENCY_RESPONSE[k] for k in START_KEYS}
         for i, extra in enumerate(analysis["starts"]):
             check_section(extra, start_schema, f"analysis.starts[{i}]", lines)
+        _check_frequency_response(model, analysis, lines)
     from contin.analyses import ANALYSIS_VALIDATORS
 
     if atype in ANALYSIS_VALIDATORS:

@@ -456,7 +456,7 @@ def run_point(task: PointTask) -> dict:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     record.update({"status": status, "message": message, "error": error, "run_seconds": run_seconds,
-                   "summary": summarize_point(tmp) if status == "complete" else {}})
+                   "summary": summarize_point(tmp) if status in ("complete", "incomplete") else {}})
     record["finished_at"] = _now()
     record["task_seconds"] = time.perf_counter() - t0
     write_json_atomic(tmp / "point.json", record)

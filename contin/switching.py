@@ -433,12 +433,17 @@ def _keep(starts: list, st, failures, kind: str, lam: float, side: int, eps: flo
 
 
 def _run(start: BranchStart, lam_range, options: ContinuationOptions, stability: StabilityOptions,
-         parameter_name: str, su: float, sl: float, callback=None):
+         parameter_name: str, su: float, sl: float, callback=None, checkpoint=None, previous: Branch | None = None):
+    """Trace the branch from ``start`` (or take up ``previous``, the same branch of an interrupted run)."""
     opts = options.replace(unknown_scale=su, parameter_scale=sl)
     monitor, events, monitors = _stability(start.problem, stability, opts)
+    if previous is not None:
+        return _resume(previous, start.problem, lam_range, opts, parameter_name, events, monitors, callback,
+                       checkpoint), monitor
     tangent = np.concatenate([start.tangent[:-1] / su, [start.tangent[-1] / sl]])
     br = continuation(start.problem, start.u, start.lam, lam_range, opts, parameter_name=parameter_name,
-                      events=events, monitors=monitors, tangent=tangent, solve_start=False, callback=callback)
+                      events=events, monitors=monitors, tangent=tangent, solve_start=False, callback=callback,
+                      checkpoint=checkpoint)
     return br, monitor
 
 
@@ -457,30 +462,26 @@ def _stability(problem, stability: StabilityOptions, options: ContinuationOption
     return monitor, events + grazing_events(problem), monitors
 
 
-def _resume(prev: Branch, problem, lam_range, options: ContinuationOptions, name: str, events, monitors, callback):
-    """Continue an interrupted branch from its last point (or return a finished one as it is).
+def _resume(prev: Branch, problem, lam_range, options: ContinuationOptions, name: str, events, monitors, callback,
+            checkpoint=None):
+    """Take up a branch of an interrupted run (:func:`contin.checkpoint.rebuild_branches`).
 
-    The continued branch holds the new points only (its first point is the
-    old last one, corrected again); the old special points are appended with
-    arclengths before the new ones, so that switching sees them in order.
+    An unfinished branch goes on from the engine state of its last point, as
+    it would have without the interruption (same options, events and
+    monitors as when it was started); a finished one is returned as it is,
+    its monitors given back their final states.
     """
-    if prev.status is not BranchStatus.INTERRUPTED or not len(prev):
+    if prev.status is not BranchStatus.INTERRUPTED:
+        for mon, st in zip(monitors, prev.info.get("monitor_states") or ()):
+            if st is not None and hasattr(mon, "restore"):
+                mon.restore(st)
         return prev
-    su, sl = prev.info.get("unknown_scale"), prev.info.get("parameter_scale")
-    opts = options
-    if su is not None and sl is not None:
-        opts = options.replace(unknown_scale=su, parameter_scale=sl)
-
-    def cb(branch, i):
-        return True if i == 0 or callback is None else callback(branch, i)
-
-    br = continuation(problem, prev.unknowns[-1], float(prev.parameter[-1]), lam_range, opts, parameter_name=name,
-                      events=events, monitors=monitors, tangent=prev.tangents[-1], solve_start=False, callback=cb)
-    offset = (prev.arclength[-1] if len(prev) else 0.0) + 1.0
-    for sp in prev.special_points:
-        br.special_points.append(dataclasses.replace(sp, s=sp.s - offset, index=sp.index - len(prev)))
-    br.info["resumed_from"] = {"points": len(prev), "parameter": float(prev.parameter[-1])}
-    return br
+    state = prev.info.pop("restart", None)
+    if state is None or not len(prev):
+        raise ValueError("resume: a branch without the engine state of its last point")
+    return continuation(problem, prev.unknowns[0], float(prev.parameter[0]), lam_range, options, parameter_name=name,
+                        events=events, monitors=monitors, callback=callback, checkpoint=checkpoint,
+                        restart=(prev, state))
 
 
 def switch_branch(problem, branch: Branch, point: SpecialPoint, lam_range=None, options=None, *,
@@ -522,6 +523,10 @@ def _record_stability(br: Branch, mon) -> None:
         br.message = (f"{br.message}; stability: Hill's multipliers disagreed with the monodromy's at "
                       f"{len(where)} point(s) (first at {br.parameter_name}={where[0]:.10g}), "
                       "the monodromy's were used there")
+    if st.get("unevaluated"):
+        lam, why = st["unevaluated"][0]
+        br.message = (f"{br.message}; no stability verdict at {len(st['unevaluated'])} point(s) (first at "
+                      f"{br.parameter_name}={lam:.10g}: {why})")
 
 
 def _origin(point: SpecialPoint, parent: int | None, st: BranchStart) -> dict:
@@ -625,7 +630,7 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
            max_depth: int = 1, parameter_name: str | None = None, problem_factory: Callable | None = None,
            eps: float | None = None, max_branches: int = 16, pd_direction: str = "svd",
            callback: Callable | None = None, callback_factory: Callable | None = None,
-           previous: dict | None = None) -> BifurcationDiagram:
+           checkpoint_factory: Callable | None = None, previous: dict | None = None) -> BifurcationDiagram:
     """Trace a branch with stability, then switch automatically at its bifurcations.
 
     Parameters
@@ -661,6 +666,10 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
         ``callback_factory(index, problem) -> callback`` gives each branch its
         own engine callback (for example to record rows with the branch id
         and its order nu); it overrides ``callback``.
+    checkpoint_factory : callable, optional
+        ``checkpoint_factory(index, problem) -> checkpoint``: each branch's
+        engine ``checkpoint`` (see :func:`contin.continuation.continuation`),
+        what ``previous`` is rebuilt from.
     previous : dict of int to Branch, optional
         Branches of an earlier, interrupted run of the same diagram, by index
         (see :mod:`contin.checkpoint`). A finished one is reused as it is; an
@@ -701,12 +710,16 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
     def cb_for(index, prob):
         return callback_factory(index, prob) if callback_factory is not None else callback
 
+    def ck_for(index, prob):
+        return None if checkpoint_factory is None else checkpoint_factory(index, prob)
+
     previous = previous or {}
     if 0 in previous:
-        root = _resume(previous[0], problem, lam_range, options, name, events, monitors, cb_for(0, problem))
+        root = _resume(previous[0], problem, lam_range, options, name, events, monitors, cb_for(0, problem),
+                       ck_for(0, problem))
     else:
         root = continuation(problem, u0, lam0, lam_range, options, parameter_name=name, events=events,
-                            monitors=monitors, callback=cb_for(0, problem))
+                            monitors=monitors, callback=cb_for(0, problem), checkpoint=ck_for(0, problem))
     root.info.update(parent=None, origin=None, depth=0)
     if monitor is not None:
         _record_stability(root, monitor)
@@ -742,11 +755,8 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
                 if not lam_range[0] <= st.lam <= lam_range[1]:
                     continue  # the new branch leaves the range at once
                 j = len(diagram)
-                if j in previous:
-                    mon, ev, mons = _stability(st.problem, stability, options)
-                    child = _resume(previous[j], st.problem, lam_range, options, name, ev, mons, cb_for(j, st.problem))
-                else:
-                    child, mon = _run(st, lam_range, options, stability, name, su, sl, cb_for(j, st.problem))
+                child, mon = _run(st, lam_range, options, stability, name, su, sl, cb_for(j, st.problem),
+                                  ck_for(j, st.problem), previous.get(j))
                 child.info.update(parent=i, origin=_origin(sp, i, st), depth=depth + 1)
                 if mon is not None:
                     _record_stability(child, mon)

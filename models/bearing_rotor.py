@@ -34,6 +34,20 @@ __all__ = ["stable_subharmonic_interval", "bearing_rotor", "hertz_cylinder_stiff
 
 PARAMETERS = {"alpha": 0.611, "ks2": 0.611, "ip": 0.1, "beta": 0.019, "delta": 0.1, "e": 0.5, "f0": 0.5,
               "kbn": 12881.0, "cbn": 0.515, "c1": 0.005, "c2": 0.05, "w": 2.0}
+#: physical constraints (nondimensional, eq. 10): mass and inertia ratios, stiffnesses, dampings, the
+#: clearance, the eccentricity and the speed mean nothing below zero, the bearing's mass ratio at zero
+#: (its equations would lose their inertia); f0 is a force of either sign
+CONSTRAINTS = {"alpha": ("nonnegative", "the shaft's length ratio a/l"),
+               "ks2": ("nonnegative", "the shaft's stiffness ratio at the bearing"),
+               "ip": ("nonnegative", "the disc's polar inertia ratio"),
+               "beta": ("positive", "the bearing's mass ratio m2/m1"),
+               "delta": ("nonnegative", "the radial clearance"),
+               "e": ("nonnegative", "the unbalance eccentricity"),
+               "kbn": ("nonnegative", "the contact stiffness"),
+               "cbn": ("nonnegative", "the contact damping"),
+               "c1": ("nonnegative", "the disc damping"),
+               "c2": ("nonnegative", "the bearing damping"),
+               "w": ("nonnegative", "the rotor speed")}
 EFFECTS = {
     "gyroscopic": "gyroscopic coupling ip*w of the disc (x1', y1')",
     "unbalance": "unbalance forcing e*w^2 (cos, sin)(w t) on the disc",
@@ -182,6 +196,7 @@ bearing_rotor = register_model(
         default_effects=tuple(EFFECTS),
         builder=_build,
         options={"clip": False},
+        constraints=CONSTRAINTS,
     )
 )
 

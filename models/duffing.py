@@ -48,5 +48,8 @@ duffing = register_model(
         },
         default_effects=("damping", "cubic", "forcing"),
         builder=_build,
+        # k < 0 (a double well) and g < 0 (softening) are meaningful; F's sign is a phase
+        constraints={"m": ("positive", "a mass"), "c": ("nonnegative", "a viscous damping"),
+                     "w": ("nonnegative", "the excitation frequency")},
     )
 )

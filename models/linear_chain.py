@@ -28,7 +28,7 @@ from contin.catalog import ModelSpec, register_model
 from contin.elements import HarmonicExcitation
 from contin.model import Model, Monomial, ParametricMatrix, suggest
 
-__all__ = ["linear_chain", "chain_parameters", "LinearChainSpec"]
+__all__ = ["linear_chain", "chain_parameters", "chain_constraints", "LinearChainSpec"]
 
 EFFECTS = {
     "damping": "viscous dampers c1..c(n+1) (wall-mass and mass-mass, like the springs)",
@@ -47,6 +47,15 @@ def chain_parameters(n: int) -> dict:
     p.update({f"P{i}": 0.0 for i in range(1, n + 1)})
     p["w"] = 1.0
     return p
+
+
+def chain_constraints(n: int) -> dict:
+    """Physical constraints of an ``n``-mass chain: masses > 0, springs and dampers >= 0 (0: no element)."""
+    rules = {f"m{i}": ("positive", f"the mass of mass {i}") for i in range(1, n + 1)}
+    rules.update({f"k{i}": ("nonnegative", "a spring stiffness (0 for none)") for i in range(1, n + 2)})
+    rules.update({f"c{i}": ("nonnegative", "a damper's coefficient (0 for none)") for i in range(1, n + 2)})
+    rules["w"] = ("nonnegative", "the excitation frequency")
+    return rules
 
 
 def _chain_matrix(n: int, prefix: str, names) -> ParametricMatrix:
@@ -99,6 +108,12 @@ def _build(params: dict, effects: tuple, n: int = 2) -> Model:
 class LinearChainSpec(ModelSpec):
     """The chain's catalogue entry: its parameter list follows the option ``n``."""
 
+    def parameter_constraints(self, options: Mapping | None = None) -> dict:
+        n = (options or {}).get("n", self.options["n"])
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= MAX_MASSES:
+            return {}  # build() refuses the option
+        return chain_constraints(int(n))
+
     def build(self, parameters: Mapping | None = None, effects=None, **options) -> Model:
         for k in options:
             if k not in self.options:
@@ -109,7 +124,7 @@ class LinearChainSpec(ModelSpec):
             raise ValueError(f"model.options.n: expected the number of masses, an integer from 1 to {MAX_MASSES}, "
                              f"found {n!r}")
         spec = ModelSpec(self.name, self.summary, chain_parameters(int(n)), self.effects, self.default_effects,
-                         lambda p, e: _build(p, e, int(n)))
+                         lambda p, e: _build(p, e, int(n)), constraints=chain_constraints(int(n)))
         return spec.build(parameters, effects)
 
 
@@ -123,5 +138,6 @@ linear_chain = register_model(
         default_effects=("damping", "forcing"),
         builder=lambda p, e: _build(p, e, 2),
         options={"n": 2},
+        constraints=chain_constraints(2),
     )
 )

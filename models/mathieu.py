@@ -49,5 +49,7 @@ mathieu = register_model(
         },
         default_effects=("damping", "parametric", "cubic"),
         builder=_build,
+        # delta < 0 (the inverted pendulum) and g < 0 are meaningful; eps's sign is a phase
+        constraints={"c": ("nonnegative", "a viscous damping"), "w": ("nonnegative", "the excitation frequency")},
     )
 )

@@ -93,6 +93,16 @@ EFFECTS = {
     "periodic_load": "periodic lateral acceleration p_d cos(w tau) (load p_d G_i cos(w tau))",
     "damping": "modal damping zeta of the bare string's modes, zeta*diag(j pi) (not in the paper)",
 }
+#: physical constraints: the stretching coefficient, the rotor's mass ratio (0: no rotor, Fig. 2 starts
+#: there), the damping ratio and the frequency mean nothing below zero; the positions lie inside the
+#: span; the magnet's coefficients and the loads have either sign
+CONSTRAINTS = {"alpha": ("nonnegative", "the stretching coefficient"),
+               "beta": ("nonnegative", "the rotor's mass ratio"),
+               "terms": ("terms", "Galerkin terms"),
+               "xi1": ("position", "the rotor's place on the span"),
+               "xi_obs": ("position", "the observation point"),
+               "zeta": ("nonnegative", "the modal damping ratio"),
+               "w": ("nonnegative", "the excitation frequency")}
 DEFAULT_EFFECTS = ("rotor_mass", "stretching", "magnet", "static_load", "periodic_load")
 STRUCTURAL = ("terms", "xi1", "xi_obs")
 #: columns the model adds to ``branches.csv`` (the displacement at ``xi_obs``)
@@ -412,5 +422,6 @@ timing_belt = register_model(
         effects=EFFECTS,
         default_effects=DEFAULT_EFFECTS,
         builder=_build,
+        constraints=CONSTRAINTS,
     )
 )

@@ -226,7 +226,9 @@ def test_resume_from_a_stored_point():
     assert first.status is BranchStatus.MAX_POINTS
     args = first.resume_arguments(-1)
     rest = continuation(prob, lam_range=(-1.0, 1.0), **args)
-    assert rest.status is BranchStatus.RANGE_END
+    # it set out towards -1 (on the middle part of the S), turned at the lower fold and ended at +1
+    assert rest.status is BranchStatus.TURNED_BACK
+    assert rest.info["uncovered"] == pytest.approx((-1.0, -FOLD_LAM), abs=1e-9)
     assert rest.parameter[-1] == 1.0
     assert rest.unknowns[-1, 0] == pytest.approx(PLASTIC, abs=1e-10)
     n_folds = len(first.points_of_kind("fold")) + len(rest.points_of_kind("fold"))
@@ -653,3 +655,59 @@ def test_a_barrier_the_branch_passes_is_recorded_and_passed():
     assert br.status is BranchStatus.RANGE_END
     (p,) = br.points_of_kind(SpecialKind.GRAZING)
     assert p.parameter == pytest.approx(0.7, abs=1e-10)
+
+
+# --------------------------------------------------------------------------
+# truthful ends and exact restarts
+# --------------------------------------------------------------------------
+def test_a_branch_that_turns_back_says_so_and_reports_what_it_did_not_cover():
+    # the upper half of the unit circle from lam = -0.5 towards 2: it folds at lam = 1 and comes
+    # back to -0.5 on the lower half; before, it ended `range_end` as if [1, 2] had been covered
+    br = continuation(Circle(), [math.sqrt(0.75)], -0.5, (-0.5, 2.0))
+    assert br.status is BranchStatus.TURNED_BACK and br.status.as_asked
+    assert br.parameter[-1] == -0.5 and br.unknowns[-1, 0] < 0
+    assert br.info["uncovered"] == pytest.approx((1.0, 2.0), abs=1e-10)
+    assert "turned back" in br.message and "[1, 2] is not covered" in br.message
+
+
+def test_a_branch_whose_numerics_gave_up_reports_the_interval_it_left():
+    br = continuation(NaNBeyond(), [0.0], 0.0, (0.0, 1.0))
+    assert not br.status.as_asked
+    assert br.info["uncovered"][1] == 1.0 and br.info["uncovered"][0] == pytest.approx(0.5, abs=1e-6)
+    assert continuation(NoRealRoot(), [1.0], 0.0, (0.0, 1.0)).info["uncovered"] == (0.0, 1.0)
+
+
+@pytest.mark.parametrize("problem, u0, lam0, lam_range", [
+    (Circle(), [1.0], 0.0, (-2.0, 2.0)),  # folds and a closed loop (uses the branch's history)
+    (Corner(), [1.0, 1.0], 0.0, (0.0, 2.0)),  # a kink recorded after the point's callback
+])
+def test_a_restart_from_any_checkpoint_gives_the_uninterrupted_branch_bit_for_bit(problem, u0, lam0, lam_range):
+    import copy
+
+    states = []
+
+    def checkpoint(branch, state):
+        if "points" in state:  # what a killed run leaves: the branch so far and the engine's state
+            states.append((copy.deepcopy(branch), copy.deepcopy(state)))
+
+    opts = ContinuationOptions(ds=0.05, ds_max=0.3)
+    full = continuation(problem, u0, lam0, lam_range, opts, checkpoint=checkpoint)
+    assert len(states) >= 10
+    for k in sorted({1, len(states) // 2, len(states) - 1}):
+        branch, state = states[k]
+        rest = continuation(problem, u0, lam0, lam_range, opts, restart=(branch, state))
+        assert rest.status is full.status and rest.message == full.message
+        np.testing.assert_array_equal(rest.unknowns, full.unknowns)
+        np.testing.assert_array_equal(rest.parameter, full.parameter)
+        assert [(p.kind, p.parameter, p.index) for p in rest.special_points] == \
+            [(p.kind, p.parameter, p.index) for p in full.special_points]
+        assert rest.info["n_newton_iterations"] == full.info["n_newton_iterations"]
+
+
+def test_a_restart_refuses_a_state_of_another_length():
+    states = []
+    continuation(Circle(), [1.0], 0.0, (-2.0, 2.0), checkpoint=lambda b, s: states.append((len(b), s)))
+    n, state = states[3]
+    short = continuation(Circle(), [1.0], 0.0, (-2.0, 2.0), ContinuationOptions(max_points=n - 1))
+    with pytest.raises(ValueError, match="the state belongs to"):
+        continuation(Circle(), [1.0], 0.0, (-2.0, 2.0), restart=(short, state))

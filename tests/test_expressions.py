@@ -333,3 +333,21 @@ def test_random_text_parses_or_is_refused_cleanly(text):
         return
     ex.diff(node, "x")
     ex.to_text(node)
+
+
+# ---------------------------------------------------------------- names Python reads in NFKC
+@pytest.mark.parametrize("text,raw,read", [
+    ("ﬁ*x", "ﬁ", "fi"),             # the ligature U+FB01
+    ("g*ｘ**3", "ｘ", "x"),           # fullwidth x, U+FF58
+    ("ｓｉｎ(x)", "ｓｉｎ", "sin"),    # a fullwidth function name
+    ("xⁿ + 1", "xⁿ", "xn"),          # a superscript letter
+    ("e\u0301 + 1", "e\u0301", "\u00e9"),  # e and a combining acute accent: one composed letter
+])
+def test_a_name_that_python_would_read_as_another_is_refused(text, raw, read):
+    with pytest.raises(ExpressionError, match=f"name '{raw}' is not in Unicode normal form NFKC: Python reads it "
+                                              f"as '{read}'.*write '{read}'"):
+        parse(text, "k")
+
+
+def test_names_in_normal_form_parse_as_written():
+    assert ex.free_names(parse("é*x + δ + x1", "k")) == {"é", "δ", "x", "x1"}

@@ -25,3 +25,30 @@ def test_second_process_uses_the_cache():
     run()  # first run may compile and write the cache
     misses, hits = run()
     assert misses == 0 and hits >= 3
+
+
+WHERE = """
+import os
+import contin.cli, contin.runner, contin.sweep
+from contin import aft
+impl = aft.synthesize._cache._impl
+print(os.environ.get("NUMBA_CACHE_DIR", "-"), type(impl.locator).__name__, aft.synthesize._cache._cache_path)
+"""
+
+
+def test_package_kernels_are_cached_where_numba_puts_them_by_default():
+    """contin never sets ``NUMBA_CACHE_DIR``: its own kernels' compiled code goes to the package's
+    ``__pycache__`` (or numba's per-user directory if the package cannot be written), not to a shared place
+    chosen by contin (the generated kernels' directory is checked by :mod:`contin.codegen`)."""
+    import os
+    from pathlib import Path
+
+    import contin
+
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    out = subprocess.run([sys.executable, "-c", WHERE], capture_output=True, text=True, check=True, env=env)
+    numba_cache_dir, locator, path = out.stdout.split()
+    assert numba_cache_dir == "-"
+    assert locator in ("InTreeCacheLocator", "UserWideCacheLocator")
+    if locator == "InTreeCacheLocator":
+        assert Path(path) == Path(contin.__file__).parent / "__pycache__"

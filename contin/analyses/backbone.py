@@ -34,10 +34,10 @@ import time
 
 import numpy as np
 
-from contin.analyses import register_analysis
+from contin.analyses import register_analysis, shortfalls
 from contin.schema import Key, SceneError, is_int, is_number, mapping, string
 
-__all__ = ["BACKBONE", "run"]
+__all__ = ["BACKBONE", "check", "result_columns", "run"]
 
 
 def _modes_ok(v) -> bool:
@@ -63,20 +63,29 @@ BACKBONE = {
 EXTRA = ["interval_lo", "interval_hi", "located", "detail"]
 
 
+def result_columns(model, H: int) -> dict:
+    """``measures`` and the columns of ``branches.csv`` and ``special_points.csv`` of a backbone of ``model``."""
+    from contin.measures import measure_names
+
+    measures = measure_names(model.dof_names, 5, H) + (
+        list(getattr(model, "observable_names", ())) if getattr(model, "observables", None) else [])
+    head = ["branch", "nu", "mode", "amplitude", "frequency", "stable", "n_unstable", "max_multiplier", "unfolding"]
+    return {"measures": measures, "branches.csv": head + measures + ["newton_iterations", "residual_norm"],
+            "special_points.csv": ["branch", "kind", "mode", "amplitude", "frequency", "index"] + measures + EXTRA}
+
+
 class _BackboneRecorder:
     """Streams the rows of ``branches.csv`` and ``special_points.csv``."""
 
     def __init__(self, outdir, model, H):
-        from contin.measures import measure_names
         from contin.results import CsvStream
 
         self.model = model
         self.observables = getattr(model, "observables", None)
-        self.measures = measure_names(model.dof_names, 5, H) + (
-            list(getattr(model, "observable_names", ())) if self.observables else [])
-        head = ["branch", "nu", "mode", "amplitude", "frequency", "stable", "n_unstable", "max_multiplier", "unfolding"]
-        self.columns = head + self.measures + ["newton_iterations", "residual_norm"]
-        self.special_columns = ["branch", "kind", "mode", "amplitude", "frequency", "index"] + self.measures + EXTRA
+        cols = result_columns(model, H)
+        self.measures = cols["measures"]
+        self.columns = cols["branches.csv"]
+        self.special_columns = cols["special_points.csv"]
         self.rows = CsvStream(outdir / "branches.csv", self.columns)
         self.special = CsvStream(outdir / "special_points.csv", self.special_columns)
         self.n_rows = 0
@@ -131,14 +140,20 @@ class _BackboneRecorder:
         self.special.close()
 
 
-@register_analysis("backbone", BACKBONE)
-def run(ctx) -> dict:
-    """Run a ``backbone`` scene; returns its part of ``summary.json``."""
-    from contin.backbone import BackboneError, BackboneProblem, dropped_excitations, frequency_extremum_event
-    from contin.continuation import ContinuationOptions, continuation
-    from contin.runner import RunError
+def check(scene, model) -> dict:
+    """Every check of a ``backbone`` scene with its model; returns its setup.
 
-    scene, model = ctx.scene, ctx.model
+    Returns
+    -------
+    dict
+        ``A0``, ``A1`` (the amplitude range), ``log``, ``opts`` (continuation
+        options) and ``problems`` (one :class:`contin.backbone.BackboneProblem`
+        per mode).
+    """
+    from contin.analyses import check_output
+    from contin.backbone import BackboneError, BackboneProblem
+    from contin.continuation import ContinuationOptions
+
     a = scene.analysis
     modes = a["mode"] if isinstance(a["mode"], list) else [a["mode"]]
     A0, A1 = float(a["range"][0]), float(a["range"][1])
@@ -164,6 +179,22 @@ def run(ctx) -> dict:
             raise SceneError(key, "a backbone the model can have", None, hint=f": {exc}") from None
         except ValueError as exc:
             raise SceneError("analysis", "a discretisation the model can use", None, hint=f": {exc}") from None
+    cols = result_columns(problems[0].model, problems[0].H)
+    check_output(scene, cols["branches.csv"][2:])
+    return {"A0": A0, "A1": A1, "log": log, "opts": opts, "problems": problems, "columns": cols}
+
+
+@register_analysis("backbone", BACKBONE, check=check)
+def run(ctx) -> dict:
+    """Run a ``backbone`` scene; returns its part of ``summary.json``."""
+    from contin.backbone import BackboneError, dropped_excitations, frequency_extremum_event
+    from contin.continuation import continuation
+    from contin.runner import RunError
+
+    scene, model = ctx.scene, ctx.model
+    a = scene.analysis
+    plan = ctx.plan if ctx.plan is not None else check(scene, model)
+    A0, A1, log, opts, problems = plan["A0"], plan["A1"], plan["log"], plan["opts"], plan["problems"]
     rec = _BackboneRecorder(ctx.outdir, problems[0].model, problems[0].H)
     t0 = time.perf_counter()
     info = []
@@ -213,6 +244,7 @@ def run(ctx) -> dict:
         "branches": info,
         "rows": rec.n_rows,
         "special_points": len(rec.special_list),
+        "shortfalls": shortfalls(info, "amplitude"),
     }
 
 

@@ -36,7 +36,7 @@ import time
 
 import numpy as np
 
-from contin.analyses import register_analysis
+from contin.analyses import register_analysis, shortfalls
 from contin.analyses.frequency_response import BranchRecorder, _start, build_problem, continuation_options
 from contin.bifurcation_curves import CurveOptions, FlipTestEvent, curve_from_point, special_point_kind
 from contin.continuation import ContinuationOptions, continuation
@@ -44,11 +44,12 @@ from contin.harmonic_balance import HarmonicBalance
 from contin.measures import measure_names, point_measures
 from contin.results import CsvStream
 from contin.runner import RunError
+from contin.scene import START_SIMULATION
 from contin.schema import Key, SceneError, integer, is_int, is_number, listing, mapping, number, string
 from contin.shooting import ShootingOptions, period_doubling_scan, periodic_orbit
 from contin.stability import orbit_state
 
-__all__ = ["BIFURCATION_CURVE", "run"]
+__all__ = ["BIFURCATION_CURVE", "check", "describe", "run"]
 
 
 def _pair(v) -> bool:
@@ -79,7 +80,7 @@ BIFURCATION_CURVE = {
     "overlay": listing([], is_number, "a list of values of the second parameter"),
     "max_curves": integer(8, 1),
     "start_from": string("model", ("model", "linear", "simulation")),
-    "start_simulation": mapping(),
+    "start_simulation": START_SIMULATION,
     "guess": Key("a list of numbers (the harmonic coefficients) or null",
                  lambda v: v is None or (isinstance(v, list) and all(is_number(x) for x in v)), None),
     "shooting": listing([], is_number, "a list of values of the second parameter"),
@@ -197,9 +198,52 @@ def _shooting_options(scene) -> ShootingOptions:
                          hint=f": {exc}") from None
 
 
-def describe(scene, model) -> str:
-    """What ``contin check`` prints for this analysis (after validating it)."""
-    hb, (lo, hi), _, (lo2, hi2), p2_value = _checked(scene, model)
+def validate(data, model, analysis, lines) -> None:
+    """Refuse parameter values that make no physical sense (a negative frequency, mass, ...)."""
+    from contin.scene import check_parameter_values, model_frequency
+
+    a = analysis
+    p1 = a["parameter"] or a["frequency"] or model_frequency(model)
+    check_parameter_values(model, a, p1, [(f"analysis.{k}", a[k]) for k in ("range", "start") if a[k] is not None],
+                           lines)
+    check_parameter_values(model, a, a["second_parameter"],
+                           [(f"analysis.{k}", a[k]) for k in ("second_range", "overlay", "shooting") if a[k]], lines)
+
+
+def check(scene, model) -> dict:
+    """Every check of a ``bifurcation_curve`` scene with its model; returns its setup.
+
+    Returns
+    -------
+    dict
+        ``hb`` (the one-parameter problem), ``range1``, ``lam0``, ``range2``,
+        ``p2_value``, ``opts``, ``curve_opts``, ``cur_opts`` (continuation and
+        curve options) and ``setup`` (events and monitors of the one-parameter
+        runs).
+    """
+    from contin.analyses import check_output
+    from contin.analyses.simulate import check_time_step
+
+    a = scene.analysis
+    hb, (lo, hi), lam0, (lo2, hi2), p2_value = _checked(scene, model)
+    p1, p2 = hb.parameter, a["second_parameter"]
+    opts = continuation_options(scene, lam0, float(a["range"][1]) if lam0 != a["range"][1] else float(a["range"][0]))
+    if a["start_from"] == "simulation":  # each one-parameter run may start from a simulation
+        for value in [p2_value] + [float(v) for v in a["overlay"]]:
+            check_time_step(model, {p1: lam0, p2: value}, a["start_simulation"].get("steps_per_period", 4096),
+                            "analysis.start_simulation.steps_per_period", scene.lines, "analysis.start")
+    obs = list(getattr(model, "observable_names", ()) if getattr(model, "observables", None) else ())
+    measures = measure_names(model.dof_names, scene.output["harmonic_columns"], hb.H) + obs
+    check_output(scene, measures + ["max_multiplier", "n_unstable"], [p1, p2])
+    return {"hb": hb, "range1": (lo, hi), "lam0": lam0, "range2": (lo2, hi2), "p2_value": p2_value, "opts": opts,
+            "curve_opts": _options(scene, "curve_continuation", ContinuationOptions),
+            "cur_opts": _options(scene, "curve_options", CurveOptions), "setup": _one_parameter_setup(scene, hb)}
+
+
+def describe(scene, model, plan: dict | None = None) -> str:
+    """What ``contin check`` prints for this analysis (after validating it; ``plan`` from :func:`check`)."""
+    plan = plan if plan is not None else check(scene, model)
+    hb, (lo, hi), (lo2, hi2), p2_value = plan["hb"], plan["range1"], plan["range2"], plan["p2_value"]
     a = scene.analysis
     p1, p2 = hb.parameter, a["second_parameter"]
     lines = [f"  one-parameter run in {p1} over [{lo:g}, {hi:g}] at {p2}={p2_value:g}, harmonics H={hb.H}, "
@@ -214,17 +258,16 @@ def describe(scene, model) -> str:
     return "\n".join(lines)
 
 
-@register_analysis("bifurcation_curve", BIFURCATION_CURVE)
+@register_analysis("bifurcation_curve", BIFURCATION_CURVE, validate=validate, check=check)
 def run(ctx) -> dict:
     """Run a ``bifurcation_curve`` scene; returns its part of ``summary.json``."""
     scene, model = ctx.scene, ctx.model
     a = scene.analysis
-    hb, (lo, hi), lam0, (lo2, hi2), p2_value = _checked(scene, model)
+    plan = ctx.plan if ctx.plan is not None else check(scene, model)
+    hb, (lo, hi), lam0 = plan["hb"], plan["range1"], plan["lam0"]
+    (lo2, hi2), p2_value = plan["range2"], plan["p2_value"]
     p1, p2 = hb.parameter, a["second_parameter"]
-    opts = continuation_options(scene, lam0, float(a["range"][1]) if lam0 != a["range"][1] else float(a["range"][0]))
-    curve_opts = _options(scene, "curve_continuation", ContinuationOptions)
-    cur_opts = _options(scene, "curve_options", CurveOptions)
-    setup = _one_parameter_setup(scene, hb)
+    opts, curve_opts, cur_opts, setup = plan["opts"], plan["curve_opts"], plan["cur_opts"], plan["setup"]
 
     rec = BranchRecorder(ctx.outdir, model.dof_names, p1, scene.output["harmonic_columns"], hb.H, model=model)
     ctx.recorder = rec
@@ -340,6 +383,9 @@ def run(ctx) -> dict:
         "one_parameter_points": len(checks),
         "max_distance_to_curves": max((c["distance"] for c in checks if c["distance"] is not None), default=None),
         "shooting": {k: v for k, v in shooting.items() if k != "points"},
+        "shortfalls": shortfalls(runs_info, p1, what="one-parameter run") + shortfalls(
+            [{**e, "branch": f"{cid} ({cur.kind.value}), {e['side']} side,"} for cid, cur in enumerate(curves)
+             for e in cur.ends], p2, what="curve"),
     }
 
 

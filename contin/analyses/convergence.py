@@ -107,8 +107,8 @@ import numpy as np
 from contin.analyses import register_analysis
 from contin.schema import Key, SceneError, check_section, flag, int_range, listing, mapping, number, string
 
-__all__ = ["CONVERGENCE", "QUANTITIES", "run", "settings_of", "recommend", "read_records", "quantity_items",
-           "extract", "format_table", "plot_convergence", "replot"]
+__all__ = ["CONVERGENCE", "QUANTITIES", "base_columns", "check", "run", "settings_of", "recommend", "read_records",
+           "quantity_items", "extract", "format_table", "plot_convergence", "replot"]
 
 #: base analyses a convergence study can run, and the table their quantities read
 BASE_TABLES = {"frequency_response": "branches.csv", "static": "branches.csv", "backbone": "branches.csv",
@@ -667,51 +667,135 @@ def format_table(records: list[dict], items: list[tuple[str, str]], error_kinds:
 
 
 # ---------------------------------------------------------------- the run
-def _defaults(scene, data) -> dict:
-    """Default measure, parameter and static measure of the base run for quantities."""
-    base = data["analysis"]
-    out = data["output"]
-    btype = base["type"]
-    parameter = base.get("parameter") or (base.get("frequency")) or ("amplitude" if btype == "backbone" else None)
-    if parameter is None:
-        parameter = "w"
-    measure = out.get("measure") or base.get("measure")
-    model = None
-    if measure is None or btype == "frequency_response" and base.get("parameter") is None:
-        from contin.runner import build_model
+def base_columns(btype: str, scene, model, plan) -> tuple[str, dict]:
+    """The parameter of a base run and the columns of its files (``file -> columns``), from its check's plan."""
+    if btype == "frequency_response":
+        from contin.analyses.frequency_response import SPECIAL_EXTRA, plot_measures
 
-        model = build_model(scene)
-        if base.get("parameter") is None and btype == "frequency_response":
-            parameter = base.get("frequency") or model.frequency
-        if measure is None:
-            measure = f"amp_{model.dof_names[0]}" if btype != "static" else model.dof_names[0]
-    static_measure = base.get("measure") or out.get("measure") or measure
-    return {"parameter": parameter, "measure": measure, "static_measure": static_measure}
+        hb = plan[0][1]
+        measures = plot_measures(scene, model, hb)
+        head = ["branch", "nu", hb.parameter, "stable"]
+        return hb.parameter, {"branches.csv": head + measures + ["newton_iterations", "residual_norm"],
+                              "special_points.csv": ["branch", "kind", hb.parameter, "index"]
+                              + measures[:-2] + SPECIAL_EXTRA}
+    if btype == "simulate":
+        from contin.analyses.simulate import _columns
+
+        return plan["param"], {"simulation.csv": _columns(plan["param"], model.dof_names)}
+    if btype == "static":
+        return plan["param"], plan["columns"]
+    return "amplitude", plan["columns"]  # backbone
 
 
-@register_analysis("convergence", CONVERGENCE, validate)
+def _quantity_columns(q: dict, i: int, defaults: dict) -> list[tuple[str, str, str]]:
+    """``(key, column, file)`` of every column the quantity ``q`` reads (``file``: ``table`` or ``special``)."""
+    where = f"analysis.quantities[{i}]"
+    t = q["type"]
+    param = q.get("parameter") or defaults["parameter"]
+    pkey = f"{where}.parameter" if q.get("parameter") else where
+    out = []
+    if t == "peak":
+        out.append((f"{where}.measure" if q["measure"] else "output.measure", q["measure"] or defaults["measure"],
+                    "table"))
+        if q["refine"]:
+            out.append((pkey, param, "table"))
+    elif t in ("fold", "special"):
+        out.append((f"{where}.of" if q["of"] else where, q["of"] or param, "special"))
+        if q["near"] is not None:
+            out.append((where, param, "special"))
+    elif t == "stable_interval":
+        out.append((where, param, "table"))
+        if q["measure"] is not None and q["min"] is not None:
+            out.append((f"{where}.measure", q["measure"], "table"))
+    else:
+        out.append((f"{where}.measure" if q["measure"] else where, q["measure"] or defaults["static_measure"], "table"))
+        out.append((pkey, param, "table"))
+    return out
+
+
+def check(scene, model) -> dict:
+    """Every check of a ``convergence`` scene; returns its setup.
+
+    Each setting's scene is built and checked as its run will check it
+    (:func:`contin.analyses.check_scene`), so that a setting the base
+    analysis refuses is found before anything is written, and every column
+    a quantity reads must be one the runs write (``hK_`` columns: at some
+    setting).
+
+    Returns
+    -------
+    dict
+        ``quantities`` (checked), ``settings``, ``iref``, ``labels``,
+        ``scenes`` (one per setting), ``defaults``, ``items`` (quantity
+        columns and descriptions) and ``kinds`` (column -> error kind).
+    """
+    from contin.analyses import check_scene
+    from contin.model import suggest
+    from contin.runner import build_model
+    from contin.scene import scene_from_data
+
+    a = scene.analysis
+    btype = a["base"]["type"]
+    quantities = [normalize_quantity(q, i, btype) for i, q in enumerate(a["quantities"])]
+    settings, iref = settings_of(a)
+    labels = [setting_label(s, a["labels"]) for s in settings]
+    scenes = [scene_from_data(variant_data(scene.data, s), scene.source) for s in settings]
+    tables: dict = {}
+    parameter = None
+    for label, sc in zip(labels, scenes):
+        try:
+            m = build_model(sc)
+            plan = check_scene(sc, m)
+        except SceneError as exc:
+            if exc.key.startswith("output."):
+                raise  # the scene's own output section, the same at every setting
+            raise SceneError("analysis.vary", "settings the base analysis accepts", label,
+                             scene.lines.get("analysis.vary"), hint=f"; with them: {exc}") from None
+        param, files = base_columns(btype, sc, m, plan)
+        if parameter is None:
+            parameter, first_model = param, m
+        for f, cols in files.items():
+            tables.setdefault(f, {}).update(dict.fromkeys(cols))
+    out, base = scenes[0].data["output"], scenes[0].data["analysis"]
+    measure = out.get("measure") or base.get("measure") or (
+        first_model.dof_names[0] if btype == "static" else f"amp_{first_model.dof_names[0]}")
+    defaults = {"parameter": parameter, "measure": measure,
+                "static_measure": base.get("measure") or out.get("measure") or measure}
+    table = list(tables.get(BASE_TABLES[btype], {}))
+    special = list(tables.get("special_points.csv", {}))
+    items, kinds = [], {}
+    for i, q in enumerate(quantities):
+        for key, col, which in _quantity_columns(q, i, defaults):
+            known, file = (table, BASE_TABLES[btype]) if which == "table" else (special, "special_points.csv")
+            if col not in known:
+                what = "column" if key.endswith(".of") else "parameter" if col == defaults["parameter"] \
+                    or key.endswith(".parameter") else "measure"
+                raise SceneError(key, f"a column of {file} of the {btype} runs", None, scene.lines.get(key),
+                                 hint=f": {what} '{col}' is not a column of {file}{suggest(str(col), known)} "
+                                      f"({', '.join(known[:60])})")
+        for c, d in quantity_items(q, defaults):
+            if c in kinds:
+                raise SceneError("analysis.quantities", "quantities with distinct names (set name:)", c,
+                                 scene.lines.get("analysis.quantities"))
+            items.append((c, d))
+            kinds[c] = q["error"] or a["error"]
+    return {"quantities": quantities, "settings": settings, "iref": iref, "labels": labels, "scenes": scenes,
+            "defaults": defaults, "items": items, "kinds": kinds}
+
+
+@register_analysis("convergence", CONVERGENCE, validate, check)
 def run(ctx) -> dict:
     """Run a ``convergence`` scene; returns its part of ``summary.json``."""
     from contin.results import CsvStream
     from contin.runner import RunError, run_scene
-    from contin.scene import scene_from_data
 
     scene = ctx.scene
     a = scene.analysis
     btype = a["base"]["type"]
     table_file = BASE_TABLES[btype]
-    quantities = [normalize_quantity(q, i, btype) for i, q in enumerate(a["quantities"])]
-    settings, iref = settings_of(a)
-    labels = [setting_label(s, a["labels"]) for s in settings]
-    scenes = [scene_from_data(variant_data(scene.data, s), scene.source) for s in settings]
-    defaults = _defaults(scenes[0], scenes[0].data)
-    items, kinds = [], {}
-    for q in quantities:
-        for c, d in quantity_items(q, defaults):
-            if c in kinds:
-                raise SceneError("analysis.quantities", "quantities with distinct names (set name:)", c)
-            items.append((c, d))
-            kinds[c] = q["error"] or a["error"]
+    plan = ctx.plan if ctx.plan is not None else check(scene, ctx.model)
+    quantities, settings, iref, labels = plan["quantities"], plan["settings"], plan["iref"], plan["labels"]
+    scenes, defaults, items, kinds = plan["scenes"], plan["defaults"], plan["items"], plan["kinds"]
     columns = [c for c, _ in items]
     runs_dir = ctx.outdir / "runs"
     runs_dir.mkdir(exist_ok=True)
@@ -722,7 +806,7 @@ def run(ctx) -> dict:
             run_scene(scenes[0], runs_dir / "warmup", progress=False)
         except RunError:
             pass  # the timed run reports it
-        except SceneError as exc:  # a value the model refuses at run time
+        except SceneError as exc:  # check() ran every check of this setting: a guard, not a path
             raise SceneError("analysis.vary", "settings the base analysis accepts", labels[0],
                              hint=f"; with them: {exc}") from None
         ctx.timings["warmup"] = time.perf_counter() - t_all
@@ -730,7 +814,7 @@ def run(ctx) -> dict:
     first_complete = [True]
 
     def check_columns(run_dir):
-        """A column no run writes is bad input, found at the first complete run (``hK_`` columns exist from H = K)."""
+        """A column no run writes (check() refuses those before the run; a guard at the first complete run)."""
         if not first_complete[0]:
             return
         first_complete[0] = False
@@ -766,14 +850,16 @@ def run(ctx) -> dict:
             message = "; ".join(f"branch {b.get('branch')}: {b.get('message')}"
                                 for b in (summary.get("analysis") or {}).get("branches", [])
                                 if b.get("status") in EARLY_ENDS and b.get("message"))
-            if status != "complete":
+            if status == "interrupted":
                 message = "interrupted"
                 break
+            if status == "incomplete":  # what it computed still counts; the branches that gave up say why
+                message = message or summary.get("message", "")
         group = setting_label({k: s[k] for k in list(s)[:-1]}, a["labels"])  # the lines of the plot
         rec = {"setting": label, **s, "group": group, "reference": i == iref, "status": status, "wall_time": wall,
                "cpu_time": cpu,
                "points": points, "run": str(run_dir.relative_to(ctx.outdir)), "message": message}
-        if status == "complete":
+        if status in ("complete", "incomplete"):
             check_columns(run_dir)
             vals, miss = extract(run_dir, quantities, defaults, table_file)
             if message:
@@ -837,6 +923,10 @@ def run(ctx) -> dict:
         "recommendation": recommendation,
         "columns": columns,
         "cost": a["cost"],
+        # the errors are measured against the reference: a reference that fell short is a shortfall of the
+        # study; a coarse setting that fell short is one of its findings (its row says why)
+        "shortfalls": [f"the reference setting {ref_label} ended {ref['status']}: {ref.get('message') or ''}".rstrip(": ")]
+        if ref is not None and ref["status"] not in ("complete", "interrupted") else [],
     }
 
 

@@ -16,25 +16,30 @@ tangents are the engine's, in the kept dofs' coefficients, listed as
 from __future__ import annotations
 
 import dataclasses
+import inspect
 import json
 import time
 
 import numpy as np
 
-from contin.analyses import register_analysis
+from contin.analyses import register_analysis, shortfalls
 from contin.branch import BranchStatus
 from contin.continuation import ContinuationOptions
 from contin.harmonic_balance import HarmonicBalance, HBOptions
 from contin.checkpoint import encode, special_record
 from contin.condensation import condensation_dofs, condense
 from contin.measures import measure_names, point_measures
-from contin.checkpoint import read_records, rebuild_branches
+from contin.checkpoint import read_records, rebuild_branches, resumable_prefix
 from contin.results import CsvStream, read_csv, truncate_to_valid_rows
 from contin.scene import SceneError
 
 __all__ = ["run", "BranchRecorder", "build_problem", "engine_problem"]
 
 SPECIAL_EXTRA = ["interval_lo", "interval_hi", "located", "detail"]
+#: what a finished branch's ``info`` keeps in its checkpoint (what the summary reports of it)
+_END_INFO = ("unknown_scale", "parameter_scale", "lam_range", "min_rcond", "min_rcond_index", "max_condition",
+             "max_condition_parameter", "last_condition", "n_rejected_steps", "n_newton_iterations", "n_backtracked",
+             "rescalings", "n_linearizations", "last_failure", "uncovered")
 
 
 def build_problem(scene, model) -> HarmonicBalance:
@@ -147,10 +152,12 @@ class BranchRecorder:
         u = self._full(branch_id, branch.unknowns[i], lam)
         row = {"branch": branch_id, "nu": nu, self.parameter: lam}
         pd = branch.point_data
-        if "stable" in pd:
+        if "stable" in pd and bool(pd["evaluated"][i] if "evaluated" in pd else True):
             row["stable"] = bool(pd["stable"][i])
             row["n_unstable"] = int(pd["n_unstable"][i])
             row["max_multiplier"] = float(pd["max_multiplier"][i])
+        elif "stable" in pd:  # no verdict at this point: empty cells, not the monitor's placeholders
+            row.update(stable=None, n_unstable=None, max_multiplier=None)
         row.update(self._measures(u, len(self.dof_names), nu))
         row["newton_iterations"] = int(branch.newton_iterations[i])
         row["residual_norm"] = float(branch.residual_norms[i])
@@ -163,8 +170,12 @@ class BranchRecorder:
                                                 "unknown_scale": None if su is None else np.asarray(su),
                                                 "parameter_scale": branch.info.get("parameter_scale"),
                                                 "dofs": None if kept is None else [int(d) for d in kept]})) + "\n")
-        self.state.write(json.dumps({"type": "point", "row": self.n_rows, "branch": branch_id, "nu": nu, "H": H,
-                                     "lam": lam, "u": u.tolist(), "tangent": branch.tangents[i].tolist()}) + "\n")
+        self.state.write(json.dumps({
+            "type": "point", "row": self.n_rows, "branch": branch_id, "nu": nu, "H": H, "lam": lam, "u": u.tolist(),
+            "tangent": branch.tangents[i].tolist(), "s": float(branch.arclength[i]),
+            "step": float(branch.step_sizes[i]), "iterations": int(branch.newton_iterations[i]),
+            "residual": float(branch.residual_norms[i]),
+            "data": encode({k: v[i] for k, v in pd.items()})}) + "\n")
         self.state.flush()
         self.n_rows += 1
         self.special_points(branch_id, branch)
@@ -181,15 +192,15 @@ class BranchRecorder:
         self._written_special[branch_id] = len(branch.special_points)
         for sp in branch.special_points[done:]:
             if sp.kind.value == "start" or self._duplicate(branch_id, sp):
+                # kept in the checkpoint all the same: a resumed branch holds every special point
+                self.state.write(json.dumps(special_record(branch_id, self._full_point(branch_id, sp), csv=False)) + "\n")
                 continue
             i = min(max(sp.index, 0), len(branch) - 1)
             if i + 1 < len(branch) and abs(branch.parameter[i + 1] - sp.parameter) < abs(branch.parameter[i] - sp.parameter):
                 i += 1
             row = {"branch": branch_id, "kind": sp.kind.value, self.parameter: float(sp.parameter), "index": off + i}
-            u_full = self._full(branch_id, sp.unknowns, float(sp.parameter))
-            if u_full is not sp.unknowns:
-                sp = dataclasses.replace(sp, unknowns=u_full)
-            row.update(self._measures(u_full, len(self.dof_names), self.curves.get(branch_id, {}).get("nu", 1)))
+            sp = self._full_point(branch_id, sp)
+            row.update(self._measures(sp.unknowns, len(self.dof_names), self.curves.get(branch_id, {}).get("nu", 1)))
             lo, hi = sp.interval
             row.update({"interval_lo": float(lo), "interval_hi": float(hi), "located": bool(sp.located),
                         "detail": _detail(sp)})
@@ -197,6 +208,23 @@ class BranchRecorder:
             self.special_list.append(dict(row, _before=off + min(max(sp.index, 0), len(branch) - 1)))
             self.state.write(json.dumps(special_record(branch_id, sp)) + "\n")
             self.state.flush()
+
+    def _full_point(self, branch_id: int, sp):
+        """``sp`` with full coefficients (expanded when the branch's problem is condensed)."""
+        u_full = self._full(branch_id, sp.unknowns, float(sp.parameter))
+        return sp if u_full is sp.unknowns else dataclasses.replace(sp, unknowns=u_full)
+
+    def checkpoint(self, branch_id: int, branch, state: dict) -> None:
+        """The engine's state after a step (or its monitors' at the branch's end): see :mod:`contin.checkpoint`."""
+        self.special_points(branch_id, branch)  # the state holds them: write them first
+        if "points" in state:
+            rec = {"type": "engine", "branch": branch_id, "state": encode(state)}
+        else:
+            info = {k: v for k, v in branch.info.items() if k in _END_INFO}
+            rec = {"type": "end", "branch": branch_id, "status": branch.status.value, "message": branch.message,
+                   "info": encode(info), "monitors": encode(state.get("monitors") or [])}
+        self.state.write(json.dumps(rec) + "\n")
+        self.state.flush()
 
     def restore(self, previous: dict) -> None:
         """Take up the rows and special points of an interrupted run (``--resume``)."""
@@ -206,17 +234,19 @@ class BranchRecorder:
             bid = int(rows["branch"][r])
             self.offsets.setdefault(bid, r)
             row = {c: rows[c][r] for c in self.branch_columns if c in rows}
-            st = rows["stable"][r] if "stable" in rows and rows["stable"].dtype == bool else None
+            st = _flag(rows["stable"][r]) if "stable" in rows else None
             c = self.curves.setdefault(bid, {"x": [], "rows": [], "stable": [], "nu": int(rows["nu"][r])})
             c["x"].append(float(rows[self.parameter][r]))
             c["rows"].append(row)
-            c["stable"].append(None if st is None else bool(st))
+            c["stable"].append(st)
         sp = read_csv(self.special.path)
         for r in range(len(sp.get("branch", []))):
             row = {c: sp[c][r] for c in self.special_columns if c in sp}
             row["branch"], row["index"] = int(row["branch"]), int(row["index"])
             self.special_list.append(dict(row, _before=row["index"]))
         self._headers = set(previous)
+        self._engine_offsets = dict(self.offsets)  # a resumed branch holds its points from the first
+        self._written_special = {j: len(b.special_points) for j, b in previous.items()}
 
     def _duplicate(self, branch_id, sp) -> bool:
         """The same bifurcation found by two tests (the bordered determinant and a multiplier at +1)."""
@@ -233,28 +263,26 @@ class BranchRecorder:
 def _start(scene, model, hb, lam0: float):
     """The start guess: ``analysis.start_from`` = model (its own start, else linear), linear or simulation."""
     from contin.runner import RunError
+    from contin.simulation import SimulationError
     from contin.start import HomotopyFailed, simulation_start
 
     how = scene.analysis["start_from"]
     try:
-        if how == "simulation":
-            opts = dict(scene.analysis["start_simulation"])
-            unknown = set(opts) - {"transient", "steps_per_period"}
-            if unknown:
-                raise scene.error("analysis.start_simulation", "keys transient, steps_per_period", sorted(unknown))
-            return simulation_start(hb, lam0, **opts)
+        if how == "simulation":  # its keys are checked by the scene schema, its step by check()
+            return simulation_start(hb, lam0, **scene.analysis["start_simulation"])
         if how == "model" and model.start is not None:
             return model.start(hb, lam0)
-    except HomotopyFailed as exc:
+    except (HomotopyFailed, SimulationError) as exc:
         raise RunError(f"no starting solution at {hb.parameter}={lam0:g}: {exc}") from None
     return hb.linear_solution(lam0)
 
 
 def _restore(outdir, parameter: str) -> dict:
-    """Branches of an interrupted run in ``outdir``, with its files cut back to complete rows."""
+    """Branches of an interrupted run in ``outdir``, its files cut back to the last point it can go on from."""
     n_rows = truncate_to_valid_rows(outdir / "branches.csv")
-    truncate_to_valid_rows(outdir / "special_points.csv")
-    records = read_records(outdir / "state.jsonl", max_row=n_rows)
+    records, rows, special_rows = resumable_prefix(read_records(outdir / "state.jsonl"), n_rows)
+    truncate_to_valid_rows(outdir / "branches.csv", rows)
+    truncate_to_valid_rows(outdir / "special_points.csv", special_rows)
     # rewrite the checkpoint without what the cut dropped
     with open(outdir / "state.jsonl", "w") as fh:
         for r in records:
@@ -286,17 +314,18 @@ def _starts(scene):
         yield key, Scene({**scene.data, "analysis": merged}, scene.source, scene.lines)
 
 
-@register_analysis("frequency_response")
-def run(ctx) -> dict:
-    """Run a ``frequency_response`` scene; returns its part of ``summary.json``.
+def check(scene, model) -> list:
+    """Every check of a ``frequency_response`` scene with its model; returns the setup of each start.
 
-    The branches of the main start come first, then those of each entry of
-    ``analysis.starts`` (further starts, e.g. a subharmonic branch found by
-    a time simulation beside the harmonic one), all in one diagram.
+    Returns
+    -------
+    list of tuple
+        ``(scene, hb, problem, lam0, options, follow)`` per start (the
+        scene, then each entry of ``analysis.starts``).
     """
+    from contin.analyses import check_output
     from contin.analyses.stability_hooks import stability_setup
 
-    scene, model = ctx.scene, ctx.model
     lam_a, lam_b = float(scene.analysis["range"][0]), float(scene.analysis["range"][1])
     lo, hi = min(lam_a, lam_b), max(lam_a, lam_b)
     setups = []
@@ -310,11 +339,46 @@ def run(ctx) -> dict:
         if a["guess"] is not None and len(a["guess"]) != hb.size:
             raise scene.error(f"{key}.guess", f"{hb.size} numbers (n*(2H+1) coefficients)", f"{len(a['guess'])} numbers")
         problem = engine_problem(sc, hb)
+        if a["start_from"] == "simulation" and a["guess"] is None:
+            from contin.analyses.simulate import check_time_step
+            from contin.start import simulation_start
+
+            default = inspect.signature(simulation_start).parameters["steps_per_period"].default
+            check_time_step(model, {hb.parameter: lam0}, a["start_simulation"].get("steps_per_period", default),
+                            f"{key}.start_simulation.steps_per_period", scene.lines, f"{key}.start")
         setups.append((sc, hb, problem, lam0, opts, stability_setup(a, problem)))
     hb = setups[0][1]
+    check_output(scene, plot_measures(scene, model, hb), list(model.parameters))
+    return setups
+
+
+def plot_measures(scene, model, hb) -> list[str]:
+    """The columns ``output.measure`` can name: the measures of every dof, the model's own, and stability's."""
+    observables = list(getattr(model, "observable_names", ()) if getattr(model, "observables", None) else ())
+    return (measure_names(model.dof_names, scene.output["harmonic_columns"], hb.H) + observables
+            + ["max_multiplier", "n_unstable"])
+
+
+@register_analysis("frequency_response", check=check)
+def run(ctx) -> dict:
+    """Run a ``frequency_response`` scene; returns its part of ``summary.json``.
+
+    The branches of the main start come first, then those of each entry of
+    ``analysis.starts`` (further starts, e.g. a subharmonic branch found by
+    a time simulation beside the harmonic one), all in one diagram.
+    """
+    scene, model = ctx.scene, ctx.model
+    lam_a, lam_b = float(scene.analysis["range"][0]), float(scene.analysis["range"][1])
+    lo, hi = min(lam_a, lam_b), max(lam_a, lam_b)
+    setups = ctx.plan if ctx.plan is not None else check(scene, model)
+    hb = setups[0][1]
     previous = _restore(ctx.outdir, hb.parameter) if ctx.resume else {}
-    rec = BranchRecorder(ctx.outdir, model.dof_names, hb.parameter, scene.output["harmonic_columns"], hb.H,
-                         append=bool(previous), model=model)
+    try:
+        rec = BranchRecorder(ctx.outdir, model.dof_names, hb.parameter, scene.output["harmonic_columns"], hb.H,
+                             append=bool(previous), model=model)
+    except ValueError as exc:  # the files to continue have other columns
+        raise SceneError("--resume", "result files of this scene", str(exc),
+                         hint="; run again without --resume, or use another -o") from None
     if previous:
         rec.restore(previous)
     ctx.recorder = rec
@@ -323,9 +387,12 @@ def run(ctx) -> dict:
     try:
         for sc, hb_i, problem, lam0, opts, follow in setups:
             a = sc.analysis
-            u0 = np.array(a["guess"], dtype=float) if a["guess"] is not None else _start(sc, model, hb_i, lam0)
-            if problem is not hb_i:  # the starts are full coefficients
-                u0 = problem.restrict(u0)
+            if len(results) in previous:  # taken up from the checkpoint: no start to compute
+                u0 = np.asarray(previous[len(results)].unknowns[0])
+            else:
+                u0 = np.array(a["guess"], dtype=float) if a["guess"] is not None else _start(sc, model, hb_i, lam0)
+                if problem is not hb_i:  # the starts are full coefficients
+                    u0 = problem.restrict(u0)
             results += follow(problem, u0, lam0, (lo, hi), opts, rec, ctx, previous, first_id=len(results))
             if ctx.stop_requested or any(b.status == BranchStatus.INTERRUPTED for b, _ in results):
                 break
@@ -345,6 +412,7 @@ def run(ctx) -> dict:
                        "retried_with_step_halving": branch.info.get("n_backtracked", 0)},
             "rescalings": [list(r) for r in branch.info.get("rescalings", [])],
             "stability": _stability_summary(branch),
+            "uncovered": _interval_or_none(branch.info.get("uncovered")),
         })
     ctx.timings["continuation"] = time.perf_counter() - t0
     interrupted = any(b.status == BranchStatus.INTERRUPTED for b, _ in results)
@@ -362,7 +430,19 @@ def run(ctx) -> dict:
         "rows": rec.n_rows,
         "special_points": len(rec.special_list),
         "failed_switches": rec.failed_switches,
+        "shortfalls": shortfalls(branches_info, hb.parameter, rec.failed_switches),
     }
+
+
+def _flag(value) -> bool | None:
+    """A ``stable`` cell read back: True, False, or None where it is empty (no verdict)."""
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    return {"true": True, "false": False}.get(value)
+
+
+def _interval_or_none(gap):
+    return None if gap is None else [float(gap[0]), float(gap[1])]
 
 
 def _finite_or_none(v):
@@ -385,7 +465,12 @@ def _stability_summary(branch) -> dict | None:
     out = {"method": st.get("method"),
            "hill_monodromy_gap": st.get("largest_hill_monodromy_gap"),
            "fallbacks": len(st.get("fallbacks", [])),
-           "disagreements": len(st.get("disagreements", []))}
+           "disagreements": len(st.get("disagreements", [])),
+           "unevaluated": len(st.get("unevaluated", []))}
+    if st.get("unevaluated"):
+        lam, why = st["unevaluated"][0]
+        out["unevaluated_message"] = (f"no stability verdict at {len(st['unevaluated'])} points (first at "
+                                      f"{lam:.10g}: {why}); their rows have empty stability cells")
     where = sorted(st.get("fallbacks", []) + st.get("disagreements", []))
     if where:
         out["first_fallback_at"] = where[0]
@@ -398,16 +483,13 @@ def _plot(ctx, rec, hb):
     from contin.plotting import bifurcation_diagram
 
     out = ctx.scene.output
-    measure = out["measure"] or f"amp_{hb.model.dof_names[0]}"
-    allowed = rec.measures + ["max_multiplier", "n_unstable"]
-    if measure not in allowed:
-        raise ctx.scene.error("output.measure", "one of the measures " + ", ".join(allowed), measure)
+    measure = out["measure"] or f"amp_{hb.model.dof_names[0]}"  # checked by check()
     curves = []
     for bid, c in rec.curves.items():
         st = c["stable"]
         x = list(c["x"])
         y = [r[measure] for r in c["rows"]]
-        stable = None if any(v is None for v in st) else list(st)
+        stable = None if all(v is None for v in st) else list(st)  # None inside: points without a verdict
         if stable is not None:
             # draw each stability change at its located parameter, not at the next stored point
             off = rec.offsets.get(bid, 0)
@@ -418,7 +500,7 @@ def _plot(ctx, rec, hb):
                     x.insert(j, sp[hb.parameter])
                     y.insert(j, sp.get(measure, y[j]))
                     stable.insert(j, stable[j])
-        curves.append({"x": x, "y": y, "stable": None if stable is None else np.array(stable, bool),
+        curves.append({"x": x, "y": y, "stable": stable,
                        "label": f"branch {bid} (nu={c['nu']})"})
     special = [{"x": s[hb.parameter], "y": s.get(measure, 1.0), "kind": s["kind"]} for s in rec.special_list]
     path = ctx.outdir / "bifurcation_diagram.png"

@@ -33,9 +33,10 @@ import time
 import numpy as np
 
 from contin.analyses import register_analysis
+from contin.model import suggest
 from contin.schema import Key, SceneError, flag, int_range, is_number, string
 
-__all__ = ["FRF", "run", "force_cases"]
+__all__ = ["FRF", "check", "run", "force_cases", "result_columns"]
 
 
 def _force_ok(v) -> bool:
@@ -78,7 +79,7 @@ def force_cases(spec, dofs):
     names = [spec] if isinstance(spec, str) else list(spec)
     for d in names:
         if d not in dofs:
-            raise SceneError("analysis.force", f"dof names among {dofs}", d)
+            raise SceneError("analysis.force", f"dof names among {dofs}", d, hint=suggest(d, dofs))
     if isinstance(spec, dict):
         F = np.zeros(n, dtype=complex)
         for d, v in spec.items():
@@ -143,19 +144,32 @@ def _own_force(model, kw):
     return at
 
 
-@register_analysis("frf", FRF)
-def run(ctx) -> dict:
-    """Run an ``frf`` scene; returns its part of ``summary.json``."""
-    from contin.modal import SingularImpedance, natural_modes
-    from contin.results import CsvStream
+def result_columns(wname: str, dofs) -> list[str]:
+    """The columns of ``frf.csv``."""
+    return ["case", wname] + [f"{q}_{d}" for d in dofs for q in ("amp", "phase", "re", "im")]
 
-    scene, model = ctx.scene, ctx.model
+
+#: further names the plot's axes look up in ``output.labels`` and ``output.units``
+AXIS_NAMES = ("amplitude |X|",)
+
+
+def check(scene, model) -> dict:
+    """Every check of an ``frf`` scene with its model; returns its setup.
+
+    Returns
+    -------
+    dict
+        ``wname`` (the frequency parameter), ``kw`` (its index), ``p0``,
+        ``w`` (the frequency grid) and ``cases`` (``[(label, F)]``).
+    """
+    from contin.analyses import check_output
+
     a = scene.analysis
     dofs = list(model.dof_names)
     if a["frequency"] is not None and a["frequency"] != model.frequency:
         if a["frequency"] not in model.parameters:
             raise scene.error("analysis.frequency", f"a parameter of the model {list(model.parameters)}",
-                              a["frequency"])
+                              a["frequency"], hint=suggest(a["frequency"], model.parameters))
         model.frequency = a["frequency"]
     if model.forces:
         raise SceneError("model", "a linear model for analysis.type frf (no nonlinear forces)", None,
@@ -176,6 +190,21 @@ def run(ctx) -> dict:
     cases = force_cases(a["force"], dofs)
     if cases is None:
         cases = [("excitation", _own_force(model, kw))]
+    check_output(scene, result_columns(wname, dofs)[1:], AXIS_NAMES)
+    return {"wname": wname, "kw": kw, "p0": p0, "w": w, "cases": cases}
+
+
+@register_analysis("frf", FRF, check=check)
+def run(ctx) -> dict:
+    """Run an ``frf`` scene; returns its part of ``summary.json``."""
+    from contin.modal import SingularImpedance, natural_modes
+    from contin.results import CsvStream
+
+    scene, model = ctx.scene, ctx.model
+    a = scene.analysis
+    dofs = list(model.dof_names)
+    plan = ctx.plan if ctx.plan is not None else check(scene, model)
+    wname, kw, p0, w, cases = plan["wname"], plan["kw"], plan["p0"], plan["w"], plan["cases"]
     t0 = time.perf_counter()
     results, skipped = [], []
     for label, F in cases:
@@ -193,8 +222,7 @@ def run(ctx) -> dict:
                     raise SceneError("analysis.range", "frequencies where Z(w) can be solved", a["range"]) from None
         results.append((label, resp, w[keep], X))
     ctx.timings["frf"] = time.perf_counter() - t0
-    cols = ["case", wname] + [f"{q}_{d}" for d in dofs for q in ("amp", "phase", "re", "im")]
-    out = CsvStream(ctx.outdir / "frf.csv", cols)
+    out = CsvStream(ctx.outdir / "frf.csv", result_columns(wname, dofs))
     try:
         for label, _, ws, X in results:
             for i in range(ws.size):

@@ -31,9 +31,10 @@ import time
 import numpy as np
 
 from contin.analyses import register_analysis
+from contin.model import suggest
 from contin.schema import Key, SceneError, flag, int_range, is_number
 
-__all__ = ["MODES", "run"]
+__all__ = ["MODES", "check", "run"]
 
 
 def _numbers(v) -> bool:
@@ -92,22 +93,37 @@ def _finite(v):
     return float(v) if np.isfinite(v) else None
 
 
-@register_analysis("modes", MODES)
-def run(ctx) -> dict:
-    """Run a ``modes`` scene; returns its part of ``summary.json``."""
-    from contin.equilibrium import EquilibriumFailed, equilibrium_path, static_problem
-    from contin.modal import damped_modes, natural_modes, principal_coordinates
-    from contin.results import CsvStream
-    from contin.runner import RunError
+def validate(data, model, analysis, lines) -> None:
+    """Refuse parameter values that make no physical sense (a negative frequency, mass, ...)."""
+    from contin.scene import check_parameter_values
 
-    scene, model = ctx.scene, ctx.model
+    check_parameter_values(model, analysis, analysis["parameter"],
+                           [(f"analysis.{k}", analysis[k]) for k in ("values", "range") if analysis[k] is not None],
+                           lines)
+
+
+def check(scene, model) -> dict:
+    """Every check of a ``modes`` scene with its model; returns its setup.
+
+    The mass matrix must be symmetric positive definite at every value of
+    the parameter (it may depend on it).
+
+    Returns
+    -------
+    dict
+        ``param``, ``values``, ``ref_name``, ``ref`` (its index) and ``hb``
+        (the static problem).
+    """
+    from contin.analyses import check_output
+    from contin.equilibrium import static_problem
+    from contin.modal import _check_mass
+
     a = scene.analysis
     dofs = list(model.dof_names)
     param, values = _values(scene, model)
     ref_name = a["reference"] or dofs[0]
     if ref_name not in dofs:
-        raise scene.error("analysis.reference", f"one of the dofs {dofs}", ref_name)
-    ref = dofs.index(ref_name)
+        raise scene.error("analysis.reference", f"one of the dofs {dofs}", ref_name, hint=suggest(ref_name, dofs))
     if a["guess"] is not None and len(a["guess"]) != len(dofs):
         raise scene.error("analysis.guess", f"{len(dofs)} numbers (one per dof {dofs})", f"{len(a['guess'])} numbers")
     try:
@@ -115,6 +131,32 @@ def run(ctx) -> dict:
     except ValueError as exc:
         raise SceneError("model", "a model with a static equilibrium for analysis.type modes", None,
                          hint=f": {exc}") from None
+    for v in values:
+        p = model.parameter_vector({param: v} if param else None)
+        try:
+            _check_mass(model.mass.value(p))
+        except ValueError as exc:
+            where = f" at {param} = {v:g}" if param else ""
+            raise SceneError("model.mass", f"a symmetric positive definite mass matrix{where} for analysis.type modes",
+                             None, hint=f": {exc}") from None
+    mcols, dcols = _columns(param, dofs)
+    check_output(scene, mcols[1:] + (dcols[1:] if a["damped"] else []))
+    return {"param": param, "values": values, "ref_name": ref_name, "ref": dofs.index(ref_name), "hb": hb}
+
+
+@register_analysis("modes", MODES, validate=validate, check=check)
+def run(ctx) -> dict:
+    """Run a ``modes`` scene; returns its part of ``summary.json``."""
+    from contin.equilibrium import EquilibriumFailed, equilibrium_path
+    from contin.modal import damped_modes, natural_modes, principal_coordinates
+    from contin.results import CsvStream
+    from contin.runner import RunError
+
+    scene, model = ctx.scene, ctx.model
+    a = scene.analysis
+    dofs = list(model.dof_names)
+    plan = ctx.plan if ctx.plan is not None else check(scene, model)
+    param, values, ref_name, ref, hb = plan["param"], plan["values"], plan["ref_name"], plan["ref"], plan["hb"]
     mcols, dcols = _columns(param, dofs)
     out_m = CsvStream(ctx.outdir / "modes.csv", mcols)
     out_d = CsvStream(ctx.outdir / "damped_modes.csv", dcols) if a["damped"] else None
@@ -133,9 +175,9 @@ def run(ctx) -> dict:
                 nm = natural_modes(eq.M, eq.K, ref)
                 pc = principal_coordinates(eq.M, eq.C, eq.K, nm)
                 dm = damped_modes(eq.M, eq.C, eq.K, ref) if a["damped"] else None
-            except (ValueError, np.linalg.LinAlgError) as exc:
-                raise SceneError("model.mass", "a symmetric positive definite mass matrix for analysis.type modes",
-                                 None, hint=f": {exc}") from None
+            except (ValueError, np.linalg.LinAlgError) as exc:  # the mass matrix was checked: numerics
+                raise RunError(f"modal analysis at {param} = {eq.value:g}: {exc}" if param
+                               else f"modal analysis: {exc}") from None
             head = {"index": i}
             if param:
                 head[param] = eq.value

@@ -25,9 +25,10 @@ import time
 import numpy as np
 
 from contin.analyses import register_analysis
+from contin.model import suggest
 from contin.schema import Key, SceneError, int_range, is_number
 
-__all__ = ["SIMULATE", "run", "COLUMNS_HEAD"]
+__all__ = ["SIMULATE", "check", "check_time_step", "run", "COLUMNS_HEAD"]
 
 
 def _initial_ok(v) -> bool:
@@ -114,18 +115,84 @@ def _initial_state(a, model, previous, rng):
     return np.zeros(n), np.zeros(n)
 
 
-@register_analysis("simulate", SIMULATE)
-def run(ctx) -> dict:
-    """Run a ``simulate`` scene; returns its part of ``summary.json``."""
-    from contin.poincare import steady_state
-    from contin.results import CsvStream
-    from contin.simulation import SimulationError
+def check_time_step(model, params: dict, steps_per_period, key: str, lines: dict | None = None,
+                    where: str = "") -> None:
+    """What :func:`contin.simulation.simulate` refuses before integrating, as a ``SceneError`` naming ``key``.
 
-    scene, model = ctx.scene, ctx.model
+    A positive forcing frequency, a mass matrix it can invert, and a step
+    ``h = T / steps_per_period`` within RK4's stability limit for the
+    stiffest mode with every contact closed.
+
+    Parameters
+    ----------
+    model : Model
+    params : dict
+        Parameter values by name (the others: the model's).
+    steps_per_period : int
+    key : str
+        The scene key that sets ``steps_per_period`` (named when it is too small).
+    where : str
+        Where in the scene the parameter values come from (for messages).
+    """
+    from contin.simulation import RK4_STABILITY, SimulationError, compile_model
+
+    lines = lines or {}
+    try:
+        model.check_variable(None, params)
+    except ValueError as exc:
+        raise SceneError(where or "analysis.parameter", "values the model can take without being rebuilt", None,
+                         lines.get(where), hint=f": {exc}") from None
+    p = model.parameter_vector(params)
+    w = float(p[model.parameter_index(model.frequency)])
+    at = ", ".join(f"{k} = {v:g}" for k, v in params.items())
+    if not (math.isfinite(w) and w > 0):
+        key_w = where if model.frequency in params and where else f"model.parameters.{model.frequency}"
+        raise SceneError(key_w, f"a forcing frequency {model.frequency} > 0 for a time simulation", w,
+                         lines.get(key_w))
+    try:
+        cm = compile_model(model)
+        cm.arguments(p)
+    except SimulationError as exc:
+        raise SceneError("model", "a model that can be integrated in time", None, hint=f": {exc}") from None
+    h = 2.0 * math.pi / w / steps_per_period
+    rate = cm.fastest_rate(p)
+    if rate * h > RK4_STABILITY:
+        need = rate * 2.0 * math.pi / w / RK4_STABILITY
+        need = f"{math.ceil(need)}" if need <= 2**20 else f"{need:.3g} (more than the 2**20 allowed)"
+        raise SceneError(key, f"at least {need} steps per period{' at ' + at if at else ''}: the stiffest mode "
+                         f"(|lambda| = {rate:.4g} with the contacts closed) makes RK4 unstable with h = T/"
+                         f"{steps_per_period} (h*|lambda| = {rate * h:.3g} > {RK4_STABILITY})", steps_per_period,
+                         lines.get(key))
+
+
+def validate(data, model, analysis, lines) -> None:
+    """Refuse parameter values that make no physical sense (a negative frequency, mass, ...)."""
+    from contin.scene import check_parameter_values, model_frequency
+
+    if analysis["values"] is not None:
+        check_parameter_values(model, analysis, analysis["parameter"] or model_frequency(model),
+                               [("analysis.values", analysis["values"])], lines)
+
+
+def check(scene, model) -> dict:
+    """Every check of a ``simulate`` scene with its model; returns its setup.
+
+    Everything the integrator refuses before integrating is checked at each
+    value (:func:`check_time_step`).
+
+    Returns
+    -------
+    dict
+        ``param``, ``values``, ``obs`` (observed dof names) and ``dofs``
+        (their indices).
+    """
+    from contin.analyses import check_output
+
     a = scene.analysis
     param = a["parameter"] or model.frequency
     if param not in model.parameters:
-        raise scene.error("analysis.parameter", f"a parameter of the model {list(model.parameters)}", param)
+        raise scene.error("analysis.parameter", f"a parameter of the model {list(model.parameters)}", param,
+                          hint=suggest(param, model.parameters))
     values = a["values"] if a["values"] is not None else [model.parameters[param]]
     S = a["steps_per_period"]
     spp = a["samples_per_period"]
@@ -135,8 +202,33 @@ def run(ctx) -> dict:
     obs = a["dofs"] or names[: min(2, len(names))]
     for d in obs:
         if d not in names:
-            raise scene.error("analysis.dofs", f"names among the dofs {names}", d)
-    dofs = [names.index(d) for d in obs]
+            raise scene.error("analysis.dofs", f"names among the dofs {names}", d, hint=suggest(d, names))
+    if isinstance(a["initial"], list) and len(a["initial"]) != 2 * len(names):
+        raise scene.error("analysis.initial", f"2n = {2 * len(names)} numbers (displacements of {names}, then "
+                          "velocities)", f"{len(a['initial'])} numbers")
+    for value in values:
+        check_time_step(model, {param: float(value)}, S, "analysis.steps_per_period", scene.lines,
+                        "analysis.values" if a["values"] is not None else f"model.parameters.{param}")
+    cols = _columns(param, names)
+    check_output(scene, [c for c in cols if c not in ("class", "lines")])
+    return {"param": param, "values": values, "obs": obs, "dofs": [names.index(d) for d in obs]}
+
+
+@register_analysis("simulate", SIMULATE, validate=validate, check=check)
+def run(ctx) -> dict:
+    """Run a ``simulate`` scene; returns its part of ``summary.json``."""
+    from contin.poincare import steady_state
+    from contin.results import CsvStream
+    from contin.runner import RunError
+    from contin.simulation import SimulationError
+
+    scene, model = ctx.scene, ctx.model
+    a = scene.analysis
+    plan = ctx.plan if ctx.plan is not None else check(scene, model)
+    param, values, obs, dofs = plan["param"], plan["values"], plan["obs"], plan["dofs"]
+    S = a["steps_per_period"]
+    spp = a["samples_per_period"]
+    names = list(model.dof_names)
     rng = np.random.default_rng(a["seed"])
     out = CsvStream(ctx.outdir / "simulation.csv", _columns(param, names))
     records, rows = [], []
@@ -159,10 +251,9 @@ def run(ctx) -> dict:
                                         locate_events=a["locate_events"], dofs=dofs, tol=a["tolerance"],
                                         max_period=a["max_period"], progress=progress,
                                         should_stop=lambda: ctx.stop_requested)
-            except SimulationError as exc:
-                raise SceneError("analysis.values", "parameter values at which the simulation stays finite", value,
-                                 hint=f"; {exc}") from None
-            except ValueError as exc:
+            except SimulationError as exc:  # what it refuses before integrating was checked: numerics
+                raise RunError(f"simulation at {param} = {value:g}: {exc}") from None
+            except ValueError as exc:  # not expected after check(): say which setting
                 raise SceneError("analysis", "settings the simulation can use", None, hint=f": {exc}") from None
             if cls is None:
                 ctx.interrupted = True  # stopped by the user mid-run: keep the values that are complete

@@ -50,6 +50,9 @@ def stability_setup(analysis: dict, hb):
 
             return callback
 
+        def checkpoints(index, problem):
+            return lambda branch, state: rec.checkpoint(index, branch, state)
+
         previous = previous or {}
         inside = lam_range[0] < lam0 < lam_range[1]
         runs = [options] + ([options.replace(direction=-options.direction)] if analysis["both_ways"] and inside else [])
@@ -58,10 +61,14 @@ def stability_setup(analysis: dict, hb):
             def shifted(index, problem, offset=offset):
                 return factory(index + offset, problem)
 
+            def shifted_checkpoints(index, problem, offset=offset):
+                return checkpoints(index + offset, problem)
+
             prev = {j - offset: b for j, b in previous.items() if j >= offset}
             diagram = follow_diagram(hb, u0, lam0, lam_range, opts, stability=stab, switch=switch,
                                      max_depth=1 if switch else 0, parameter_name=hb.parameter,
-                                     max_branches=analysis["max_branches"], callback_factory=shifted, previous=prev)
+                                     max_branches=analysis["max_branches"], callback_factory=shifted,
+                                     checkpoint_factory=shifted_checkpoints, previous=prev)
             pairs += list(zip(diagram.branches, diagram.problems))
             rec.failed_switches.extend({**f, "parent": f["parent"] + offset} for f in diagram.failed_switches)
             offset += len(diagram.branches)

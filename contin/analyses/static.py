@@ -28,10 +28,11 @@ import time
 
 import numpy as np
 
-from contin.analyses import register_analysis
+from contin.analyses import register_analysis, shortfalls
+from contin.model import suggest
 from contin.schema import Key, SceneError, flag, is_number, mapping, number, string
 
-__all__ = ["STATIC", "run", "static_stability"]
+__all__ = ["STATIC", "check", "result_columns", "run", "static_stability"]
 
 STATIC = {
     "type": string(required=True),
@@ -67,24 +68,34 @@ def static_stability(Ju: np.ndarray, M: np.ndarray) -> dict:
     return {"stable": bool(not bad.any()), "n_unstable": int(bad.sum()), "lowest_eigenvalue": float(lam.real.min())}
 
 
+def result_columns(model, parameter: str, names_lin) -> dict:
+    """``values`` (dofs and linear observables), and the columns of ``branches.csv`` and ``special_points.csv``."""
+    from contin.measures import measure_names
+
+    obs_cols = list(getattr(model, "observable_names", ())) if getattr(model, "observables", None) else []
+    values = list(model.dof_names) + list(names_lin)
+    measures = measure_names(model.dof_names, 0, 0) + obs_cols
+    head = ["branch", "nu", parameter, "stable", "n_unstable", "max_multiplier", "lowest_eigenvalue"]
+    return {"values": values, "measures": measures,
+            "branches.csv": head + values + measures + ["newton_iterations", "residual_norm"],
+            "special_points.csv": ["branch", "kind", parameter, "index"] + values
+            + ["stable", "n_unstable", "lowest_eigenvalue", "interval_lo", "interval_hi", "located", "detail"]}
+
+
 class _StaticRecorder:
     """Streams ``branches.csv`` and ``special_points.csv`` of a static analysis."""
 
     def __init__(self, outdir, model, parameter, names_lin):
-        from contin.measures import measure_names
         from contin.results import CsvStream
 
         self.model = model
         self.parameter = parameter
         self.lin = names_lin
         self.observables = getattr(model, "observables", None)
-        obs_cols = list(getattr(model, "observable_names", ())) if self.observables else []
-        self.values = list(model.dof_names) + list(names_lin)
-        self.measures = measure_names(model.dof_names, 0, 0) + obs_cols
-        head = ["branch", "nu", parameter, "stable", "n_unstable", "max_multiplier", "lowest_eigenvalue"]
-        self.columns = head + self.values + self.measures + ["newton_iterations", "residual_norm"]
-        self.special_columns = ["branch", "kind", parameter, "index"] + self.values + \
-            ["stable", "n_unstable", "lowest_eigenvalue", "interval_lo", "interval_hi", "located", "detail"]
+        cols = result_columns(model, parameter, names_lin)
+        self.values, self.measures = cols["values"], cols["measures"]
+        self.columns = cols["branches.csv"]
+        self.special_columns = cols["special_points.csv"]
         self.rows = CsvStream(outdir / "branches.csv", self.columns)
         self.special = CsvStream(outdir / "special_points.csv", self.special_columns)
         self.n_rows = 0
@@ -137,15 +148,30 @@ class _StaticRecorder:
         self.special.close()
 
 
-@register_analysis("static", STATIC)
-def run(ctx) -> dict:
-    """Run a ``static`` scene; returns its part of ``summary.json``."""
-    from contin.backbone import BackboneError, autonomous_model, dropped_excitations, static_equilibrium
-    from contin.continuation import ContinuationOptions, continuation
-    from contin.harmonic_balance import HarmonicBalance, HBOptions
-    from contin.runner import RunError
+def validate(data, model, analysis, lines) -> None:
+    """Refuse parameter values that make no physical sense (a negative frequency, mass, ...)."""
+    from contin.scene import check_parameter_values
 
-    scene, model = ctx.scene, ctx.model
+    check_parameter_values(model, analysis, analysis["parameter"],
+                           [(f"analysis.{k}", analysis[k]) for k in ("range", "start") if analysis[k] is not None],
+                           lines)
+
+
+def check(scene, model) -> dict:
+    """Every check of a ``static`` scene with its model; returns its setup.
+
+    Returns
+    -------
+    dict
+        ``param``, ``lo``, ``hi``, ``lam0``, ``auto`` (the model without its
+        time-varying excitation), ``hb`` (its ``H = 0`` problem), ``opts``,
+        ``lin`` (linear observables) and ``measure`` (the plotted column).
+    """
+    from contin.analyses import check_output
+    from contin.backbone import BackboneError, autonomous_model
+    from contin.continuation import ContinuationOptions
+    from contin.harmonic_balance import HarmonicBalance, HBOptions
+
     a = scene.analysis
     param = a["parameter"]
     if param not in model.parameters:
@@ -166,6 +192,29 @@ def run(ctx) -> dict:
         opts = ContinuationOptions.from_dict(d)
     except ValueError as exc:
         raise SceneError("analysis.continuation", "valid continuation options", None, hint=f": {exc}") from None
+    lin = dict(getattr(auto, "linear_observables", {}) or {})
+    cols = result_columns(auto, param, lin)
+    measure = a["measure"] or (next(iter(lin)) if lin else model.dof_names[0])
+    if measure not in cols["values"]:
+        raise scene.error("analysis.measure", "a dof or linear observable among " + ", ".join(cols["values"]), measure,
+                          hint=suggest(str(measure), cols["values"]))
+    check_output(scene, cols["branches.csv"][2:], [param])
+    return {"param": param, "lo": lo, "hi": hi, "lam0": lam0, "auto": auto, "hb": hb, "opts": opts, "lin": lin,
+            "measure": measure, "columns": cols}
+
+
+@register_analysis("static", STATIC, validate=validate, check=check)
+def run(ctx) -> dict:
+    """Run a ``static`` scene; returns its part of ``summary.json``."""
+    from contin.backbone import BackboneError, dropped_excitations, static_equilibrium
+    from contin.continuation import continuation
+    from contin.runner import RunError
+
+    scene, model = ctx.scene, ctx.model
+    a = scene.analysis
+    plan = ctx.plan if ctx.plan is not None else check(scene, model)
+    param, lo, hi, lam0 = plan["param"], plan["lo"], plan["hi"], plan["lam0"]
+    auto, hb, opts, lin, measure = plan["auto"], plan["hb"], plan["opts"], plan["lin"], plan["measure"]
     t0 = time.perf_counter()
     try:
         x0 = static_equilibrium(auto, {param: lam0})
@@ -174,7 +223,6 @@ def run(ctx) -> dict:
     def monitor(u, lam, Ju, Jlam):
         return static_stability(Ju, auto.linear(hb.params_at(lam))[0])  # M may depend on the parameter
 
-    lin = dict(getattr(auto, "linear_observables", {}) or {})
     rec = _StaticRecorder(ctx.outdir, auto, param, lin)
     runs = [opts] + ([opts.replace(direction=-opts.direction)] if a["both_ways"] and lo < lam0 < hi else [])
     branches = []
@@ -192,9 +240,6 @@ def run(ctx) -> dict:
         rec.close()
     ctx.timings["continuation"] = time.perf_counter() - t0
     ctx.interrupted = ctx.interrupted or any(b.status.value == "interrupted" for b in branches)
-    measure = a["measure"] or (next(iter(lin)) if lin else model.dof_names[0])
-    if measure not in rec.values:
-        raise scene.error("analysis.measure", "a dof or linear observable among " + ", ".join(rec.values), measure)
     ctx.plot = lambda: _plot(ctx, rec, param, measure)
     return {
         "parameter": param,
@@ -207,6 +252,8 @@ def run(ctx) -> dict:
                      for i, b in enumerate(branches)],
         "rows": rec.n_rows,
         "special_points": len(rec.special_list),
+        "shortfalls": shortfalls([{"branch": i, "points": len(b), "status": b.status.value, "message": b.message,
+                                   "uncovered": b.info.get("uncovered")} for i, b in enumerate(branches)], param),
     }
 
 

@@ -24,10 +24,12 @@ from contin.stability.floquet import (
     multiplier_distance,
     multiplier_step_limit,
     stability_events,
+    unevaluated_data,
 )
 from contin.stability.hill import HillSpectrum, hill_spectrum
 from contin.stability.monodromy import (
     Monodromy,
+    RK4StepError,
     SwitchEvent,
     monodromy_orbit_ivp,
     monodromy_reference,
@@ -40,6 +42,7 @@ __all__ = [
     "FloquetResult",
     "HillSpectrum",
     "Monodromy",
+    "RK4StepError",
     "MultiplierCrossingEvent",
     "StabilityChangeEvent",
     "StabilityMethod",
@@ -59,4 +62,5 @@ __all__ = [
     "orbit_state",
     "stability_events",
     "switching_events",
+    "unevaluated_data",
 ]

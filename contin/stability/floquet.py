@@ -60,11 +60,13 @@ from typing import Any, Mapping
 import numpy as np
 
 from contin.branch import SpecialKind
-from contin.events import OVERSHOOT, Event, PointInfo, narrow, predicted_zero
+from contin.events import OVERSHOOT, Event, FunctionEvent, Location, PointInfo, locate, narrow, predicted_zero
 from contin.model import suggest
 from contin.stability.hill import hill_spectrum
-from contin.stability.monodromy import monodromy_reference, monodromy_rk4, switching_events
-from contin.stability.saltation import _switching_elements
+from contin.newton import NUMERICAL_ERRORS
+from contin.stability.monodromy import monodromy_orbit_ivp, monodromy_reference, monodromy_rk4, switching_events
+from contin.stability.rk4 import RK4StepError
+from contin.stability.saltation import _frequency, _switching_elements
 
 __all__ = [
     "StabilityMethod",
@@ -80,6 +82,7 @@ __all__ = [
     "describe_crossing",
     "multiplier_distance",
     "multiplier_step_limit",
+    "unevaluated_data",
 ]
 
 
@@ -131,7 +134,9 @@ class StabilityOptions:
     steps_per_period : int
         RK4 steps per period for the monodromy (``>= 8``; at least ``H+1``
         is enforced when used). Smooth forces: error ``O((w_max T/S)^4)``;
-        piecewise-linear forces: ``O(1/S)``.
+        piecewise-linear forces: ``O(1/S)``. Where the step is beyond RK4's
+        stability limit for the stiffest mode along the orbit (a stiff
+        contact), the monodromy takes more steps (``max_steps_per_period``).
     tolerance : float
         Relative unit-circle margin: ``|mu| > 1 + tolerance`` is unstable.
         In ``(0, 0.1]``.
@@ -162,6 +167,21 @@ class StabilityOptions:
         Largest multiplier distance (:func:`multiplier_distance`) between
         Hill and the monodromy accepted by that check; beyond it the
         monodromy's multipliers are used (``fallback``). In ``(0, 1]``.
+    max_steps_per_period : int
+        Most RK4 steps per period the monodromy takes of itself (``>= 8``).
+        Where ``steps_per_period`` is too large a step for the stiffest
+        eigenvalue of ``A`` along the orbit, it integrates again with the
+        steps that eigenvalue needs (measured at every node of the orbit,
+        with a 5% margin, rounded up to a fast FFT length), as long as they
+        are at most this (or ``steps_per_period`` if larger); beyond it the
+        adaptive integration of the variational equations
+        (:func:`contin.stability.monodromy_orbit_ivp`, DOP853 at ``rtol``)
+        is used if its estimated cost is within :data:`IVP_FALLBACK_EVALUATIONS`
+        right-hand sides, else the point gets no verdict (see
+        :class:`StabilityMonitor`). The refined steps make RK4 stable on the
+        stiffest mode, not accurate there (it damps it artificially): for
+        accurate multipliers choose ``steps_per_period`` with
+        ``|eigenvalue| T / steps_per_period`` about 1 or less.
     """
 
     method: StabilityMethod = StabilityMethod.BOTH
@@ -175,6 +195,7 @@ class StabilityOptions:
     eigenvectors: bool = False
     unit_check: float = 0.1
     agreement: float = 1e-2
+    max_steps_per_period: int = 32768
 
     def __post_init__(self):
         def bad(name, requirement, value):
@@ -193,10 +214,11 @@ class StabilityOptions:
         if not isinstance(m, StabilityMethod):
             bad("method", "a StabilityMethod or one of 'hill', 'floquet', 'both', 'none'", m)
         object.__setattr__(self, "method", m)
-        s = self.steps_per_period
-        if isinstance(s, (bool, np.bool_)) or not isinstance(s, (int, np.integer)) or s < 8:
-            bad("steps_per_period", "an integer >= 8", s)
-        object.__setattr__(self, "steps_per_period", int(s))
+        for name in ("steps_per_period", "max_steps_per_period"):
+            s = getattr(self, name)
+            if isinstance(s, (bool, np.bool_)) or not isinstance(s, (int, np.integer)) or s < 8:
+                bad(name, "an integer >= 8", s)
+            object.__setattr__(self, name, int(s))
         for name, lo, hi, lo_open in (
             ("tolerance", 0.0, 0.1, True),
             ("real_angle_tol", 0.0, 0.1, True),
@@ -353,8 +375,12 @@ class FloquetResult:
         return int(np.argmin(dist))
 
     def monitor_data(self) -> dict:
-        """Values stored per branch point by :class:`StabilityMonitor`."""
+        """Values stored per branch point by :class:`StabilityMonitor` (``evaluated`` True).
+
+        A point where no verdict can be made gets :func:`unevaluated_data` instead.
+        """
         return {
+            "evaluated": True,
             "stable": bool(self.stable),
             "n_unstable": int(self.n_unstable),
             "n_plus": int(self.n_plus),
@@ -369,6 +395,33 @@ class FloquetResult:
             "marginal_disagreement": bool(self.disagreement and self.marginal),
             "hill_fallback": bool(self.fallback),
         }
+
+
+def unevaluated_data(size: int) -> dict:
+    """The monitored values of a point without a stability verdict: the keys of :meth:`FloquetResult.monitor_data`.
+
+    Every value is finite (a branch stores no others): ``evaluated`` and
+    ``stable`` False, the counts ``n_unstable``, ``n_plus``, ``n_minus``,
+    ``n_complex`` -1, ``max_multiplier`` 0, ``multipliers`` zeros (``size``
+    of them, as at the other points), ``hill_quality`` -1 (as without
+    Hill) and the flags False.
+    """
+    return {
+        "evaluated": False,
+        "stable": False,
+        "n_unstable": -1,
+        "n_plus": -1,
+        "n_minus": -1,
+        "n_complex": -1,
+        "max_multiplier": 0.0,
+        "multipliers": np.zeros(int(size), dtype=complex),
+        "ambiguous": False,
+        "hill_quality": -1.0,
+        "confirmed": False,
+        "disagreement": False,
+        "marginal_disagreement": False,
+        "hill_fallback": False,
+    }
 
 
 def classify_multipliers(multipliers: np.ndarray, tolerance: float = 1e-6, real_angle_tol: float = 1e-4):
@@ -452,10 +505,42 @@ def _log_exponents(mu: np.ndarray, period: float) -> np.ndarray:
         return np.log(mu.astype(complex)) / period
 
 
+#: Largest estimated cost, in right-hand sides, of the adaptive integration used where RK4 would need
+#: more than ``max_steps_per_period`` steps (about a second or two of the Python right-hand side)
+IVP_FALLBACK_EVALUATIONS = 20000
+#: Right-hand sides DOP853 takes per radian of the stiffest mode (``int |eigenvalue| dt`` over the
+#: period) at tolerances near 1e-10: measured 25 for a light mass on a stiff spring
+_IVP_EVALUATIONS_PER_RADIAN = 30.0
+
+
 def _monodromy(hb, u, lam, options):
+    """The monodromy of ``options``: RK4 with its steps refined up to the cap, else the adaptive fallback.
+
+    Raises
+    ------
+    ArithmeticError
+        Neither can be made at this point (the message says why).
+    """
     if options.integrator == "dop853":
         return monodromy_reference(hb, u, lam, rtol=options.rtol, atol=options.rtol * 0.1)
-    return monodromy_rk4(hb, u, lam, max(options.steps_per_period, hb.H + 1))
+    steps = max(options.steps_per_period, hb.H + 1)
+    try:
+        return monodromy_rk4(hb, u, lam, steps, max_steps=max(options.max_steps_per_period, steps))
+    except RK4StepError as exc:
+        return _adaptive_monodromy(hb, u, lam, options, steps, exc)
+
+
+def _adaptive_monodromy(hb, u, lam, options, steps, exc):
+    """:func:`monodromy_orbit_ivp` where RK4 needs more steps than allowed, if affordable."""
+    phase = exc.phase if math.isfinite(exc.phase) else exc.rate * 2.0 * np.pi / _frequency(hb, lam)
+    cost = _IVP_EVALUATIONS_PER_RADIAN * phase
+    if not cost <= IVP_FALLBACK_EVALUATIONS:
+        raise ArithmeticError(f"{exc} (the adaptive integration would take about {cost:.2g} right-hand sides, "
+                              f"more than {IVP_FALLBACK_EVALUATIONS})") from None
+    try:
+        return monodromy_orbit_ivp(hb, u, lam, rtol=options.rtol, atol=options.rtol * 0.1, samples=2 * steps)
+    except ArithmeticError as exc2:
+        raise ArithmeticError(f"{exc}; the adaptive integration failed as well ({exc2})") from None
 
 
 def _force_jumps(hb, u, lam, options) -> bool:
@@ -599,14 +684,24 @@ class StabilityMonitor:
     """Monitor for :func:`contin.continuation.continuation`: stability at each point.
 
     Called as ``monitor(u, lam, Ju, Jlam)``, it returns (see
-    :meth:`FloquetResult.monitor_data`) ``stable``, ``n_unstable``,
-    ``n_plus``, ``n_minus``, ``n_complex``, ``max_multiplier``,
-    ``multipliers`` (2n complex), ``ambiguous``, ``hill_quality`` (-1 when
-    Hill was not used), ``confirmed``, ``disagreement`` (Hill and monodromy
-    verdicts differ, not explained by a multiplier on the threshold) and
-    ``marginal_disagreement``. With method BOTH it remembers the
-    verdict of the previously evaluated point, so that each change of
-    Hill's verdict is checked by the monodromy.
+    :meth:`FloquetResult.monitor_data`) ``evaluated`` (True), ``stable``,
+    ``n_unstable``, ``n_plus``, ``n_minus``, ``n_complex``,
+    ``max_multiplier``, ``multipliers`` (2n complex), ``ambiguous``,
+    ``hill_quality`` (-1 when Hill was not used), ``confirmed``,
+    ``disagreement`` (Hill and monodromy verdicts differ, not explained by
+    a multiplier on the threshold), ``marginal_disagreement`` and
+    ``hill_fallback``. With method BOTH it remembers the verdict of the
+    previously evaluated point, so that each change of Hill's verdict is
+    checked by the monodromy.
+
+    Where no verdict can be made (a numerical failure: an ``ArithmeticError``
+    or ``LinAlgError``, e.g. a monodromy that would need more steps than
+    ``StabilityOptions.max_steps_per_period`` allow), it does not raise,
+    which would end the branch: it returns :func:`unevaluated_data`
+    (``evaluated`` False, finite placeholders) and records the parameter
+    and the reason in :attr:`unevaluated` (the first one also raises a
+    ``RuntimeWarning``). The stability events take such a point as giving
+    no information (:func:`stability_events`).
 
     Parameters
     ----------
@@ -632,6 +727,8 @@ class StabilityMonitor:
         ``RuntimeWarning``).
     largest_gap : float
         Largest Hill-monodromy multiplier distance met where both were computed.
+    unevaluated : list of (float, str)
+        Parameter values where no verdict could be made, with the reason.
     last : FloquetResult or None
     """
 
@@ -646,9 +743,12 @@ class StabilityMonitor:
         self.marginal_disagreements: list[float] = []
         self.ambiguous_points: list[float] = []
         self.fallbacks: list[float] = []
+        self.unevaluated: list[tuple[float, str]] = []
         self.largest_gap = 0.0
         self.last: FloquetResult | None = None
         self._last_key = None
+        self._size: int | None = None  # multipliers per point, as last returned
+        self._restored_counts = None  # the last verdict's counts given back by restore()
 
     def analyze(self, u: np.ndarray, lam: float) -> FloquetResult:
         """:func:`floquet_multipliers` at ``(u, lam)``, updating the remembered verdict."""
@@ -658,7 +758,8 @@ class StabilityMonitor:
         # a condensed problem (contin.condensation): Hill and the monodromy on the full problem and coefficients
         hb = getattr(self.hb, "full", self.hb)
         uf = self.hb.expand(u, lam) if hb is not self.hb else u
-        res = floquet_multipliers(hb, uf, lam, self.options, previous=None if self.last is None else self.last.counts)
+        previous = self._restored_counts if self.last is None else self.last.counts
+        res = floquet_multipliers(hb, uf, lam, self.options, previous=previous)
         self.evaluations += 1
         self.confirmations += int(res.confirmed)
         if res.disagreement:
@@ -692,10 +793,58 @@ class StabilityMonitor:
         return res
 
     def __call__(self, u, lam, Ju=None, Jlam=None) -> dict:
-        return self.analyze(u, lam).monitor_data()
+        try:
+            data = self.analyze(u, lam).monitor_data()
+        except NUMERICAL_ERRORS as exc:
+            return self._unevaluated(float(lam), f"{type(exc).__name__}: {exc}")
+        self._size = int(np.size(data["multipliers"]))
+        return data
+
+    def _unevaluated(self, lam: float, reason: str) -> dict:
+        """Record a point without a verdict; its placeholder data."""
+        self.unevaluated.append((lam, reason))
+        if len(self.unevaluated) == 1:
+            warnings.warn(
+                f"no stability verdict at {getattr(self.hb, 'parameter', 'lambda')}={lam:.10g} ({reason}); the point "
+                "is kept without one "
+                "(evaluated False; further ones are listed in StabilityMonitor.unevaluated without warning)",
+                RuntimeWarning,
+                stacklevel=3,
+            )
+        return unevaluated_data(self._multiplier_count(lam))
+
+    def _multiplier_count(self, lam: float) -> int:
+        """How many multipliers the points have: those of the last verdict, else ``2 rank(M)`` (Hill's count)."""
+        if self._size is not None:
+            return self._size
+        hb = getattr(self.hb, "full", self.hb)
+        if hb is None:
+            return 0
+        return 2 * int(np.linalg.matrix_rank(hb.model.linear(hb.params_at(lam))[0]))
+
+    def state(self) -> dict:
+        """What the monitor remembers, JSON-able: its statistics and the last verdict's counts (see :meth:`restore`)."""
+        return {"evaluations": self.evaluations, "confirmations": self.confirmations,
+                "disagreements": list(self.disagreements), "marginal_disagreements": list(self.marginal_disagreements),
+                "ambiguous_points": list(self.ambiguous_points), "fallbacks": list(self.fallbacks),
+                "unevaluated": [[lam, reason] for lam, reason in self.unevaluated],
+                "largest_gap": float(self.largest_gap), "size": self._size,
+                "counts": None if self.last is None else [int(c) for c in self.last.counts]}
+
+    def restore(self, state: Mapping[str, Any]) -> None:
+        """Take up a :meth:`state` (a resumed run goes on as the interrupted one would have)."""
+        self.evaluations, self.confirmations = int(state["evaluations"]), int(state["confirmations"])
+        for name in ("disagreements", "marginal_disagreements", "ambiguous_points", "fallbacks"):
+            setattr(self, name, [float(v) for v in state[name]])
+        self.unevaluated = [(float(lam), str(reason)) for lam, reason in state["unevaluated"]]
+        self.largest_gap = float(state["largest_gap"])
+        self._size = None if state["size"] is None else int(state["size"])
+        self.last, self._last_key = None, None
+        self._restored_counts = None if state["counts"] is None else tuple(int(c) for c in state["counts"])
 
     def reset(self) -> None:
         """Forget the remembered verdict (before tracing a new branch)."""
+        self._restored_counts = None
         self.last = None
         self._last_key = None
 
@@ -707,6 +856,7 @@ class StabilityMonitor:
             "marginal_disagreements": list(self.marginal_disagreements),
             "ambiguous_points": list(self.ambiguous_points),
             "fallbacks": list(self.fallbacks),
+            "unevaluated": [[lam, reason] for lam, reason in self.unevaluated],
             "largest_hill_monodromy_gap": float(self.largest_gap),
             "method": self.options.method.value,
         }
@@ -715,15 +865,114 @@ class StabilityMonitor:
 _CROSSING_COUNT = {"+1": "n_plus", "-1": "n_minus", "complex": "n_complex"}
 
 
-def _counts_of(point: PointInfo, monitor: StabilityMonitor) -> dict:
+_VERDICT_KEYS = ("n_plus", "n_minus", "n_complex", "n_unstable", "multipliers")
+
+
+def _counts_of(point: PointInfo, monitor: StabilityMonitor) -> dict | None:
+    """The stability data of ``point`` (its monitored data, else the monitor's verdict), or None without a verdict.
+
+    A point without one (``evaluated`` False, or the monitor failing there)
+    gives no information: None, never its placeholders.
+    """
     d = point.data
-    if all(k in d for k in ("n_plus", "n_minus", "n_complex", "n_unstable")):
-        return d
-    return monitor.analyze(point.u, point.lam).monitor_data()
+    if not all(k in d for k in _VERDICT_KEYS):
+        try:
+            d = monitor.analyze(point.u, point.lam).monitor_data()
+        except NUMERICAL_ERRORS:
+            return None
+    return d if bool(d.get("evaluated", True)) else None
 
 
-def _turns(a: PointInfo, b: PointInfo) -> bool:
-    fa, fb = a.tangent[-1], b.tangent[-1]
+def _multipliers_of(point: PointInfo, monitor: StabilityMonitor) -> np.ndarray | None:
+    """The multipliers of ``point``, or None without a verdict (see :func:`_counts_of`)."""
+    d = _counts_of(point, monitor)
+    return None if d is None else np.asarray(d["multipliers"], dtype=complex)
+
+
+class _Held:
+    """The verdict of the last evaluated stored point, for the stored points without one.
+
+    The engine tests each stored point once, in order along the branch (a new
+    branch from its start, at arclength 0). A point without a verdict takes
+    that of the last evaluated point before it: no change is detected into
+    or out of it, and a change across it is taken between the evaluated
+    points around it (located between it and the next one, where the
+    engine solves).
+    """
+
+    def __init__(self):
+        self.latest = None  # the stored point tested last
+        self.current = None  # _standing() of the last evaluated stored point up to it
+        self.before = None  # the same up to the stored point before it
+
+    def see(self, point: PointInfo, own: dict | None) -> None:
+        """Record a stored point as the engine tests it (``own``: its data, None without a verdict)."""
+        if point is self.latest:
+            return
+        if point.s == 0.0:
+            self.current = None  # the start of a branch
+        self.before = self.current
+        if own is not None:
+            self.current = _standing(point, own)
+        self.latest = point
+
+    def at(self, point: PointInfo, own: dict | None):
+        """:func:`_standing` for ``point``: its own where it has a verdict, else the held one (or None)."""
+        if own is not None:
+            return _standing(point, own)
+        return self.current if point is self.latest else self.before
+
+
+def _standing(point: PointInfo, own: dict) -> tuple:
+    """``(s, data, lam, dlam)`` of an evaluated point: arclength, verdict, parameter, parameter component
+    of the tangent (what the events read of the point standing for one without a verdict)."""
+    return float(point.s), own, float(point.lam), float(point.tangent[-1])
+
+
+def _mark_before(loc, a: PointInfo, held, monitor):
+    """Say where a change lies that the location could not put beyond a point without a verdict.
+
+    Where ``a`` has no verdict, the change lies between the evaluated point
+    standing for it (``held``) and the far end of the final bracket.
+    Bisection onto ``a`` itself (every solved point on the far side) puts it
+    between ``held`` and ``a``, or just after ``a``: not resolved where
+    nothing could be evaluated, so it is not located either.
+    """
+    if held is None or _counts_of(a, monitor) is not None:
+        return loc
+    if loc.located and loc.bracket[0] == a.lam:
+        loc.located = False
+    if not loc.located:
+        loc.message = (f"the change lies between {held[2]:.10g} and {loc.bracket[1]:.10g} (no stability verdict at "
+                       f"{a.lam:.10g}); {loc.message}")
+    return loc
+
+
+def _evaluated_only(point_at, monitor):
+    """``point_at`` of the engine, with a solved point without a stability verdict counted as a failed solve.
+
+    Such a point cannot tell on which side of a change it lies: the location
+    ends there (unlocated, with the reason) rather than taking it for one side.
+    """
+    def wrapped(sigma):
+        info, why = point_at(sigma)
+        if info is None:
+            return info, why
+        try:
+            own = _counts_of(info, monitor)
+        except NUMERICAL_ERRORS as exc:
+            return None, f"no stability verdict ({type(exc).__name__}: {exc})"
+        if own is None:
+            reasons = getattr(monitor, "unevaluated", None)
+            reason = f": {reasons[-1][1]}" if reasons else ""
+            return None, f"no stability verdict at {info.lam:.10g}{reason}"
+        return info, why
+
+    return wrapped
+
+
+def _turns(fa: float, fb: float) -> bool:
+    """Whether the parameter components ``fa``, ``fb`` of two tangents say that the branch turned between."""
     return bool((fa < 0 <= fb) or (fa > 0 >= fb))
 
 
@@ -782,6 +1031,11 @@ class MultiplierCrossingEvent(Event):
     cross, so that two crossings close together (a narrow stable window) are
     not taken in one step.
 
+    A point without a verdict (``evaluated`` False) stands for the last
+    evaluated one before it (see :func:`stability_events`): the counts, the
+    multipliers that start the continuous test, and the tangent that tells
+    ``fold`` from ``bp``.
+
     Parameters
     ----------
     monitor : StabilityMonitor
@@ -810,11 +1064,23 @@ class MultiplierCrossingEvent(Event):
         self.name = f"stability {crossing} ({self.kind.value})"
         #: whether this event gives the monitor's step limit (one of a set of events on one monitor does)
         self.predicts = True
+        self._held = _Held()
 
     # -- counts -----------------------------------------------------------
-    def test(self, point: PointInfo) -> float:
-        d = _counts_of(point, self.monitor)
+    def _count(self, d: dict | None) -> float:
+        if d is None:
+            return math.nan  # no verdict yet on this branch: no change into or out of it
         return float(d["n_unstable"] if self.crossing == "complex" else d[self.key])
+
+    def _data(self, point: PointInfo):
+        """:func:`_standing` for a stored point (see :class:`_Held`), or None."""
+        return self._held.at(point, _counts_of(point, self.monitor))
+
+    def test(self, point: PointInfo) -> float:
+        own = _counts_of(point, self.monitor)
+        self._held.see(point, own)
+        held = self._held.at(point, own)
+        return self._count(None if held is None else held[1])
 
     def _crossed(self, da: dict, db: dict) -> bool:
         flip_plus = (int(da["n_plus"]) - int(db["n_plus"])) % 2
@@ -826,11 +1092,12 @@ class MultiplierCrossingEvent(Event):
         return abs(int(db["n_unstable"]) - int(da["n_unstable"])) - flip_plus - flip_minus >= 2
 
     def triggered(self, ga, gb, a, b):
-        crossed = self._crossed(_counts_of(a, self.monitor), _counts_of(b, self.monitor))
-        if self.crossing == "+1" and self.kind is SpecialKind.FOLD:
-            crossed = crossed and _turns(a, b)
-        elif self.crossing == "+1" and self.kind is SpecialKind.BP:
-            crossed = crossed and not _turns(a, b)
+        da, db = self._data(a), self._data(b)
+        crossed = da is not None and db is not None and self._crossed(da[1], db[1])
+        if crossed and self.crossing == "+1":
+            # a turn anywhere since the evaluated point standing for a (a fold where nothing was evaluated)
+            turned = _turns(da[3], db[3])
+            crossed = turned if self.kind is SpecialKind.FOLD else not turned
         return np.full(np.shape(ga), crossed)
 
     # -- location ---------------------------------------------------------
@@ -856,9 +1123,8 @@ class MultiplierCrossingEvent(Event):
         sign = np.prod(terms / mag)  # unit complex; real up to rounding for a conjugate-closed set
         return float(np.sign(sign.real) * math.exp(min(float(np.sum(np.log(mag))), 700.0)))
 
-    def _tracked(self, a: PointInfo, b: PointInfo):
-        """``(mu_a, mu_b)`` of the multiplier that crosses between ``a`` and ``b``, or None."""
-        mu_a, mu_b = _multipliers_of(a, self.monitor), _multipliers_of(b, self.monitor)
+    def _tracked(self, mu_a: np.ndarray, mu_b: np.ndarray):
+        """``(mu_a, mu_b)`` of the multiplier that crosses between two points with these multipliers, or None."""
         pair = _pairing(mu_a, mu_b)
         if (pair < 0).any():
             return None
@@ -878,10 +1144,18 @@ class MultiplierCrossingEvent(Event):
         return None if best is None else best[:2]
 
     def locate(self, component, point_at, h, a, b, ga, gb, *, tol=1e-10, max_iter=60):
-        da = _counts_of(a, self.monitor)
+        held_a, held_b = self._data(a), self._data(b)
+        if held_a is None or held_b is None:
+            return [Location(h, b, float(gb), False, 0, "no stability verdict at an end", (a.lam, b.lam))]
+        # an end without a verdict is represented by the held one (of the last evaluated point before it):
+        # its counts give the side, and its multipliers start the continuous test on the right sign
+        da = held_a[1]
+        mu_a = np.asarray(da["multipliers"], dtype=complex)
+        mu_b = np.asarray(held_b[1]["multipliers"], dtype=complex)
+        point_at = _evaluated_only(point_at, self.monitor)
         thr = self._threshold()
         if self.crossing == "complex":
-            tracked = self._tracked(a, b)
+            tracked = self._tracked(mu_a, mu_b)
             span = b.s - a.s if math.isfinite(b.s - a.s) and b.s != a.s else h
 
             def value(info):
@@ -891,28 +1165,48 @@ class MultiplierCrossingEvent(Event):
                 q = (info.s - a.s) / span if math.isfinite(info.s) else 0.5
                 target = tracked[0] + q * (tracked[1] - tracked[0])
                 mu = _multipliers_of(info, self.monitor)
+                if mu is None:
+                    return math.nan
                 mu = np.concatenate([mu, mu.conjugate()])
                 return abs(mu[int(np.argmin(np.abs(mu - target)))]) - thr
 
             v_a, v_b = (abs(tracked[0]) - thr, abs(tracked[1]) - thr) if tracked is not None else (math.nan, math.nan)
         else:
             def value(info):
-                return self._product(_multipliers_of(info, self.monitor))
+                mu = _multipliers_of(info, self.monitor)
+                return math.nan if mu is None else self._product(mu)
 
-            v_a, v_b = value(a), value(b)
+            v_a, v_b = self._product(mu_a), self._product(mu_b)
 
         def side(info, v):
-            return not self._crossed(da, _counts_of(info, self.monitor))
+            d = _counts_of(info, self.monitor)
+            if d is None:
+                raise ArithmeticError(f"no stability verdict at {info.lam:.10g}")
+            return not self._crossed(da, d)
 
         loc = narrow(point_at, 0.0, h, a, b, v_a, v_b, h, side=side, value=value, tol=tol, max_iter=max_iter)
-        loc.value = self.test(loc.point)
-        return [loc]
+        end = self._data(loc.point)
+        loc.value = self._count(None if end is None else end[1])
+        return [_mark_before(loc, a, held_a, self.monitor)]
 
     def step_limit(self, a: PointInfo, b: PointInfo, h: float) -> float:
+        """The step limit of :func:`multiplier_step_limit`, from evaluated points only.
+
+        Where ``a`` has no verdict the last evaluated point before it stands
+        in (``h`` measured from it); none where ``b`` has none.
+        """
         if not self.predicts:
             return math.inf
-        return multiplier_step_limit(_multipliers_of(a, self.monitor), _multipliers_of(b, self.monitor), h,
-                                     self._threshold())
+        mu_b = _multipliers_of(b, self.monitor)
+        if mu_b is None:
+            return math.inf
+        mu_a = _multipliers_of(a, self.monitor)
+        if mu_a is None:
+            held = self._data(a)
+            if held is None or not (math.isfinite(held[0]) and math.isfinite(b.s) and b.s > held[0]):
+                return math.inf
+            h, mu_a = float(b.s) - held[0], np.asarray(held[1]["multipliers"], dtype=complex)
+        return multiplier_step_limit(mu_a, mu_b, h, self._threshold())
 
     def describe(self, point: PointInfo) -> dict:
         return describe_crossing(self.monitor, point, self.crossing, self.kind)
@@ -924,9 +1218,10 @@ class StabilityChangeEvent(Event):
     The located point's data holds the classification (``"classification"``:
     ``fold``/``bp``/``pd``/``ns``) made from the multiplier closest to the
     unit circle; ``fold`` versus ``bp`` is decided by whether the parameter
-    component of the tangent changed sign between the two stored points that
-    bracket the change (recorded by :meth:`triggered`, which the engine calls
-    just before locating).
+    component of the tangent changed sign between the two evaluated points
+    that bracket the change (recorded by :meth:`triggered`, which the engine
+    calls just before locating). Points without a verdict are taken as in
+    :func:`stability_events`.
     """
 
     integer_valued = True
@@ -936,16 +1231,37 @@ class StabilityChangeEvent(Event):
     def __init__(self, monitor: StabilityMonitor):
         self.monitor = monitor
         self._turned = False
+        self._held = _Held()
 
     def test(self, point: PointInfo) -> float:
-        return float(_counts_of(point, self.monitor)["n_unstable"])
+        own = _counts_of(point, self.monitor)
+        self._held.see(point, own)
+        held = self._held.at(point, own)  # a point without a verdict holds the last one (see _Held)
+        return math.nan if held is None else float(held[1]["n_unstable"])
 
     def triggered(self, ga, gb, a, b):
-        self._turned = _turns(a, b)
+        da, db = self._held.at(a, _counts_of(a, self.monitor)), self._held.at(b, _counts_of(b, self.monitor))
+        self._turned = _turns(a.tangent[-1] if da is None else da[3], b.tangent[-1] if db is None else db[3])
         return ga != gb
+
+    def locate(self, component, point_at, h, a, b, ga, gb, *, tol=1e-10, max_iter=60):
+        """Bisection on ``n_unstable`` (:func:`contin.events.locate`); a point without a verdict ends it."""
+        def count(info):
+            d = _counts_of(info, self.monitor)
+            if d is None:
+                raise ArithmeticError(f"no stability verdict at {info.lam:.10g}")
+            return float(d["n_unstable"])
+
+        counter = FunctionEvent(count, name=self.name, kind=self.kind, integer_valued=True)
+        locs = locate(counter, component, _evaluated_only(point_at, self.monitor), h, a, b, ga, gb, tol=tol,
+                      max_iter=max_iter)
+        held = self._held.at(a, _counts_of(a, self.monitor))
+        return [_mark_before(loc, a, held, self.monitor) for loc in locs]
 
     def describe(self, point: PointInfo) -> dict:
         mu = _multipliers_of(point, self.monitor)
+        if mu is None:
+            return {"evaluated": False}
         i = int(np.argmin(np.abs(np.log(np.maximum(np.abs(mu), 1e-300)))))
         ang = abs(np.angle(mu[i]))
         tol = self.monitor.options.real_angle_tol
@@ -954,13 +1270,6 @@ class StabilityChangeEvent(Event):
             crossing, SpecialKind.FOLD if self._turned else SpecialKind.BP
         )
         return describe_crossing(self.monitor, point, crossing, kind)
-
-
-def _multipliers_of(point: PointInfo, monitor: StabilityMonitor) -> np.ndarray:
-    d = point.data
-    if "multipliers" in d:
-        return np.asarray(d["multipliers"], dtype=complex)
-    return monitor.analyze(point.u, point.lam).multipliers
 
 
 def describe_crossing(monitor: StabilityMonitor, point: PointInfo, crossing: str, kind: SpecialKind) -> dict:
@@ -982,9 +1291,9 @@ def describe_crossing(monitor: StabilityMonitor, point: PointInfo, crossing: str
         ``disagreement``.
     """
     opts = monitor.options
-    d = point.data
-    if not ("multipliers" in d and "n_unstable" in d):
-        d = monitor.analyze(point.u, point.lam).monitor_data()
+    d = _counts_of(point, monitor)
+    if d is None:
+        return {"classification": kind.value, "crossing": crossing, "evaluated": False}
     mu_all = np.asarray(d["multipliers"], dtype=complex)
     n_unstable = int(d["n_unstable"])
     disagreement = bool(d.get("disagreement", False))
@@ -1034,6 +1343,17 @@ def stability_events(monitor: StabilityMonitor, *, folds: bool = False, branch_p
     Returns
     -------
     list of MultiplierCrossingEvent
+
+    Notes
+    -----
+    A point without a verdict (``evaluated`` False, see
+    :class:`StabilityMonitor`) gives no information: it holds the test value
+    of the last evaluated point before it, so no change is detected into or
+    out of it, and a change across it triggers at the next evaluated point
+    and is located between the two (a change that the location puts at the
+    point without a verdict, or where a solved point on the way has none,
+    is recorded unlocated, with its bracket). Step limits come from
+    evaluated points only.
     """
     evs: list[Event] = []
     if folds:

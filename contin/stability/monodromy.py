@@ -16,7 +16,9 @@ Two paths are provided:
   ``Phi`` is propagated by a numba-compiled fixed-step classical Runge-Kutta
   scheme. For smooth forces the error is ``O(h^4)``, ``h = T/S``; a step
   beyond RK4's stability limit for the stiffest eigenvalue of ``A`` along the
-  orbit is refused (``ArithmeticError`` naming the step count needed). Where
+  orbit is refused (:class:`~contin.stability.rk4.RK4StepError`, an
+  ``ArithmeticError`` naming the step count needed), or, with ``max_steps``,
+  the integration is done again with that count. Where
   the orbit crosses a switching surface of a force element, the variational
   equations are integrated piecewise between the switches, with a saltation
   matrix at each.
@@ -45,6 +47,7 @@ from contin import aft
 from contin.harmonics import coefficient_blocks
 from contin.stability.monodromy_reference import Monodromy, monodromy_orbit_ivp, monodromy_reference
 from contin.stability.rk4 import (
+    RK4StepError,
     _check_rk4_step,
     _force_jacobians,
     _full_state_matrices,
@@ -70,6 +73,7 @@ __all__ = [
     "state_matrices",
     "rk4_propagate",
     "monodromy_rk4",
+    "RK4StepError",
     "monodromy_orbit_ivp",
     "monodromy_reference",
     "orbit_state",
@@ -139,20 +143,24 @@ def _linear_terms(hb, p):
     return np.linalg.inv(M), np.ascontiguousarray(K, dtype=float), np.ascontiguousarray(C, dtype=float)
 
 
-def _integrate(hb, p, x, xd, tau, starts, steps, h, jumps, T, lam):
+def _integrate(hb, p, x, xd, tau, starts, steps, h, jumps, T, lam, nominal):
     """``Phi(T)`` of the variational equations on the orbit nodes ``(x, xd, tau)`` (see :func:`_variational_rk4`).
 
-    The step is first checked against RK4's stability limit (:func:`_check_rk4_step`).
+    The largest step is first checked against RK4's stability limit at every
+    node (:func:`_check_rk4_step`; ``nominal``: the steps per period asked
+    for, which its advice scales).
     """
     _, dfdx, dfdxd = _force_jacobians(hb, x, xd, tau, p, scratch=True)
     Minv, K, C = _linear_terms(hb, p)
-    stride = max(1, dfdx.shape[0] // 256)
-    _check_rk4_step(_lower_blocks(Minv, K, C, np.ascontiguousarray(dfdx[::stride]),
-                                  np.ascontiguousarray(dfdxd[::stride])), float(np.max(h)), T, lam)
-    return _variational_rk4(Minv, K, C, dfdx, dfdxd, starts, steps, h, jumps)
+    _check_rk4_step(Minv, K, C, dfdx, dfdxd, float(np.max(h)), T, lam, nominal)
+    Phi = _variational_rk4(Minv, K, C, dfdx, dfdxd, starts, steps, h, jumps)
+    if not np.isfinite(Phi).all():
+        raise ArithmeticError(f"monodromy at lambda = {lam:.10g}: the RK4 integration is not finite")
+    return Phi
 
 
-def monodromy_rk4(hb, u: np.ndarray, lam: float, steps: int = 512, switches: str = "saltation") -> Monodromy:
+def monodromy_rk4(hb, u: np.ndarray, lam: float, steps: int = 512, switches: str = "saltation",
+                  max_steps: int | None = None) -> Monodromy:
     """Monodromy matrix by fixed-step RK4 on the sampled HB orbit.
 
     Parameters
@@ -167,30 +175,61 @@ def monodromy_rk4(hb, u: np.ndarray, lam: float, steps: int = 512, switches: str
         ``'saltation'`` (default): the switches of the force elements'
         switching functions (:meth:`contin.model.ForceElement.switching_functions`)
         are located on the orbit, the variational equations are integrated
-        piecewise between them (about ``S`` steps in all, distributed by
-        segment length) and the saltation matrix is applied at each switch.
+        piecewise between them (each segment in steps of at most ``T/S``,
+        about ``S`` in all) and the saltation matrix is applied at each switch.
         ``'piecewise'``: the same without saltation matrices (wrong where the
         force law jumps; for comparison). ``'ignore'``: fixed steps straight
         across the switches (first order in ``h`` where the Jacobian jumps,
         and no saltation). An orbit without switches takes the fixed-step
         path in every mode, with the same result.
+    max_steps : int, optional
+        Where ``steps`` is too large a step for the stiffest mode along the
+        orbit, take the step count that mode needs
+        (:attr:`~contin.stability.rk4.RK4StepError.needed`, measured at
+        every node) and integrate again, as long as it is at most
+        ``max_steps``. None (default): no refinement.
 
     Returns
     -------
     Monodromy
+        ``steps``: the step count used.
 
     Raises
     ------
+    RK4StepError
+        (an ``ArithmeticError``) A step beyond RK4's stability limit for the
+        stiffest eigenvalue of ``A`` along the orbit, and the step count
+        that mode needs (its ``needed``, named in the message) beyond
+        ``max_steps``.
     ArithmeticError
-        A step beyond RK4's stability limit for the stiffest eigenvalue of
-        ``A`` along the orbit (the message gives the step count needed), or a
-        switch that cannot be resolved (see :func:`switching_events`).
+        A switch that cannot be resolved (see :func:`switching_events`), or
+        a non-finite Jacobian or result.
     """
     steps = int(steps)
     if steps < hb.H + 1:
         raise ValueError(f"steps_per_period must be >= H+1 = {hb.H + 1}, got {steps}")
     if switches not in _SWITCH_MODES:
         raise ValueError(f"switches must be one of {list(_SWITCH_MODES)}, got {switches!r}")
+    first = steps
+    while True:
+        try:
+            return _monodromy_rk4(hb, u, lam, steps, switches)
+        except RK4StepError as exc:
+            if max_steps is None:
+                raise
+            if exc.needed > max_steps:
+                tried = f" (refined from {first})" if steps != first else ""
+                raise RK4StepError(
+                    f"monodromy at lambda = {lam:.10g}: the stiffest mode along the orbit (|eigenvalue| "
+                    f"{exc.rate:.4g}) needs steps_per_period >= {exc.needed}{tried}, beyond max_steps_per_period = "
+                    f"{max_steps}; raise max_steps_per_period to >= {exc.needed}", exc.rate, steps, exc.needed, exc.phase
+                ) from None
+            # needed > steps, and at most max_steps: the loop ends
+            steps = exc.needed
+
+
+def _monodromy_rk4(hb, u, lam, steps, switches):
+    """:func:`monodromy_rk4` with one step count (arguments checked)."""
     p = hb.params_at(lam)
     x, xd, tau, T = _orbit_samples(hb, u, lam, 2 * steps)
     if switches != "ignore":
@@ -199,7 +238,7 @@ def monodromy_rk4(hb, u: np.ndarray, lam: float, steps: int = 512, switches: str
         if events:
             return _piecewise_rk4(hb, u, lam, steps, events, switches == "saltation")
     Phi = _integrate(hb, p, x, xd, tau, np.zeros(1, np.int64), np.array([steps], np.int64), np.array([T / steps]),
-                     np.zeros((0, 2 * hb.n, 2 * hb.n)), T, lam)
+                     np.zeros((0, 2 * hb.n, 2 * hb.n)), T, lam, steps)
     return Monodromy(Phi, T, "rk4", steps=steps, evaluations=2 * steps)
 
 
@@ -243,7 +282,9 @@ def _piecewise_nodes(hb, u, lam, p, events, T, steps):
     a, b = bounds[:-1], bounds[1:]
     G = a.size
     L = b - a
-    nsteps = np.where(L <= 0.0, 0, np.maximum(1, np.rint(steps * L / T))).astype(np.int64)
+    # no step longer than T/steps (the factor forgives the rounding of a whole number of steps), so that
+    # RK4's stability check, and the step count it asks for, hold on every segment
+    nsteps = np.where(L <= 0.0, 0, np.maximum(1, np.ceil(steps * L / T * (1.0 - 1e-12)))).astype(np.int64)
     hs = np.where(nsteps > 0, L / np.maximum(nsteps, 1), 0.0)
     count = np.where(nsteps > 0, 2 * nsteps + 1, 0)
     starts = np.concatenate([[0], np.cumsum(count)[:-1]]).astype(np.int64)
@@ -304,6 +345,6 @@ def _piecewise_rk4(hb, u, lam, steps, events, saltation):
     t, z, starts, nsteps, h = _piecewise_nodes(hb, u, lam, p, events, T, steps)
     jumps = np.array([ev.saltation for ev in events])
     Phi = _integrate(hb, p, np.ascontiguousarray(z[:, :n]), np.ascontiguousarray(z[:, n:]), float(p[hb.kw]) * t,
-                     starts, nsteps, h, jumps, T, lam)
+                     starts, nsteps, h, jumps, T, lam, steps)
     return Monodromy(Phi, T, "rk4", steps=int(nsteps.sum()), evaluations=len(t), switches=tuple(events),
                      saltation=bool(saltation))

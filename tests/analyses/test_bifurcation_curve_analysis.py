@@ -62,7 +62,9 @@ def test_duffing_scene_one_parameter_folds_lie_on_the_curve(duffing_out):
     a = summary["analysis"]
     assert summary["status"] == "complete" and a["parameters"] == ["w", "F"]
     assert len(a["curves"]) == 1 and a["curves"][0]["special_points"]["cusp"] == 1
-    assert all(e["status"] == "range_end" for e in a["curves"][0]["ends"])
+    # one side turns back at the cusp (the fold curve's extremum in F) and ends on the F bound it started from
+    assert sorted(e["status"] for e in a["curves"][0]["ends"]) in (["range_end", "range_end"],
+                                                                   ["range_end", "turned_back"])
     assert a["starts_on_earlier_curves"][0]["on_curve"] == 0  # the second fold is on the first curve
     assert a["max_distance_to_curves"] < 1e-9
     assert (duffing_out / "bifurcation_curves.png").stat().st_size > 20_000

@@ -76,13 +76,13 @@ def test_rotor_scene_checks_and_a_failed_start_is_reported(tmp_path, capsys):
     assert main(["check", str(ROOT / "scenes/rotor_harmonic.yaml")]) == 0
     out = capsys.readouterr().out
     assert "contact" in out and "unknowns: 324 = 4 dof x (2H+1)" in out
-    # a negative contact stiffness has no soft-to-stiff homotopy path: a numerical failure, exit 1 (with the
-    # plainly sampled contact the homotopy's step collapses near kbn = 0.94 in a second; with the resolved one it
-    # creeps towards kbn = 0 up to max_points, 20 s, to the same failure)
+    # a start from a simulation stopped long before the motion settles: a numerical failure, exit 1 (a negative
+    # contact stiffness, which once served here, is bad input now: tests/cli/test_check_parity.py)
     code = main(["run", str(ROOT / "scenes/rotor_harmonic.yaml"), "-o", str(tmp_path / "r"), "-q",
-                 "--set", "model.parameters.kbn=-5", "--set", "analysis.harmonics=10", "--set", "analysis.samples=256",
-                 "--set", "analysis.crossings=none"])
+                 "--set", "analysis.harmonics=10", "--set", "analysis.samples=256", "--set", "analysis.crossings=none",
+                 "--set", "analysis.start_from=simulation",
+                 "--set", "analysis.start_simulation={transient: 0.01, steps_per_period: 2048}"])
     assert code == 1
     assert "no starting solution at w=1.6" in capsys.readouterr().err
     summary = json.loads((tmp_path / "r" / "summary.json").read_text())
-    assert summary["status"] == "failed" and "homotopy in kbn" in summary["message"]
+    assert summary["status"] == "failed" and "after 0.01 revolutions" in summary["message"]

@@ -116,7 +116,9 @@ def belt_branch(zeta, lo=2.5, max_points=600):
 
 def test_undamped_belt_is_time_reversible_and_its_fold_is_the_damped_limit():
     hb, br = belt_branch(0.0)
-    assert br.status == BranchStatus.RANGE_END
+    # set out towards w = 2.5, the branch turns back at its fold (w ~ 3.006) and ends where it started
+    assert br.status is BranchStatus.TURNED_BACK and br.parameter[-1] == 3.6
+    assert br.info["uncovered"][0] == 2.5 and 3.0 < br.info["uncovered"][1] < 3.01
     n, H = hb.model.n_dof, hb.H
     U = br.unknowns
     cos = np.concatenate([U[:, n * (2 * k - 1):n * 2 * k] for k in range(1, H + 1)], axis=1)

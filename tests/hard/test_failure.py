@@ -38,11 +38,15 @@ def test_exploding_model_stops_where_it_explodes_and_keeps_the_rest(tmp_path):
     scene = tmp_path / "exploding.yaml"
     scene.write_text(yaml.safe_dump(EXPLODING))
     out = tmp_path / "out"
-    assert main(["run", str(scene), "-o", str(out), "-q"]) == 0
+    code = main(["run", str(scene), "-o", str(out), "-q"])
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["status"] == "complete"
     (b,) = summary["analysis"]["branches"] if "analysis" in summary else summary["result"]["branches"]
     assert b["status"] == "step_too_small"
+    # w beyond the singularity is not covered: the run says so (status incomplete, exit 1, the branch and the
+    # uncovered interval named; before: `complete` and exit 0)
+    assert code == 1 and summary["status"] == "incomplete"
+    (short,) = summary["shortfalls"]
+    assert "branch 0" in short and "step_too_small" in short and "not covered" in short
     # where (just below w = wx = 1.3) and why (the corrector's last failure)
     lam = float(re.findall(r"w=([-+0-9.eE]+)", b["message"])[-1])
     assert 1.299 < lam < 1.3

@@ -32,6 +32,8 @@ pytestmark = pytest.mark.hard
 ROOT = Path(__file__).resolve().parents[2]
 SCENES = sorted(p.name for p in (ROOT / "scenes").glob("*.yaml")
                 if (yaml.safe_load(p.read_text()).get("analysis") or {}).get("type") == "frequency_response")
+# the default run checks these five (each scene run is shared with tests/cli/test_example_scenes.py); they
+# stand in for the rotor, belt and absorber scenes, which are slow (2 to 70 s each with -n 1)
 QUICK = {"duffing.yaml", "custom_duffing.yaml", "gap_oscillator.yaml", "mathieu.yaml", "mathieu_duffing_pd.yaml"}
 
 
