@@ -538,7 +538,7 @@ class _StepFailed(Exception):
         self.turn = turn
 
 
-#: the engine state's arrays and plain values, besides ``RESTART_KEYS``'s others (see ``_Engine.state``)
+#: the engine's attributes an engine state holds as they are: arrays, and plain values (see ``_Engine.state``)
 STATE_ARRAYS = ("x", "t", "t_prev", "prev_x", "x_start", "t_start", "groups")
 STATE_SCALARS = ("s", "jac_norm_start", "max_dist", "n_rejected", "n_newton", "n_backtracked", "adaptive_scale",
                  "min_rcond", "min_rcond_index", "last_rcond", "last_failure", "event_cap", "ds_free", "barrier_tried")
@@ -842,9 +842,6 @@ class _Engine:
         return self._after_store()
 
     # -- restart -----------------------------------------------------------
-    _STATE_ARRAYS = STATE_ARRAYS
-    _STATE_SCALARS = STATE_SCALARS
-
     def state(self, ds: float, recent) -> dict:
         """What the main loop carries from the last stored point to the next step (see :meth:`restart`).
 
@@ -859,9 +856,9 @@ class _Engine:
                "monitors": [mon.state() if hasattr(mon, "state") else None for mon in self.monitors],
                "barrier": None if bar is None else {**{f.name: getattr(bar, f.name) for f in dataclasses.fields(bar)},
                                                     "event": self.events.index(bar.event)}}
-        for name in self._STATE_ARRAYS:
+        for name in STATE_ARRAYS:
             out[name] = np.array(getattr(self, name))
-        for name in self._STATE_SCALARS:
+        for name in STATE_SCALARS:
             v = getattr(self, name)
             out[name] = v if isinstance(v, (str, bool, int)) else float(v)
         return out
@@ -879,9 +876,9 @@ class _Engine:
         self.builder.branch = self.branch = branch
         m = self.m
         self.sp = sp = _ScaledProblem(self.problem, m, np.array(state["su"], dtype=float), float(state["sl"]))
-        for name in self._STATE_ARRAYS:
+        for name in STATE_ARRAYS:
             setattr(self, name, np.array(state[name], dtype=np.intp if name == "groups" else float))
-        for name in self._STATE_SCALARS:
+        for name in STATE_SCALARS:
             setattr(self, name, state[name])
         self.turns = [(a, d) for a, d in state["turns"]]
         self.rescalings = [tuple(r) for r in state["rescalings"]]

@@ -169,8 +169,10 @@ def _check_resumable(scene: Scene, outdir: Path):
     if not isinstance(old, dict):
         raise SceneError("--resume", f"a summary.json written by contin in {outdir}", type(old).__name__)
     for name in ("branches.csv", "special_points.csv"):
+        if not (outdir / name).is_file():
+            continue
         try:
-            (outdir / name).read_bytes().decode("utf-8") if (outdir / name).exists() else None
+            (outdir / name).read_bytes().decode("utf-8")
         except UnicodeDecodeError as exc:
             raise SceneError("--resume", f"a {name} written by contin", "a file that is not UTF-8",
                              hint=f" ({exc}); run again without --resume, or use another -o") from None
