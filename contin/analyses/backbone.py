@@ -193,7 +193,7 @@ def run(ctx) -> dict:
 
     scene, model = ctx.scene, ctx.model
     a = scene.analysis
-    plan = ctx.plan if ctx.plan is not None else check(scene, model)
+    plan = ctx.plan  # check(), made before anything was written
     A0, A1, log, opts, problems = plan["A0"], plan["A1"], plan["log"], plan["opts"], plan["problems"]
     rec = _BackboneRecorder(ctx.outdir, problems[0].model, problems[0].H)
     t0 = time.perf_counter()

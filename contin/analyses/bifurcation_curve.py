@@ -263,7 +263,7 @@ def run(ctx) -> dict:
     """Run a ``bifurcation_curve`` scene; returns its part of ``summary.json``."""
     scene, model = ctx.scene, ctx.model
     a = scene.analysis
-    plan = ctx.plan if ctx.plan is not None else check(scene, model)
+    plan = ctx.plan  # check(), made before anything was written
     hb, (lo, hi), lam0 = plan["hb"], plan["range1"], plan["lam0"]
     (lo2, hi2), p2_value = plan["range2"], plan["p2_value"]
     p1, p2 = hb.parameter, a["second_parameter"]

@@ -793,7 +793,7 @@ def run(ctx) -> dict:
     a = scene.analysis
     btype = a["base"]["type"]
     table_file = BASE_TABLES[btype]
-    plan = ctx.plan if ctx.plan is not None else check(scene, ctx.model)
+    plan = ctx.plan  # check(), made before anything was written
     quantities, settings, iref, labels = plan["quantities"], plan["settings"], plan["iref"], plan["labels"]
     scenes, defaults, items, kinds = plan["scenes"], plan["defaults"], plan["items"], plan["kinds"]
     columns = [c for c, _ in items]

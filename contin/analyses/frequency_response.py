@@ -112,8 +112,7 @@ class BranchRecorder:
         self.parameter = parameter
         self.harmonic_columns = harmonic_columns
         self.observables = getattr(model, "observables", None)
-        self.measures = measure_names(self.dof_names, harmonic_columns, H) + list(
-            getattr(model, "observable_names", ()) if self.observables else ())
+        self.measures = row_measures(self.dof_names, harmonic_columns, H, model)
         head = ["branch", "nu", parameter, "stable", "n_unstable", "max_multiplier"]
         self.branch_columns = head + self.measures + ["newton_iterations", "residual_norm"]
         self.special_columns = ["branch", "kind", parameter, "index"] + self.measures + SPECIAL_EXTRA
@@ -352,11 +351,16 @@ def check(scene, model) -> list:
     return setups
 
 
+def row_measures(dof_names, harmonic_columns: int, H: int, model=None) -> list[str]:
+    """The measure columns of a row of ``branches.csv``: those of every dof, then the model's own."""
+    own = list(getattr(model, "observable_names", ()) if getattr(model, "observables", None) else ())
+    return measure_names(list(dof_names), harmonic_columns, H) + own
+
+
 def plot_measures(scene, model, hb) -> list[str]:
-    """The columns ``output.measure`` can name: the measures of every dof, the model's own, and stability's."""
-    observables = list(getattr(model, "observable_names", ()) if getattr(model, "observables", None) else ())
-    return (measure_names(model.dof_names, scene.output["harmonic_columns"], hb.H) + observables
-            + ["max_multiplier", "n_unstable"])
+    """The columns ``output.measure`` can name: the row measures and stability's."""
+    return row_measures(model.dof_names, scene.output["harmonic_columns"], hb.H, model) + ["max_multiplier",
+                                                                                            "n_unstable"]
 
 
 @register_analysis("frequency_response", check=check)
@@ -370,7 +374,7 @@ def run(ctx) -> dict:
     scene, model = ctx.scene, ctx.model
     lam_a, lam_b = float(scene.analysis["range"][0]), float(scene.analysis["range"][1])
     lo, hi = min(lam_a, lam_b), max(lam_a, lam_b)
-    setups = ctx.plan if ctx.plan is not None else check(scene, model)
+    setups = ctx.plan  # check(), made before anything was written
     hb = setups[0][1]
     previous = _restore(ctx.outdir, hb.parameter) if ctx.resume else {}
     try:

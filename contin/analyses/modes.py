@@ -155,7 +155,7 @@ def run(ctx) -> dict:
     scene, model = ctx.scene, ctx.model
     a = scene.analysis
     dofs = list(model.dof_names)
-    plan = ctx.plan if ctx.plan is not None else check(scene, model)
+    plan = ctx.plan  # check(), made before anything was written
     param, values, ref_name, ref, hb = plan["param"], plan["values"], plan["ref_name"], plan["ref"], plan["hb"]
     mcols, dcols = _columns(param, dofs)
     out_m = CsvStream(ctx.outdir / "modes.csv", mcols)

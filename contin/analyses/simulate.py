@@ -224,7 +224,7 @@ def run(ctx) -> dict:
 
     scene, model = ctx.scene, ctx.model
     a = scene.analysis
-    plan = ctx.plan if ctx.plan is not None else check(scene, model)
+    plan = ctx.plan  # check(), made before anything was written
     param, values, obs, dofs = plan["param"], plan["values"], plan["obs"], plan["dofs"]
     S = a["steps_per_period"]
     spp = a["samples_per_period"]

@@ -212,7 +212,7 @@ def run(ctx) -> dict:
 
     scene, model = ctx.scene, ctx.model
     a = scene.analysis
-    plan = ctx.plan if ctx.plan is not None else check(scene, model)
+    plan = ctx.plan  # check(), made before anything was written
     param, lo, hi, lam0 = plan["param"], plan["lo"], plan["hi"], plan["lam0"]
     auto, hb, opts, lin, measure = plan["auto"], plan["hb"], plan["opts"], plan["lin"], plan["measure"]
     t0 = time.perf_counter()
