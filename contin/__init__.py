@@ -1,27 +1,25 @@
 """contin: continuation of periodic vibrations of nonlinear mechanical systems.
 
-The package is layered so that each idea lives in one module:
+The package is laid out by layer; each imports only from the layers above it
+in this list (``tests/test_layers.py`` enforces it):
 
-- :mod:`contin.continuation` follows ``R(u, lambda) = 0`` (knows nothing of vibrations);
-- :mod:`contin.harmonic_balance` turns a model into ``R`` by AFT harmonic balance;
-- :mod:`contin.model` and :mod:`contin.elements` describe models and force laws;
-- :mod:`contin.models` holds the built-in models.
+======================  =====================================================
+``contin.util``         name hints, number tests, BLAS threads
+``contin.engine``       continuation of ``R(u, lambda) = 0``, Newton, events
+``contin.model``        models, force elements, expressions, kernels, catalogue
+``contin.hb``           harmonic balance: residual, derivatives, AFT, contact
+``contin.stability``    Floquet multipliers (Hill, monodromy), saltation
+``contin.timedomain``   time integration, shooting, Poincare sections
+``contin.modal``        static equilibrium, modes, FRFs, absorber formulas
+``contin.bifurcation``  starting points, branch switching, backbones, 2-par curves
+``contin.output``       result files, checkpoint, figures
+``contin.scene``        scene format, schema, analysis registry, scene models
+``contin.analyses``     one module per ``analysis.type``
+``contin.app``          command line, runner, sweeps, progress
+======================  =====================================================
+
+:mod:`contin.models` holds the built-in models (plug-ins of the catalogue).
 """
 
 __version__ = "0.1.0"
 
-
-def _find_models_in_source_tree():
-    # Installed, the built-in models are the subpackage contin/models. In a source
-    # checkout they live in ../models (the project layout); make them importable as
-    # contin.models there too, so `python -m contin` works from the repository root.
-    import os
-
-    here = os.path.dirname(os.path.abspath(__file__))
-    root = os.path.dirname(here)
-    if not os.path.isdir(os.path.join(here, "models")) and os.path.isfile(os.path.join(root, "models", "__init__.py")):
-        if root not in __path__:
-            __path__.append(root)
-
-
-_find_models_in_source_tree()

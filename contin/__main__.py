@@ -2,7 +2,7 @@
 
 import sys
 
-from contin.cli import main
+from contin.app.cli import main
 
 if __name__ == "__main__":  # not when a worker process of a local Dask cluster imports the main module
     sys.exit(main())

@@ -1,6 +1,6 @@
 """Built-in models of contin, installed as the package ``contin.models``.
 
-Importing it registers every model in :data:`contin.catalog.MODELS`.
+Importing it registers every model in :data:`contin.model.catalog.MODELS`.
 """
 
 from contin.models import bearing_rotor, duffing, linear_chain, mathieu, polynomial, timing_belt  # noqa: F401

@@ -26,9 +26,9 @@ import math
 import numpy as np
 from scipy.integrate import quad
 
-from contin.catalog import ModelSpec, register_model
-from contin.elements import HarmonicExcitation, RadialGapForce
-from contin.model import Model, Monomial, ParametricMatrix
+from contin.model.catalog import ModelSpec, register_model
+from contin.model.elements import HarmonicExcitation, RadialGapForce
+from contin.model.base import Model, Monomial, ParametricMatrix
 
 __all__ = ["stable_subharmonic_interval", "bearing_rotor", "hertz_cylinder_stiffness", "contact_damping", "restitution_coefficient"]
 
@@ -152,17 +152,17 @@ HOMOTOPY_HARMONICS = 8
 
 
 def _homotopy_start(hb, lam0: float):
-    """Start by homotopy in the contact stiffness (see :mod:`contin.start`).
+    """Start by homotopy in the contact stiffness (see :mod:`contin.bifurcation.start`).
 
     The guess puts disc and bearing on the side the static force pushes them
     to; with a soft contact (``kbn = 20``) Newton converges from there. If the
     homotopy fails at the start speed it is done at ``w = 2`` and the solution
     continued in ``w`` to the start. If that fails too (a guess far from the
     orbit: small or no static force, large bearing damping), the start comes
-    from a time simulation to steady state (:func:`contin.start.simulation_start`),
+    from a time simulation to steady state (:func:`contin.bifurcation.start.simulation_start`),
     which finds the harmonic solution wherever it is stable.
     """
-    from contin.start import HomotopyFailed, homotopy_start, simulation_start
+    from contin.bifurcation.start import HomotopyFailed, homotopy_start, simulation_start
 
     guess = np.zeros(hb.size)
     f0 = hb.p0[hb.model.parameter_index("f0")]
@@ -179,7 +179,7 @@ def _homotopy_start(hb, lam0: float):
         try:
             return homotopy_start(hb, lam0, "kbn", 20.0, guess, at=2.0, harmonics=coarse)
         except HomotopyFailed as exc:
-            from contin.simulation import SimulationError
+            from contin.timedomain.simulation import SimulationError
 
             try:
                 return simulation_start(hb, lam0, transient=800, steps_per_period=2048)
@@ -287,7 +287,7 @@ def stable_subharmonic_interval(rows: dict, special: dict, min_radius: float = 1
     ----------
     rows, special : dict of ndarray
         ``branches.csv`` and ``special_points.csv`` as read by
-        :func:`contin.results.read_csv`.
+        :func:`contin.output.results.read_csv`.
     min_radius : float
         Smallest +w/2 forward whirl radius of the disc counted as a
         subharmonic (the harmonic solution seen as nu = 2 has zero).

@@ -10,7 +10,7 @@ closed-form reference.
 
 from __future__ import annotations
 
-from contin.catalog import ModelSpec, register_model
+from contin.model.catalog import ModelSpec, register_model
 from contin.models.polynomial import polynomial_model
 
 __all__ = ["duffing"]

@@ -14,7 +14,7 @@ then ``m1..mn, k1..k(n+1), c1..c(n+1), F1..Fn, P1..Pn, w``. Two masses cover bot
 seeds: seed 002's example is ``m1 = m, m2 = 2m, k1 = k2 = k, k3 = 2k``; seed 000's
 damped absorber is ``k3 = 0``, ``c1 = c3 = 0`` and ``c2 = c`` (the damper between the
 main mass and the absorber). Everything is linear, so the harmonic balance with
-``H = 1`` is exactly the impedance solve of :mod:`contin.modal`.
+``H = 1`` is exactly the impedance solve of :mod:`contin.modal.modes`.
 """
 
 from __future__ import annotations
@@ -24,9 +24,10 @@ from typing import Mapping
 
 import numpy as np
 
-from contin.catalog import ModelSpec, register_model
-from contin.elements import HarmonicExcitation
-from contin.model import Model, Monomial, ParametricMatrix, suggest
+from contin.model.catalog import ModelSpec, register_model
+from contin.model.elements import HarmonicExcitation
+from contin.model.base import Model, Monomial, ParametricMatrix
+from contin.util.naming import suggest
 
 __all__ = ["linear_chain", "chain_parameters", "chain_constraints", "LinearChainSpec"]
 

@@ -9,7 +9,7 @@ with ``q = 2 eps`` for ``w = 1`` (Abramowitz & Stegun 20.1; scipy.special.mathie
 
 from __future__ import annotations
 
-from contin.catalog import ModelSpec, register_model
+from contin.model.catalog import ModelSpec, register_model
 from contin.models.polynomial import polynomial_model
 
 __all__ = ["mathieu"]

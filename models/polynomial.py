@@ -3,7 +3,7 @@
     M x'' + C x' + K x + sum_t c_t(p) prod_i x_i^e_ti xdot_i^d_ti = sum_r A_r(p) cos(o_r tau + phi_r)
 
 Matrix entries, coefficients and amplitudes are numbers or products of
-parameters such as ``"-0.5*k*w**2"`` (:class:`contin.model.Monomial`).
+parameters such as ``"-0.5*k*w**2"`` (:class:`contin.model.base.Monomial`).
 """
 
 from __future__ import annotations
@@ -12,8 +12,9 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from contin.elements import HarmonicExcitation, PolynomialForce
-from contin.model import Model, Monomial, ParametricMatrix, suggest
+from contin.model.elements import HarmonicExcitation, PolynomialForce
+from contin.model.base import Model, Monomial, ParametricMatrix
+from contin.util.naming import suggest
 
 __all__ = ["polynomial_model"]
 

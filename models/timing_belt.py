@@ -27,11 +27,11 @@ term ``b_j''``.) How the model evaluates it:
   stiffness (frequency domain, exact);
 - the stretching ``E`` term is ``(alpha pi^4/8) i^2 b_i sum_k k^2 b_k^2``,
   evaluated in ``O(n)`` per time sample
-  (:class:`contin.elements.galerkin.StringStretchingForce`), never as an
+  (:class:`contin.model.elements.galerkin.StringStretchingForce`), never as an
   ``n^4`` contraction;
 - the magnet's orders 2 and 3 act through the single point ``xi1``: with
   ``y = w(xi1) = s . b``, ``f_i = -s_i (gamma2 y^2 + gamma3 y^3)``
-  (:class:`contin.elements.galerkin.PointForce`); order 0 is the constant
+  (:class:`contin.model.elements.galerkin.PointForce`); order 0 is the constant
   force ``F``, order 1 the stiffness term;
 - the loads are ``p_s G`` (constant) and ``p_d G cos(w tau)``.
 
@@ -62,7 +62,7 @@ paper's eq. 21: the RMS of the vibration about the mean (the static
 deflection), ``sqrt(1/2 sum_m |c_m|^2)`` over the harmonics ``m >= 1``.
 
 ``terms`` (n), ``xi1`` and ``xi_obs`` fix the model's matrices and shapes:
-they are structural (:attr:`contin.model.Model.structural`), set when the
+they are structural (:attr:`contin.model.base.Model.structural`), set when the
 model is built and never continued.
 """
 
@@ -72,9 +72,9 @@ import math
 
 import numpy as np
 
-from contin.catalog import ModelSpec, register_model
-from contin.elements import HarmonicExcitation, PointForce, StringStretchingForce
-from contin.model import Model, Monomial, ParametricMatrix
+from contin.model.catalog import ModelSpec, register_model
+from contin.model.elements import HarmonicExcitation, PointForce, StringStretchingForce
+from contin.model.base import Model, Monomial, ParametricMatrix
 
 __all__ = ["timing_belt", "shape_values", "load_shape", "galerkin_tensors", "magnet_coefficients",
            "modal_form", "deflection", "observe", "string_mass_frequencies", "PAPER_MAGNET", "OBSERVABLE_COLUMNS"]
@@ -295,11 +295,11 @@ def observe(u: np.ndarray, c: np.ndarray) -> dict:
     Parameters
     ----------
     u : ndarray, shape (n(2H+1),)
-        Harmonic coefficients (ordering of :mod:`contin.harmonics`).
+        Harmonic coefficients (ordering of :mod:`contin.hb.harmonics`).
     c : ndarray, shape (n,)
         ``sin(j pi xi_obs)``.
     """
-    from contin.measures import point_measures
+    from contin.hb.measures import point_measures
 
     c = np.asarray(c, dtype=float)
     Y = np.asarray(u).reshape(-1, c.size) @ c
@@ -323,11 +323,11 @@ def _start(hb, lam0: float):
     """Start of a forced response: static equilibrium plus the linear response about it.
 
     For a subharmonic order ``nu > 1`` the free vibration of the mode whose
-    backbone reaches ``w/nu`` is added (:func:`contin.backbone.subharmonic_guess`,
+    backbone reaches ``w/nu`` is added (:func:`contin.bifurcation.backbone.subharmonic_guess`,
     trying modes 1, 2, ... until one converges to a subharmonic solution).
     """
-    from contin.backbone import BackboneError, static_equilibrium, subharmonic_guess
-    from contin.start import HomotopyFailed
+    from contin.bifurcation.backbone import BackboneError, static_equilibrium, subharmonic_guess
+    from contin.bifurcation.start import HomotopyFailed
 
     params = dict(zip(hb.model.param_names, hb.params_at(lam0)))
     try:
@@ -386,7 +386,7 @@ def modal_form(params: dict | None = None, b0: np.ndarray | None = None, effects
         ``E`` (n, n, n, n), ``G`` (n,), ``b0`` (n,), ``shapes(xi)`` callable
         giving ``zeta_bar_i(xi)`` (P, n).
     """
-    from contin.backbone import linear_modes
+    from contin.bifurcation.backbone import linear_modes
 
     p = dict(PARAMETERS)
     p.update(params or {})

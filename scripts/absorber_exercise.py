@@ -1,12 +1,12 @@
 """Seed 000, exercise 7.5 (1): the optimal absorber for m1 = 100 kg, k1 = 5e5 N/m with m2 = 10 kg.
 
-Den Hartog's design (contin.absorber): k2 = k1 beta/(1+beta)^2 and c = 2 m2 p zeta with
+Den Hartog's design (contin.modal.absorber): k2 = k1 beta/(1+beta)^2 and c = 2 m2 p zeta with
 zeta = c/(2 m2 p) = sqrt(3 beta/(8 (1+beta)^3)) (referred to the main system; the absorber's
 own ratio zeta_a = zeta/mu is printed too). The response |X1|(w) of the main mass is
 computed three ways, and the script prints how far they are apart:
 
 - the closed form of seed 000, sec. 7.3;
-- the impedance matrix Z(w) = K - w^2 M + i w C (contin.modal.frf);
+- the impedance matrix Z(w) = K - w^2 M + i w C (contin.modal.modes.frf);
 - harmonic balance with H = 1 on the built-in linear_chain model (Newton at each w), and the
   continuation of scenes/absorber_exercise.yaml (frequency_response, H = 1).
 
@@ -24,11 +24,11 @@ from pathlib import Path
 
 import numpy as np
 
-from contin.absorber import design_absorber, plot_design
-from contin.blas import limit_blas_threads
-from contin.catalog import build_model
-from contin.harmonic_balance import HarmonicBalance, HBOptions
-from contin.newton import solve_at_parameter
+from contin.modal.absorber import design_absorber, plot_design
+from contin.util.blas import limit_blas_threads
+from contin.model.catalog import build_model
+from contin.hb.problem import HarmonicBalance, HBOptions
+from contin.engine.newton import solve_at_parameter
 
 ROOT = Path(__file__).resolve().parents[1]
 M1, K1, M2, F = 100.0, 5e5, 10.0, 1.0
@@ -66,9 +66,9 @@ def main() -> None:
         err_c = max(err_c, abs(abs(Xh[0]) / ri - 1))
     print(f"harmonic balance H = 1 vs impedance solve: max relative error {err_z:.1e}; "
           f"vs closed form {err_c:.1e}")
-    from contin.results import read_csv
-    from contin.runner import run_scene
-    from contin.scene import load_scene
+    from contin.output.results import read_csv
+    from contin.app.runner import run_scene
+    from contin.scene.parse import load_scene
 
     sets = ["analysis.continuation={ds_max: 0.5}"] if args.quick else []
     with tempfile.TemporaryDirectory() as tmp:

@@ -1,6 +1,6 @@
 """Seed 000, Fig. 7-5: |X1|/delta_st against Omega = w/p for beta = 0.05, mu = 1 and several dampings.
 
-Each curve is the impedance-matrix response (contin.modal.frf) of the two-mass system
+Each curve is the impedance-matrix response (contin.modal.modes.frf) of the two-mass system
 m1 = 1, k1 = 1, m2 = beta, k2 = m2 (mu p)^2, c = 2 m2 p zeta, with zeta = c/(2 m2 p)
 referred to the MAIN system (seed 000, sec. 7.3). All curves cross at the fixed points P
 and Q (seed 000, sec. 7.4), whatever the damping; the script measures how closely they
@@ -18,9 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
-from contin.absorber import fixed_points, optimal_damping, optimal_tuning, true_peak
-from contin.blas import limit_blas_threads
-from contin.modal import chain_matrices, frf
+from contin.modal.absorber import fixed_points, optimal_damping, optimal_tuning, true_peak
+from contin.util.blas import limit_blas_threads
+from contin.modal.modes import chain_matrices, frf
 
 BETA, MU, ZETAS = 0.05, 1.0, (0.001, 0.1, 0.3)
 

@@ -5,7 +5,7 @@ mu as in seed 000), and zeta = c/(2 m2 w1). The curves zeta = 0, 0.1, 0.32 and i
 pass through the points S and T. The undamped absorber resonates at lambda = 0.895 and 1.12
 and holds the main mass still at lambda = 1 (w = w_a); with zeta -> infinity the masses move
 together, resonant at lambda = 1/sqrt(1 + mu) = 0.976. The script prints these from
-contin.absorber and checks them against the impedance-matrix solve (contin.modal).
+contin.modal.absorber and checks them against the impedance-matrix solve (contin.modal.modes).
 
     python scripts/absorber_seed002.py [--quick] [--out absorber_seed002.png]
 """
@@ -18,9 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
-from contin.absorber import amplification, fixed_points, undamped_resonances
-from contin.blas import limit_blas_threads
-from contin.modal import chain_matrices, frf, natural_modes
+from contin.modal.absorber import amplification, fixed_points, undamped_resonances
+from contin.util.blas import limit_blas_threads
+from contin.modal.modes import chain_matrices, frf, natural_modes
 
 BETA, MU, ZETAS = 1 / 20, 1.0, (0.0, 0.1, 0.32, math.inf)
 

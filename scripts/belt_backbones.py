@@ -2,7 +2,7 @@
 
 Free undamped periodic vibrations about the static equilibrium, frequency
 unknown, traced in amplitude from the linear natural frequency
-(:mod:`contin.backbone`; the paper's Section 4.3 takes m up to 3 cosine
+(:mod:`contin.bifurcation.backbone`; the paper's Section 4.3 takes m up to 3 cosine
 harmonics, here H = 5 sine and cosine harmonics). The amplitude axis is w_rms
 at xi = 0.6 (eq. 21) on a log scale, as in the paper:
 
@@ -28,9 +28,9 @@ from pathlib import Path
 
 import numpy as np
 
-from contin.backbone import trace_backbone
-from contin.blas import limit_blas_threads
-from contin.catalog import build_model
+from contin.bifurcation.backbone import trace_backbone
+from contin.util.blas import limit_blas_threads
+from contin.model.catalog import build_model
 
 NO_MAGNET = ["rotor_mass", "stretching"]
 MAGNET = ["rotor_mass", "stretching", "magnet"]

@@ -29,7 +29,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from contin.blas import limit_blas_threads  # noqa: E402
+from contin.util.blas import limit_blas_threads  # noqa: E402
 
 import belt_backbones  # noqa: E402
 import belt_forced  # noqa: E402

@@ -42,10 +42,10 @@ from pathlib import Path
 
 import numpy as np
 
-from contin.blas import limit_blas_threads
-from contin.results import read_csv
-from contin.runner import run_scene
-from contin.scene import load_scene
+from contin.util.blas import limit_blas_threads
+from contin.output.results import read_csv
+from contin.app.runner import run_scene
+from contin.scene.parse import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -89,11 +89,11 @@ def simulate_switch(w_s, zeta, ramp_periods=200):
     ``ramp_periods`` forcing periods (piecewise constant per period); each
     followed by 1500 periods without the magnet.
     """
-    from contin.catalog import build_model
-    from contin.harmonic_balance import HarmonicBalance, HBOptions
+    from contin.model.catalog import build_model
+    from contin.hb.problem import HarmonicBalance, HBOptions
     from contin.models.timing_belt import PAPER_MAGNET, shape_values
-    from contin.newton import solve_at_parameter
-    from contin.simulation import simulate
+    from contin.engine.newton import solve_at_parameter
+    from contin.timedomain.simulation import simulate
 
     c = shape_values(5, 0.6)
     S = 128

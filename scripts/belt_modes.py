@@ -24,10 +24,10 @@ from pathlib import Path
 import numpy as np
 import scipy.linalg
 
-from contin.backbone import static_equilibrium
-from contin.blas import limit_blas_threads
-from contin.catalog import build_model
-from contin.harmonic_balance import HarmonicBalance, HBOptions
+from contin.bifurcation.backbone import static_equilibrium
+from contin.util.blas import limit_blas_threads
+from contin.model.catalog import build_model
+from contin.hb.problem import HarmonicBalance, HBOptions
 from contin.models.timing_belt import shape_values, string_mass_frequencies
 
 

@@ -23,11 +23,11 @@ from pathlib import Path
 
 import numpy as np
 
-from contin.blas import limit_blas_threads
+from contin.util.blas import limit_blas_threads
 from contin.models.timing_belt import PAPER_MAGNET
-from contin.results import read_csv
-from contin.runner import run_scene
-from contin.scene import load_scene
+from contin.output.results import read_csv
+from contin.app.runner import run_scene
+from contin.scene.parse import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = ROOT / "scenes" / "belt_static.yaml"

@@ -25,12 +25,12 @@ from pathlib import Path
 
 import numpy as np
 
-from contin.blas import limit_blas_threads
-from contin.catalog import build_model
-from contin.results import read_csv
-from contin.runner import run_scene
-from contin.scene import load_scene
-from contin.simulation import simulate
+from contin.util.blas import limit_blas_threads
+from contin.model.catalog import build_model
+from contin.output.results import read_csv
+from contin.app.runner import run_scene
+from contin.scene.parse import load_scene
+from contin.timedomain.simulation import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -26,9 +26,9 @@ import argparse
 import numpy as np
 from numpy.polynomial.legendre import leggauss
 
-from contin.backbone import static_equilibrium
-from contin.blas import limit_blas_threads
-from contin.catalog import build_model
+from contin.bifurcation.backbone import static_equilibrium
+from contin.util.blas import limit_blas_threads
+from contin.model.catalog import build_model
 from contin.models.timing_belt import deflection, load_shape
 
 PRINTED = {2: (1.5092, 2.8018, 4.4268), 3: (1.4970, 2.7789, 3.8230), 4: (1.4747, 2.7370, 3.7647),

@@ -29,10 +29,10 @@ import time
 
 import numpy as np
 
-from contin.blas import limit_blas_threads
-from contin.catalog import build_model
-from contin.continuation import ContinuationOptions, continuation
-from contin.harmonic_balance import HarmonicBalance, HBOptions
+from contin.util.blas import limit_blas_threads
+from contin.model.catalog import build_model
+from contin.engine.continuation import ContinuationOptions, continuation
+from contin.hb.problem import HarmonicBalance, HBOptions
 from contin.models.timing_belt import observe, shape_values
 
 EFFECTS = ["rotor_mass", "stretching", "magnet", "periodic_load", "damping"]

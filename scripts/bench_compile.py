@@ -2,14 +2,14 @@
 
 contin's kernels are compiled by numba with ``cache=True``: the first run in
 a fresh environment compiles them (and the generated kernels of
-:mod:`contin.codegen`), later runs load them from disk. Each scene below is run
+:mod:`contin.model.codegen`), later runs load them from disk. Each scene below is run
 twice with ``contin run`` in fresh processes that share two new, empty cache
 directories (``NUMBA_CACHE_DIR`` and ``CONTIN_CACHE_DIR``): the first run
 pays the compilation, the second only loads. The difference is the
 first-run compile time; both are printed with their ratio.
 
 ``--quick`` (CI) compiles something small: the custom Duffing scene's
-generated kernel (:mod:`contin.codegen`) in a new, empty ``CONTIN_CACHE_DIR``,
+generated kernel (:mod:`contin.model.codegen`) in a new, empty ``CONTIN_CACHE_DIR``,
 contin's own kernels loaded from numba's cache as they are.
 
     python scripts/bench_compile.py [--quick]

@@ -35,9 +35,9 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import numpy as np
 
-from contin.catalog import build_model
-from contin.continuation import ContinuationOptions, continuation
-from contin.harmonic_balance import HarmonicBalance, HBOptions
+from contin.model.catalog import build_model
+from contin.engine.continuation import ContinuationOptions, continuation
+from contin.hb.problem import HarmonicBalance, HBOptions
 
 
 class NumpyDuffingHB:

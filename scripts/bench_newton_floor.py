@@ -2,10 +2,10 @@
 
 One iteration of the continuation corrector is what the engine does per
 update: the residual and the analytic Jacobians of the harmonic-balance
-problem (:meth:`contin.harmonic_balance.HarmonicBalance.linearize`), the
+problem (:meth:`contin.hb.problem.HarmonicBalance.linearize`), the
 scaled bordered matrix ``[Ju su, Jlam sl; t]`` of pseudo-arclength
 continuation, its LU factorisation with condition estimate
-(:func:`contin.newton.factorize`) and the solve for the update. Its floor is
+(:func:`contin.engine.newton.factorize`) and the solve for the update. Its floor is
 what no implementation of the method can avoid: one dense LU of a matrix of
 the same order (:func:`scipy.linalg.lu_factor`) plus the real FFTs of the
 sampled state (``numpy.fft.irfft`` to the ``N`` samples of the ``n`` dofs and
@@ -18,7 +18,7 @@ so that a ratio above the target of 3 shows where the time goes.
 
 The condensed table compares, for the rotor at ``H = 40`` and ``80``, one
 iteration of the problem condensed onto the bearing's dofs ``x2, y2``
-(:mod:`contin.condensation`: the disc's ``x1, y1`` carry no nonlinear force
+(:mod:`contin.hb.condensation`: the disc's ``x1, y1`` carry no nonlinear force
 and are eliminated exactly, harmonic by harmonic) with the full iteration and
 with its own floor (one dense LU of the condensed order plus the FFTs of the
 kept dofs), all interleaved in the same rounds. There each linearisation (full
@@ -53,9 +53,9 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np
 import scipy.linalg
 
-from contin.catalog import build_model
-from contin.harmonic_balance import HarmonicBalance, HBOptions
-from contin.newton import factorize
+from contin.model.catalog import build_model
+from contin.hb.problem import HarmonicBalance, HBOptions
+from contin.engine.newton import factorize
 
 
 class Iteration:
@@ -163,7 +163,7 @@ def measure_condensed(hb: HarmonicBalance, u: np.ndarray, lam: float, repeat: in
         As :func:`measure`; the condensed floor is the LU of the condensed
         order plus the FFTs of the kept dofs.
     """
-    from contin.condensation import condense
+    from contin.hb.condensation import condense
 
     ch = condense(hb)
     both = {("f", k): fn for k, fn in _stages(hb, u, lam, True).items()}
@@ -195,7 +195,7 @@ def _rotor_solution(H: int, lam: float):
 
 
 def duffing_solution(H: int, lam: float = 1.5):
-    from contin.newton import solve_at_parameter
+    from contin.engine.newton import solve_at_parameter
 
     hb = HarmonicBalance(build_model("duffing", {"F": 0.5}), "w", HBOptions(harmonics=H))
     res = solve_at_parameter(hb, hb.linear_solution(lam), lam)
@@ -214,7 +214,7 @@ def print_table(rows):
 
 def points_per_h(hs, quick: bool):
     """Time per continuation point and per Newton iteration of the rotor's harmonic branch for each H."""
-    from contin.continuation import ContinuationOptions, continuation
+    from contin.engine.continuation import ContinuationOptions, continuation
 
     lo, hi = (2.16, 2.165) if quick else (2.14, 2.18)
     out = []
@@ -232,7 +232,7 @@ def points_per_h(hs, quick: bool):
 
 
 def main(argv=None) -> int:
-    from contin.blas import limit_blas_threads
+    from contin.util.blas import limit_blas_threads
 
     limit_blas_threads(1)
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])

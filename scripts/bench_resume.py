@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from contin.results import read_csv
+from contin.output.results import read_csv
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = {"scenes/mathieu_duffing_pd.yaml": (3, 10, 17, 24, 30), "scenes/rotor_f0_05.yaml": (4, 30, 50, 70, 90)}

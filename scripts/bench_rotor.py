@@ -10,7 +10,7 @@ Three measurements, side by side in one run, with one BLAS thread:
    evenly spaced speeds over the same range, eq. 11 is integrated by RK4 at
    T/4096 from ``--starts`` initial states (at rest, a small random state,
    a large forward whirl) for ``--revolutions`` revolutions, the last 40
-   classified (:func:`contin.poincare.classify`) as ``harmonic`` (period 1),
+   classified (:func:`contin.timedomain.poincare.classify`) as ``harmonic`` (period 1),
    ``subharmonic`` (period 2) or ``neither``. Each speed's classes are
    printed beside what the diagram says there (the stable branches through
    it), with the verdict: they agree when every class a start reached is
@@ -50,8 +50,8 @@ RECORD = 40  # revolutions classified at the end of each simulation
 
 
 def run(name, overrides, outdir):
-    from contin.runner import run_scene
-    from contin.scene import load_scene
+    from contin.app.runner import run_scene
+    from contin.scene.parse import load_scene
 
     scene = load_scene(ROOT / "scenes" / f"{name}.yaml", overrides)
     return scene, run_scene(scene, outdir, progress=False)
@@ -80,7 +80,7 @@ def start_states(n_starts: int, rng):
 
 
 def brute_force(model, w: float, starts, revolutions: int) -> tuple[set, float]:
-    from contin.poincare import steady_state
+    from contin.timedomain.poincare import steady_state
 
     t0 = time.perf_counter()
     found = set()
@@ -96,9 +96,9 @@ def from_the_diagram(outdir: Path, scene, rows, w: float, revolutions: int):
     Returns ``(class, w_point)``, or None where the diagram has no stable harmonic point near w.
     """
     from contin.analyses.frequency_response import build_problem
-    from contin.pointplot import load_state_row
-    from contin.poincare import steady_state
-    from contin.runner import build_model
+    from contin.app.pointplot import load_state_row
+    from contin.timedomain.poincare import steady_state
+    from contin.scene.build import build_model
     from contin.stability import orbit_state
 
     ok = (np.asarray(rows["nu"]) == 1) & np.array([bool(s) for s in rows["stable"]])
@@ -118,10 +118,10 @@ def from_the_diagram(outdir: Path, scene, rows, w: float, revolutions: int):
 def floor_per_point(outdir: Path, scene) -> dict:
     """Time of one LU of the bordered corrector matrix and of one monodromy, per branch order nu."""
     from contin.analyses.frequency_response import build_problem
-    from contin.checkpoint import read_records
-    from contin.newton import factorize
-    from contin.runner import build_model
-    from contin.scene import Scene
+    from contin.output.checkpoint import read_records
+    from contin.engine.newton import factorize
+    from contin.scene.build import build_model
+    from contin.scene.parse import Scene
     from contin.stability import StabilityOptions, floquet_multipliers
 
     recs = [r for r in read_records(outdir / "state.jsonl") if r["type"] == "point"]
@@ -158,8 +158,8 @@ def _timed(fun) -> float:
 
 
 def main(argv=None) -> int:
-    from contin.catalog import build_model
-    from contin.results import read_csv
+    from contin.model.catalog import build_model
+    from contin.output.results import read_csv
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="small settings (a smoke run; the figures mean nothing)")

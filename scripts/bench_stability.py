@@ -29,12 +29,12 @@ import time
 
 import numpy as np
 
-from contin.catalog import build_model
-from contin.continuation import ContinuationOptions, continuation
-from contin.harmonic_balance import HarmonicBalance, HBOptions
-from contin.newton import solve_at_parameter
+from contin.model.catalog import build_model
+from contin.engine.continuation import ContinuationOptions, continuation
+from contin.hb.problem import HarmonicBalance, HBOptions
+from contin.engine.newton import solve_at_parameter
 from contin.stability import hill_spectrum, monodromy_orbit_ivp, monodromy_rk4, multiplier_distance
-from contin.switching import follow
+from contin.bifurcation.switching import follow
 
 
 def best_time(fun, repeat):
@@ -74,8 +74,8 @@ def mathieu_point(H_max):
 
 
 def gap_point(H_max):
-    from contin.elements import GapForce
-    from contin.model import Monomial
+    from contin.model.elements import GapForce
+    from contin.model.base import Monomial
     from contin.models.polynomial import polynomial_model
 
     model = polynomial_model(["x"], {"c": 0.05, "F": 0.3, "w": 1.0}, mass=[[1.0]], damping=[["c"]],

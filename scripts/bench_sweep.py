@@ -4,7 +4,7 @@ The sweep is the damped Mathieu-Duffing scene (``scenes/mathieu_duffing_pd.yaml`
 the trivial branch, its two period doublings and the switched nu = 2
 branches) over a 6 x 4 grid of the parametric amplitude ``eps`` and the
 damping ``c``, with finer steps than the scene's. Both runs go through
-:func:`contin.sweep.run_sweep`:
+:func:`contin.app.sweep.run_sweep`:
 
 - serial: the points one after another in this process (``--serial``),
   after one untimed point, so that this process has loaded its kernels and
@@ -39,7 +39,7 @@ ROOT = Path(__file__).resolve().parents[1]
 def same_branches(a: Path, b: Path) -> bool:
     import numpy as np
 
-    from contin.results import read_csv
+    from contin.output.results import read_csv
 
     for d in sorted((a / "points").iterdir()):
         ra, rb = read_csv(d / "branches.csv"), read_csv(b / "points" / d.name / "branches.csv")
@@ -61,8 +61,8 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="4 points at coarse settings, one worker (a smoke run)")
     args = ap.parse_args()
 
-    from contin.blas import limit_blas_threads
-    from contin.sweep import SweepOptions, parse_grid, run_point, run_sweep, PointTask
+    from contin.util.blas import limit_blas_threads
+    from contin.app.sweep import SweepOptions, parse_grid, run_point, run_sweep, PointTask
 
     limit_blas_threads()
     scene = ROOT / "scenes" / "mathieu_duffing_pd.yaml"

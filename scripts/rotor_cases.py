@@ -38,8 +38,8 @@ QUICK = ["analysis.range=[2.12, 2.2]", "analysis.start=2.12", "analysis.harmonic
 
 
 def run_case(name: str, outdir: Path, quick: bool) -> Path:
-    from contin.runner import run_scene
-    from contin.scene import load_scene
+    from contin.app.runner import run_scene
+    from contin.scene.parse import load_scene
 
     overrides = list(QUICK) if quick else []
     scene = load_scene(ROOT / "scenes" / f"{name}.yaml", overrides)
@@ -49,7 +49,7 @@ def run_case(name: str, outdir: Path, quick: bool) -> Path:
 
 
 def main(argv=None) -> int:
-    from contin.blas import limit_blas_threads
+    from contin.util.blas import limit_blas_threads
 
     limit_blas_threads(1)
     import matplotlib
@@ -57,9 +57,9 @@ def main(argv=None) -> int:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from contin.plotting import _segments
+    from contin.output.plotting import _segments
     from contin.models.bearing_rotor import stable_subharmonic_interval
-    from contin.results import read_csv
+    from contin.output.results import read_csv
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="narrow range, few harmonics (a smoke run)")

@@ -13,7 +13,7 @@ c2 = 0.05) and prints, for each case of Inagaki, Ishida & Hayashi (2005):
 
 with the smallest f0 of the region (the tip of the tongue), where the curves end and why, how
 far the period doublings located by the independent one-parameter runs lie from the curves, and
-the period doublings of the integrated flow found by shooting (contin.shooting) at the scenes'
+the period doublings of the integrated flow found by shooting (contin.timedomain.shooting) at the scenes'
 `shooting` values: the region where the harmonic balance cannot follow the orbit (the bearing
 leaving its casing) and where it ends.
 
@@ -30,10 +30,10 @@ from pathlib import Path
 
 import numpy as np
 
-from contin.blas import limit_blas_threads
-from contin.results import read_csv
-from contin.runner import run_scene
-from contin.scene import load_scene
+from contin.util.blas import limit_blas_threads
+from contin.output.results import read_csv
+from contin.app.runner import run_scene
+from contin.scene.parse import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 

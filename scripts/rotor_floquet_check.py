@@ -3,7 +3,7 @@
 Prints, measured in this run:
 
 1. the monodromy against central finite differences of the simulated flow map
-   (``contin.simulation.simulate``, located switches) over one period, with and
+   (``contin.timedomain.simulation.simulate``, located switches) over one period, with and
    without saltation matrices: the reference path (DOP853 on the nonlinear
    state from the HB start) and the production path (RK4 along the HB orbit),
    for a clearance oscillator with contact damping (paper's and clipped laws)
@@ -28,14 +28,14 @@ import argparse
 import numpy as np
 from contin.models.polynomial import polynomial_model
 
-from contin.blas import limit_blas_threads
-from contin.catalog import build_model
-from contin.continuation import ContinuationOptions
-from contin.elements import GapForce
-from contin.harmonic_balance import HarmonicBalance, HBOptions
-from contin.model import Monomial
-from contin.newton import solve_at_parameter
-from contin.simulation import simulate
+from contin.util.blas import limit_blas_threads
+from contin.model.catalog import build_model
+from contin.engine.continuation import ContinuationOptions
+from contin.model.elements import GapForce
+from contin.hb.problem import HarmonicBalance, HBOptions
+from contin.model.base import Monomial
+from contin.engine.newton import solve_at_parameter
+from contin.timedomain.simulation import simulate
 from contin.stability import (
     hill_spectrum,
     monodromy_reference,
@@ -43,7 +43,7 @@ from contin.stability import (
     multiplier_distance,
     orbit_state,
 )
-from contin.start import simulation_start
+from contin.bifurcation.start import simulation_start
 
 
 def resize(u, n, H):

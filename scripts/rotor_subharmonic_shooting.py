@@ -6,7 +6,7 @@ period doubling F, turns at the fold E (the jump), is stable from E down to the 
 and returns unstable to the harmonic solution at the period doubling D. The converged
 harmonic balance of scenes/rotor_f0_05.yaml follows it only where the bearing stays on
 its casing (README, "Bearing rotor"). This script follows it on the flow map of the time
-integrator itself (contin.shooting: compiled RK4 with the contact switches located, 4096
+integrator itself (contin.timedomain.shooting: compiled RK4 with the contact switches located, 4096
 steps per revolution; the orbit's period is two revolutions), where the bearing bounces
 too:
 
@@ -46,15 +46,15 @@ from pathlib import Path
 
 import numpy as np
 
-from contin.blas import limit_blas_threads
-from contin.catalog import build_model
-from contin.continuation import ContinuationOptions, continuation
-from contin.harmonic_balance import HarmonicBalance, HBOptions
-from contin.shooting import (ShootingOptions, ShootingProblem, ShootingStability, period_doubling_scan,
+from contin.util.blas import limit_blas_threads
+from contin.model.catalog import build_model
+from contin.engine.continuation import ContinuationOptions, continuation
+from contin.hb.problem import HarmonicBalance, HBOptions
+from contin.timedomain.shooting import (ShootingOptions, ShootingProblem, ShootingStability, period_doubling_scan,
                              period_doubling_start, periodic_orbit)
-from contin.simulation import simulate
+from contin.timedomain.simulation import simulate
 from contin.stability import orbit_state, stability_events
-from contin.start import simulation_start
+from contin.bifurcation.start import simulation_start
 
 W0 = 2.16
 HARMONIC = ShootingOptions(steps_per_period=4096)

@@ -5,7 +5,7 @@ Hayashi, Trans. JSME C 71 (2005), section 3, Fig. 3 and 5): integrate eq. 11
 by Runge-Kutta with 4096 steps per revolution to steady state at each speed.
 For each w the script runs ``--transient`` revolutions, records ``--record``
 more, and classifies the response from the Poincare section and the spectrum
-of the disc (:func:`contin.poincare.classify`):
+of the disc (:func:`contin.timedomain.poincare.classify`):
 
 - ``harmonic``     period-1 (the +w whirl only),
 - ``subharmonic``  period-2 (entrained into the 1/2-order subharmonic, +w/2),
@@ -32,9 +32,9 @@ from pathlib import Path
 
 import numpy as np
 
-from contin.blas import limit_blas_threads
-from contin.catalog import build_model
-from contin.poincare import steady_state
+from contin.util.blas import limit_blas_threads
+from contin.model.catalog import build_model
+from contin.timedomain.poincare import steady_state
 
 CLASS_NAMES = {1: "harmonic", 2: "subharmonic"}
 STYLE = {"harmonic": ("o", "tab:green"), "subharmonic": ("s", "tab:red"), "neither": ("x", "k")}
@@ -60,7 +60,7 @@ def whirl_column(columns, explicit=None):
 
 def read_diagram(outdir: Path, column=None):
     """Curves of the harmonic-balance diagram: list of dicts (w, y, stable, nu, branch), and the y label."""
-    from contin.results import read_csv
+    from contin.output.results import read_csv
 
     path = Path(outdir) / "branches.csv"
     if not path.exists():

@@ -6,7 +6,7 @@ ratios r_i = u2/u1 (1 and -1/2), principal coordinates, and the forced response
     X1 = 2 F0/(5k) (3/2 - (w/w1)^2) / ([1 - (w/w1)^2][1 - (w/w2)^2]),
     X2 = F0/(5k) / ([1 - (w/w1)^2][1 - (w/w2)^2]).
 
-The script computes them with contin.modal (and the built-in linear_chain model with harmonic
+The script computes them with contin.modal.modes (and the built-in linear_chain model with harmonic
 balance, H = 1), prints the errors against these closed forms, and plots X1 and X2 (signed, in
 units of F0/k) against w/w1 as the seed does, with the mode shapes beside them.
 
@@ -21,11 +21,11 @@ from pathlib import Path
 
 import numpy as np
 
-from contin.blas import limit_blas_threads
-from contin.catalog import build_model
-from contin.harmonic_balance import HarmonicBalance, HBOptions
-from contin.modal import frf, natural_modes, principal_coordinates
-from contin.newton import solve_at_parameter
+from contin.util.blas import limit_blas_threads
+from contin.model.catalog import build_model
+from contin.hb.problem import HarmonicBalance, HBOptions
+from contin.modal.modes import frf, natural_modes, principal_coordinates
+from contin.engine.newton import solve_at_parameter
 
 M, K, F0 = 1.0, 1.0, 1.0
 

@@ -5,7 +5,7 @@ import numpy as np
 from scipy.special import mathieu_a, mathieu_b
 import pytest
 
-from contin.blas import limit_blas_threads
+from contin.util.blas import limit_blas_threads
 
 limit_blas_threads(1)
 
@@ -24,7 +24,7 @@ def scene_run(tmp_path_factory):
     """
     from pathlib import Path
 
-    from contin.cli import main
+    from contin.app.cli import main
 
     scenes = Path(__file__).resolve().parents[1] / "scenes"
     done = {}
@@ -101,9 +101,9 @@ def check_mathieu_tongues(eps, rmax, hi, harmonics, stability_options):
     """Trace x = 0 of the undamped Mathieu equation in delta and compare its stability
     changes with :func:`mathieu_boundaries`: located to 1e-6, classified pd (odd r) or
     bp (even r), with the critical multiplier at -1 or +1. Returns ``(hb, branch, found)``."""
-    from contin.catalog import build_model
-    from contin.continuation import ContinuationOptions, continuation
-    from contin.harmonic_balance import HarmonicBalance, HBOptions
+    from contin.model.catalog import build_model
+    from contin.engine.continuation import ContinuationOptions, continuation
+    from contin.hb.problem import HarmonicBalance, HBOptions
     from contin.stability import StabilityMonitor, stability_events
 
     model = build_model("mathieu", {"c": 0.0, "g": 0.0, "eps": eps}, effects=["parametric"])

@@ -25,7 +25,7 @@ def test_only_contin_is_installed_at_top_level():
 
 def test_builtin_models_import_through_the_package():
     import contin.models
-    from contin.catalog import MODELS
+    from contin.model.catalog import MODELS
 
     assert contin.models.__name__ == "contin.models"
     assert {"duffing", "mathieu"} <= set(MODELS)

@@ -1,7 +1,7 @@
 """``backbone``: free conservative periodic solutions, frequency unknown, versus amplitude.
 
 For each requested linear mode about the static equilibrium, the backbone
-problem of :mod:`contin.backbone` (harmonic balance of the autonomous model,
+problem of :mod:`contin.bifurcation.backbone` (harmonic balance of the autonomous model,
 a phase condition, an unfolding parameter that vanishes on the solutions,
 and the amplitude of the observed dof as the continuation parameter) is
 followed over ``range`` of that amplitude, starting at the linear natural
@@ -34,8 +34,8 @@ import time
 
 import numpy as np
 
-from contin.analyses import register_analysis, shortfalls
-from contin.schema import Key, SceneError, is_int, is_number, mapping, string
+from contin.scene.registry import register_analysis, shortfalls
+from contin.scene.schema import Key, SceneError, is_int, is_number, mapping, string
 
 __all__ = ["BACKBONE", "check", "result_columns", "run"]
 
@@ -65,7 +65,7 @@ EXTRA = ["interval_lo", "interval_hi", "located", "detail"]
 
 def result_columns(model, H: int) -> dict:
     """``measures`` and the columns of ``branches.csv`` and ``special_points.csv`` of a backbone of ``model``."""
-    from contin.measures import measure_names
+    from contin.hb.measures import measure_names
 
     measures = measure_names(model.dof_names, 5, H) + (
         list(getattr(model, "observable_names", ())) if getattr(model, "observables", None) else [])
@@ -78,7 +78,7 @@ class _BackboneRecorder:
     """Streams the rows of ``branches.csv`` and ``special_points.csv``."""
 
     def __init__(self, outdir, model, H):
-        from contin.results import CsvStream
+        from contin.output.results import CsvStream
 
         self.model = model
         self.observables = getattr(model, "observables", None)
@@ -93,7 +93,7 @@ class _BackboneRecorder:
         self.special_list: list = []
 
     def _measures(self, u):
-        from contin.measures import point_measures
+        from contin.hb.measures import point_measures
 
         out = point_measures(u, self.model.n_dof, self.model.dof_names, 5)
         if self.observables is not None:
@@ -147,12 +147,12 @@ def check(scene, model) -> dict:
     -------
     dict
         ``A0``, ``A1`` (the amplitude range), ``log``, ``opts`` (continuation
-        options) and ``problems`` (one :class:`contin.backbone.BackboneProblem`
+        options) and ``problems`` (one :class:`contin.bifurcation.backbone.BackboneProblem`
         per mode).
     """
-    from contin.analyses import check_output
-    from contin.backbone import BackboneError, BackboneProblem
-    from contin.continuation import ContinuationOptions
+    from contin.scene.registry import check_output
+    from contin.bifurcation.backbone import BackboneError, BackboneProblem
+    from contin.engine.continuation import ContinuationOptions
 
     a = scene.analysis
     modes = a["mode"] if isinstance(a["mode"], list) else [a["mode"]]
@@ -187,9 +187,9 @@ def check(scene, model) -> dict:
 @register_analysis("backbone", BACKBONE, check=check)
 def run(ctx) -> dict:
     """Run a ``backbone`` scene; returns its part of ``summary.json``."""
-    from contin.backbone import BackboneError, dropped_excitations, frequency_extremum_event
-    from contin.continuation import continuation
-    from contin.runner import RunError
+    from contin.bifurcation.backbone import BackboneError, dropped_excitations, frequency_extremum_event
+    from contin.engine.continuation import continuation
+    from contin.scene.registry import RunError
 
     scene, model = ctx.scene, ctx.model
     a = scene.analysis
@@ -254,7 +254,7 @@ def _plot(ctx, rec, prob, log):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from contin.plotting import axis_label
+    from contin.output.plotting import axis_label
 
     out = ctx.scene.output
     fig, ax = plt.subplots(figsize=(7.0, 4.6), constrained_layout=True)

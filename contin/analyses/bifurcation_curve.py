@@ -3,11 +3,11 @@
 1. A one-parameter run in ``parameter`` (``p1``) over ``range`` at the scene's
    value of ``second_parameter`` (``p2``) locates folds (the engine's fold
    test) and period doublings (the flip test of
-   :class:`contin.bifurcation_curves.FlipTestEvent`, or the multiplier
+   :class:`contin.bifurcation.two_parameter.FlipTestEvent`, or the multiplier
    events of ``stability`` with ``pd_test: stability``).
 2. Each located point of the kinds in ``curves`` is continued in ``(p1, p2)``
    over ``second_range`` (and within ``range``) by
-   :func:`contin.bifurcation_curves.curve_from_point`; a point that already
+   :func:`contin.bifurcation.two_parameter.curve_from_point`; a point that already
    lies on a traced curve (the other fold of the same jump region, the other
    period doubling of the same tongue) starts no new curve.
 3. One-parameter runs at the ``overlay`` values of ``p2`` (inside or outside
@@ -36,17 +36,17 @@ import time
 
 import numpy as np
 
-from contin.analyses import register_analysis, shortfalls
+from contin.scene.registry import register_analysis, shortfalls
 from contin.analyses.frequency_response import BranchRecorder, _start, build_problem, continuation_options
-from contin.bifurcation_curves import CurveOptions, FlipTestEvent, curve_from_point, special_point_kind
-from contin.continuation import ContinuationOptions, continuation
-from contin.harmonic_balance import HarmonicBalance
-from contin.measures import measure_names, point_measures
-from contin.results import CsvStream
-from contin.runner import RunError
-from contin.scene import START_SIMULATION
-from contin.schema import Key, SceneError, integer, is_int, is_number, listing, mapping, number, string
-from contin.shooting import ShootingOptions, period_doubling_scan, periodic_orbit
+from contin.bifurcation.two_parameter import CurveOptions, FlipTestEvent, curve_from_point, special_point_kind
+from contin.engine.continuation import ContinuationOptions, continuation
+from contin.hb.problem import HarmonicBalance
+from contin.hb.measures import measure_names, point_measures
+from contin.output.results import CsvStream
+from contin.scene.registry import RunError
+from contin.scene.parse import START_SIMULATION
+from contin.scene.schema import Key, SceneError, integer, is_int, is_number, listing, mapping, number, string
+from contin.timedomain.shooting import ShootingOptions, period_doubling_scan, periodic_orbit
 from contin.stability import orbit_state
 
 __all__ = ["BIFURCATION_CURVE", "check", "describe", "run"]
@@ -200,7 +200,7 @@ def _shooting_options(scene) -> ShootingOptions:
 
 def validate(data, model, analysis, lines) -> None:
     """Refuse parameter values that make no physical sense (a negative frequency, mass, ...)."""
-    from contin.scene import check_parameter_values, model_frequency
+    from contin.scene.parse import check_parameter_values, model_frequency
 
     a = analysis
     p1 = a["parameter"] or a["frequency"] or model_frequency(model)
@@ -221,7 +221,7 @@ def check(scene, model) -> dict:
         curve options) and ``setup`` (events and monitors of the one-parameter
         runs).
     """
-    from contin.analyses import check_output
+    from contin.scene.registry import check_output
     from contin.analyses.simulate import check_time_step
 
     a = scene.analysis
@@ -415,7 +415,7 @@ def _orbit_towards(model, p1, p2, lam0, a, b, z, opt, max_halvings=6):
 
 
 def _shooting_reference(ctx, problem0, branch0, curves, p1, p2, p2_value, range1) -> dict:
-    """Period doublings of the integrated flow (:mod:`contin.shooting`) at ``analysis.shooting`` values of ``p2``.
+    """Period doublings of the integrated flow (:mod:`contin.timedomain.shooting`) at ``analysis.shooting`` values of ``p2``.
 
     The orbit at the start of the first one-parameter run is followed in ``p2``
     (outwards from the scene's value) and, at each value, over a grid of
@@ -570,7 +570,7 @@ def _label(i: int, cur) -> str:
 
 
 def _plot(ctx, curves, checks, p1, p2, range1, range2, lines, reference=()) -> list:
-    from contin.plotting import two_parameter_diagram
+    from contin.output.plotting import two_parameter_diagram
 
     out = ctx.scene.output
     path = ctx.outdir / "bifurcation_curves.png"

@@ -56,7 +56,7 @@ or of type names):
     (within ``window`` if given).
 ``stable_interval``
     Hull ``[from, to]`` of the parameter intervals where a stable solution of
-    order ``nu`` exists (:func:`contin.sweep.stable_intervals`: each end at
+    order ``nu`` exists (:func:`contin.app.sweep.stable_intervals`: each end at
     the located change of stability), counting only rows whose ``measure``
     exceeds ``min`` if given (the rotor's harmonic solution seen as
     ``nu = 2`` has no ``+w/2`` whirl); ``ends`` chooses among ``from``,
@@ -104,8 +104,8 @@ from pathlib import Path
 
 import numpy as np
 
-from contin.analyses import register_analysis
-from contin.schema import Key, SceneError, check_section, flag, int_range, listing, mapping, number, string
+from contin.scene.registry import register_analysis
+from contin.scene.schema import Key, SceneError, check_section, flag, int_range, listing, mapping, number, string
 
 __all__ = ["CONVERGENCE", "QUANTITIES", "base_columns", "check", "run", "settings_of", "recommend", "read_records",
            "quantity_items", "extract", "format_table", "plot_convergence", "replot"]
@@ -244,8 +244,8 @@ def variant_data(data: dict, setting: dict) -> dict:
 
 # ---------------------------------------------------------------- validation
 def _check_path(path: str, model: dict, base: dict, base_schema: dict, where: str) -> None:
-    from contin.continuation import ContinuationOptions
-    from contin.model import suggest
+    from contin.engine.continuation import ContinuationOptions
+    from contin.util.naming import suggest
 
     parts = path.split(".")
     if len(parts) < 2 or parts[0] not in ("analysis", "model") or any(not p for p in parts):
@@ -264,7 +264,7 @@ def _check_path(path: str, model: dict, base: dict, base_schema: dict, where: st
                                  ", ".join(names) + ")", ".".join(parts[2:]), hint=suggest(parts[2], names))
         return
     if "builtin" in model:
-        from contin.catalog import get_spec
+        from contin.model.catalog import get_spec
 
         if parts[1] not in ("parameters", "options") or len(parts) != 3:
             raise SceneError(where, "model.parameters.NAME or model.options.NAME for a built-in model", path)
@@ -285,8 +285,8 @@ def _check_path(path: str, model: dict, base: dict, base_schema: dict, where: st
 
 def validate(data: dict, model: dict, analysis: dict, lines: dict) -> None:
     """Checks of a convergence scene beyond its schema (``analysis.base``, paths, quantities, every setting)."""
-    from contin.model import suggest
-    from contin.scene import FREQUENCY_RESPONSE, START_KEYS, analysis_schemas, scene_from_data
+    from contin.util.naming import suggest
+    from contin.scene.parse import FREQUENCY_RESPONSE, START_KEYS, analysis_schemas, scene_from_data
 
     base = analysis["base"]
     btype = base.get("type")
@@ -334,7 +334,7 @@ def validate(data: dict, model: dict, analysis: dict, lines: dict) -> None:
 
 def normalize_quantity(q, i: int, base_type: str, lines: dict | None = None) -> dict:
     """A quantity as a checked mapping with defaults (a bare type name is a mapping with that type)."""
-    from contin.model import suggest
+    from contin.util.naming import suggest
 
     where = f"analysis.quantities[{i}]"
     if isinstance(q, str):
@@ -462,7 +462,7 @@ def _fold(rows, special, q, param, file):
 
 
 def _stable_interval(rows, special, q, param, file):
-    from contin.sweep import stable_intervals
+    from contin.analyses.intervals import stable_intervals
 
     if "stable" not in rows or rows["stable"].dtype != bool:
         raise Missing("no stability in the results")
@@ -525,7 +525,7 @@ def extract(run_dir: Path, quantities: list[dict], defaults: dict, table_file: s
     KeyError
         With ``strict``, a named column that the results do not have.
     """
-    from contin.results import read_csv
+    from contin.output.results import read_csv
 
     run_dir = Path(run_dir)
     rows = read_csv(run_dir / table_file) if (run_dir / table_file).exists() else {}
@@ -729,10 +729,10 @@ def check(scene, model) -> dict:
         ``scenes`` (one per setting), ``defaults``, ``items`` (quantity
         columns and descriptions) and ``kinds`` (column -> error kind).
     """
-    from contin.analyses import check_scene
-    from contin.model import suggest
-    from contin.runner import build_model
-    from contin.scene import scene_from_data
+    from contin.scene.registry import check_scene
+    from contin.util.naming import suggest
+    from contin.scene.build import build_model
+    from contin.scene.parse import scene_from_data
 
     a = scene.analysis
     btype = a["base"]["type"]
@@ -786,8 +786,8 @@ def check(scene, model) -> dict:
 @register_analysis("convergence", CONVERGENCE, validate, check)
 def run(ctx) -> dict:
     """Run a ``convergence`` scene; returns its part of ``summary.json``."""
-    from contin.results import CsvStream
-    from contin.runner import RunError, run_scene
+    from contin.output.results import CsvStream
+    from contin.scene.registry import RunError
 
     scene = ctx.scene
     a = scene.analysis
@@ -803,7 +803,7 @@ def run(ctx) -> dict:
     if a["warmup"]:
         ctx.progress.update(f"warm-up run ({labels[0]}), not timed")
         try:
-            run_scene(scenes[0], runs_dir / "warmup", progress=False)
+            ctx.run_scene(scenes[0], runs_dir / "warmup", progress=False)
         except RunError:
             pass  # the timed run reports it
         except SceneError as exc:  # check() ran every check of this setting: a guard, not a path
@@ -833,7 +833,7 @@ def run(ctx) -> dict:
         for _ in range(a["repeat"]):
             t0, c0 = time.perf_counter(), time.process_time()
             try:
-                summary = run_scene(sc, run_dir, progress=False)
+                summary = ctx.run_scene(sc, run_dir, progress=False)
             except RunError as exc:
                 status, message = "failed", " ".join(str(exc).split())
                 wall, cpu = time.perf_counter() - t0, time.process_time() - c0  # the time spent until it failed

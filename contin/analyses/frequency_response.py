@@ -7,7 +7,7 @@ the requested bifurcations, and streams ``branches.csv`` and
 
 With ``analysis.condense`` (``auto``, ``true``, ``false``) the engine follows
 the problem condensed onto the dofs that carry nonlinear forces
-(:mod:`contin.condensation`); everything written stays full: the measures,
+(:mod:`contin.hb.condensation`); everything written stays full: the measures,
 the special points, and the coefficients ``u`` in ``state.jsonl`` (whose
 tangents are the engine's, in the kept dofs' coefficients, listed as
 ``dofs`` in each branch record).
@@ -22,16 +22,16 @@ import time
 
 import numpy as np
 
-from contin.analyses import register_analysis, shortfalls
-from contin.branch import BranchStatus
-from contin.continuation import ContinuationOptions
-from contin.harmonic_balance import HarmonicBalance, HBOptions
-from contin.checkpoint import encode, special_record
-from contin.condensation import condensation_dofs, condense
-from contin.measures import measure_names, point_measures
-from contin.checkpoint import read_records, rebuild_branches, resumable_prefix
-from contin.results import CsvStream, read_csv, truncate_to_valid_rows
-from contin.scene import SceneError
+from contin.scene.registry import register_analysis, shortfalls
+from contin.engine.branch import BranchStatus
+from contin.engine.continuation import ContinuationOptions
+from contin.hb.problem import HarmonicBalance, HBOptions
+from contin.output.checkpoint import encode, special_record
+from contin.hb.condensation import condensation_dofs, condense
+from contin.hb.measures import measure_names, point_measures
+from contin.output.checkpoint import read_records, rebuild_branches, resumable_prefix
+from contin.output.results import CsvStream, read_csv, truncate_to_valid_rows
+from contin.scene.parse import SceneError
 
 __all__ = ["run", "BranchRecorder", "build_problem", "engine_problem"]
 
@@ -64,7 +64,7 @@ def engine_problem(scene, hb: HarmonicBalance):
     """The problem the continuation follows: ``hb`` condensed as ``analysis.condense`` says.
 
     ``auto`` condenses when dofs free of nonlinear forces can be eliminated
-    safely (:func:`contin.condensation.condense`), ``true`` whenever any can
+    safely (:func:`contin.hb.condensation.condense`), ``true`` whenever any can
     (an error naming the key when none can), ``false`` never.
     """
     how = scene.analysis.get("condense", "auto")
@@ -214,7 +214,7 @@ class BranchRecorder:
         return sp if u_full is sp.unknowns else dataclasses.replace(sp, unknowns=u_full)
 
     def checkpoint(self, branch_id: int, branch, state: dict) -> None:
-        """The engine's state after a step (or its monitors' at the branch's end): see :mod:`contin.checkpoint`."""
+        """The engine's state after a step (or its monitors' at the branch's end): see :mod:`contin.output.checkpoint`."""
         self.special_points(branch_id, branch)  # the state holds them: write them first
         if "points" in state:
             rec = {"type": "engine", "branch": branch_id, "state": encode(state)}
@@ -261,9 +261,9 @@ class BranchRecorder:
 
 def _start(scene, model, hb, lam0: float):
     """The start guess: ``analysis.start_from`` = model (its own start, else linear), linear or simulation."""
-    from contin.runner import RunError
-    from contin.simulation import SimulationError
-    from contin.start import HomotopyFailed, simulation_start
+    from contin.scene.registry import RunError
+    from contin.timedomain.simulation import SimulationError
+    from contin.bifurcation.start import HomotopyFailed, simulation_start
 
     how = scene.analysis["start_from"]
     try:
@@ -302,7 +302,7 @@ def _detail(sp) -> str:
 
 def _starts(scene):
     """The scene itself, then one scene per entry of ``analysis.starts`` (its keys override)."""
-    from contin.scene import Scene
+    from contin.scene.parse import Scene
 
     yield "analysis", scene
     for i, extra in enumerate(scene.analysis["starts"]):
@@ -322,7 +322,7 @@ def check(scene, model) -> list:
         ``(scene, hb, problem, lam0, options, follow)`` per start (the
         scene, then each entry of ``analysis.starts``).
     """
-    from contin.analyses import check_output
+    from contin.scene.registry import check_output
     from contin.analyses.stability_hooks import stability_setup
 
     lam_a, lam_b = float(scene.analysis["range"][0]), float(scene.analysis["range"][1])
@@ -340,7 +340,7 @@ def check(scene, model) -> list:
         problem = engine_problem(sc, hb)
         if a["start_from"] == "simulation" and a["guess"] is None:
             from contin.analyses.simulate import check_time_step
-            from contin.start import simulation_start
+            from contin.bifurcation.start import simulation_start
 
             default = inspect.signature(simulation_start).parameters["steps_per_period"].default
             check_time_step(model, {hb.parameter: lam0}, a["start_simulation"].get("steps_per_period", default),
@@ -484,7 +484,7 @@ def _stability_summary(branch) -> dict | None:
 
 
 def _plot(ctx, rec, hb):
-    from contin.plotting import bifurcation_diagram
+    from contin.output.plotting import bifurcation_diagram
 
     out = ctx.scene.output
     measure = out["measure"] or f"amp_{hb.model.dof_names[0]}"  # checked by check()

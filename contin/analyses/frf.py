@@ -2,7 +2,7 @@
 
 For ``M x'' + C x' + K x = Re(F e^{i w t})`` the steady response is
 ``x = Re(X e^{i w t})`` with ``X = Z(w)^-1 F`` and ``Z(w) = K - w^2 M + i w C``
-(seed 002, sec. 4.2; :func:`contin.modal.frf`), solved for every grid
+(seed 002, sec. 4.2; :func:`contin.modal.modes.frf`), solved for every grid
 frequency at once. The force is
 
 - the model's own excitation (``force`` omitted): its component at the
@@ -32,9 +32,9 @@ import time
 
 import numpy as np
 
-from contin.analyses import register_analysis
-from contin.model import suggest
-from contin.schema import Key, SceneError, flag, int_range, is_number, string
+from contin.scene.registry import register_analysis
+from contin.util.naming import suggest
+from contin.scene.schema import Key, SceneError, flag, int_range, is_number, string
 
 __all__ = ["FRF", "check", "run", "force_cases", "result_columns"]
 
@@ -109,7 +109,7 @@ class _Response:
         return np.array(Ms), np.array(Cs), np.array(Ks)
 
     def __call__(self, w):
-        from contin.modal import frf
+        from contin.modal.modes import frf
 
         w = np.atleast_1d(np.asarray(w, dtype=float))
         F = self.F(w) if callable(self.F) else self.F
@@ -118,7 +118,7 @@ class _Response:
 
 def _own_force(model, kw):
     """The model's excitation at the forcing frequency, ``F(w) = a_1 - i b_1``, shape (nw, n), and a note."""
-    from contin.harmonic_balance import HarmonicBalance, HBOptions
+    from contin.hb.problem import HarmonicBalance, HBOptions
 
     try:
         hb = HarmonicBalance(model, model.frequency, HBOptions(harmonics=1))
@@ -162,7 +162,7 @@ def check(scene, model) -> dict:
         ``wname`` (the frequency parameter), ``kw`` (its index), ``p0``,
         ``w`` (the frequency grid) and ``cases`` (``[(label, F)]``).
     """
-    from contin.analyses import check_output
+    from contin.scene.registry import check_output
 
     a = scene.analysis
     dofs = list(model.dof_names)
@@ -197,8 +197,8 @@ def check(scene, model) -> dict:
 @register_analysis("frf", FRF, check=check)
 def run(ctx) -> dict:
     """Run an ``frf`` scene; returns its part of ``summary.json``."""
-    from contin.modal import SingularImpedance, natural_modes
-    from contin.results import CsvStream
+    from contin.modal.modes import SingularImpedance, natural_modes
+    from contin.output.results import CsvStream
 
     scene, model = ctx.scene, ctx.model
     a = scene.analysis
@@ -256,7 +256,7 @@ def _peaks(results, dofs):
     """Interior maxima of every ``|X_dof|`` on the grid, refined by a bounded scalar search."""
     from scipy.optimize import minimize_scalar
 
-    from contin.modal import SingularImpedance
+    from contin.modal.modes import SingularImpedance
 
     out = []
     for label, resp, ws, X in results:
@@ -291,7 +291,7 @@ def _plot(ctx, wname, dofs, results, omega, peaks) -> list:
     import matplotlib.pyplot as plt
     import matplotlib.ticker
 
-    from contin.plotting import axis_label
+    from contin.output.plotting import axis_label
 
     out = ctx.scene.output
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(7.2, 6.4), sharex=True, constrained_layout=True)

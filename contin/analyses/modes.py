@@ -2,9 +2,9 @@
 
 For any model: the static equilibrium ``K x + f_nl(x, 0) = f_0`` (the period
 mean of the excitation) is found by Newton from zero or ``guess``
-(:mod:`contin.equilibrium`), then the small motions about it,
+(:mod:`contin.modal.equilibrium`), then the small motions about it,
 ``M y'' + C_t y' + K_t y = 0`` with the tangent stiffness ``K_t`` and tangent
-damping ``C_t``, are analysed by :mod:`contin.modal` (seed 002, sec. 2-3):
+damping ``C_t``, are analysed by :mod:`contin.modal.modes` (seed 002, sec. 2-3):
 
 - undamped natural frequencies ``w_i`` and mass-normalised modes (``eigh(K_t, M)``),
   with the mode-shape ratios ``r_i = u_j / u_ref`` (seed 002: ``r_i = u_2/u_1``);
@@ -30,9 +30,9 @@ import time
 
 import numpy as np
 
-from contin.analyses import register_analysis
-from contin.model import suggest
-from contin.schema import Key, SceneError, flag, int_range, is_number
+from contin.scene.registry import register_analysis
+from contin.util.naming import suggest
+from contin.scene.schema import Key, SceneError, flag, int_range, is_number
 
 __all__ = ["MODES", "check", "run"]
 
@@ -95,7 +95,7 @@ def _finite(v):
 
 def validate(data, model, analysis, lines) -> None:
     """Refuse parameter values that make no physical sense (a negative frequency, mass, ...)."""
-    from contin.scene import check_parameter_values
+    from contin.scene.parse import check_parameter_values
 
     check_parameter_values(model, analysis, analysis["parameter"],
                            [(f"analysis.{k}", analysis[k]) for k in ("values", "range") if analysis[k] is not None],
@@ -114,9 +114,9 @@ def check(scene, model) -> dict:
         ``param``, ``values``, ``ref_name``, ``ref`` (its index) and ``hb``
         (the static problem).
     """
-    from contin.analyses import check_output
-    from contin.equilibrium import static_problem
-    from contin.modal import _check_mass
+    from contin.scene.registry import check_output
+    from contin.modal.equilibrium import static_problem
+    from contin.modal.modes import _check_mass
 
     a = scene.analysis
     dofs = list(model.dof_names)
@@ -147,10 +147,10 @@ def check(scene, model) -> dict:
 @register_analysis("modes", MODES, validate=validate, check=check)
 def run(ctx) -> dict:
     """Run a ``modes`` scene; returns its part of ``summary.json``."""
-    from contin.equilibrium import EquilibriumFailed, equilibrium_path
-    from contin.modal import damped_modes, natural_modes, principal_coordinates
-    from contin.results import CsvStream
-    from contin.runner import RunError
+    from contin.modal.equilibrium import EquilibriumFailed, equilibrium_path
+    from contin.modal.modes import damped_modes, natural_modes, principal_coordinates
+    from contin.output.results import CsvStream
+    from contin.scene.registry import RunError
 
     scene, model = ctx.scene, ctx.model
     a = scene.analysis

@@ -1,10 +1,10 @@
 """``simulate``: time integration to steady state at given parameter values.
 
 For each value of ``parameter`` the model is integrated by fixed-step RK4
-(:func:`contin.simulation.simulate`, ``steps_per_period`` steps per forcing
+(:func:`contin.timedomain.simulation.simulate`, ``steps_per_period`` steps per forcing
 period, contact switching located in time) over ``transient`` revolutions,
 then ``record`` revolutions are recorded and classified
-(:func:`contin.poincare.classify`: ``period-k`` or ``not periodic``, from the
+(:func:`contin.timedomain.poincare.classify`: ``period-k`` or ``not periodic``, from the
 Poincare section at ``tau = 0 mod 2 pi`` and the spectrum). This is the
 brute-force computation of the rotor paper (Inagaki, Ishida & Hayashi, Trans.
 JSME C 71 (2005), section 3 and Fig. 3, 5, 7: Runge-Kutta with 4096 steps per
@@ -24,9 +24,9 @@ import time
 
 import numpy as np
 
-from contin.analyses import register_analysis
-from contin.model import suggest
-from contin.schema import Key, SceneError, int_range, is_number
+from contin.scene.registry import register_analysis
+from contin.util.naming import suggest
+from contin.scene.schema import Key, SceneError, int_range, is_number
 
 __all__ = ["SIMULATE", "check", "check_time_step", "run", "COLUMNS_HEAD"]
 
@@ -117,7 +117,7 @@ def _initial_state(a, model, previous, rng):
 
 def check_time_step(model, params: dict, steps_per_period, key: str, lines: dict | None = None,
                     where: str = "") -> None:
-    """What :func:`contin.simulation.simulate` refuses before integrating, as a ``SceneError`` naming ``key``.
+    """What :func:`contin.timedomain.simulation.simulate` refuses before integrating, as a ``SceneError`` naming ``key``.
 
     A positive forcing frequency, a mass matrix it can invert, and a step
     ``h = T / steps_per_period`` within RK4's stability limit for the
@@ -134,7 +134,7 @@ def check_time_step(model, params: dict, steps_per_period, key: str, lines: dict
     where : str
         Where in the scene the parameter values come from (for messages).
     """
-    from contin.simulation import RK4_STABILITY, SimulationError, compile_model
+    from contin.timedomain.simulation import RK4_STABILITY, SimulationError, compile_model
 
     lines = lines or {}
     try:
@@ -167,7 +167,7 @@ def check_time_step(model, params: dict, steps_per_period, key: str, lines: dict
 
 def validate(data, model, analysis, lines) -> None:
     """Refuse parameter values that make no physical sense (a negative frequency, mass, ...)."""
-    from contin.scene import check_parameter_values, model_frequency
+    from contin.scene.parse import check_parameter_values, model_frequency
 
     if analysis["values"] is not None:
         check_parameter_values(model, analysis, analysis["parameter"] or model_frequency(model),
@@ -186,7 +186,7 @@ def check(scene, model) -> dict:
         ``param``, ``values``, ``obs`` (observed dof names) and ``dofs``
         (their indices).
     """
-    from contin.analyses import check_output
+    from contin.scene.registry import check_output
 
     a = scene.analysis
     param = a["parameter"] or model.frequency
@@ -217,10 +217,10 @@ def check(scene, model) -> dict:
 @register_analysis("simulate", SIMULATE, validate=validate, check=check)
 def run(ctx) -> dict:
     """Run a ``simulate`` scene; returns its part of ``summary.json``."""
-    from contin.poincare import steady_state
-    from contin.results import CsvStream
-    from contin.runner import RunError
-    from contin.simulation import SimulationError
+    from contin.timedomain.poincare import steady_state
+    from contin.output.results import CsvStream
+    from contin.scene.registry import RunError
+    from contin.timedomain.simulation import SimulationError
 
     scene, model = ctx.scene, ctx.model
     a = scene.analysis
@@ -295,7 +295,7 @@ def _plot(ctx, param, obs, records) -> list:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from contin.poincare import spectrum
+    from contin.timedomain.poincare import spectrum
 
     files = []
     n_plot = ctx.scene.analysis["plot_periods"]

@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from contin.scene import SceneError
+from contin.scene.parse import SceneError
 from contin.stability import StabilityOptions
-from contin.switching import follow as follow_diagram
+from contin.bifurcation.switching import follow as follow_diagram
 
 __all__ = ["stability_setup"]
 

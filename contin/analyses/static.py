@@ -1,7 +1,7 @@
 """``static``: equilibria versus a load parameter (restoring-force curves).
 
 The static residual is the harmonic balance with ``H = 0`` of the model
-without its time-varying excitation (:func:`contin.backbone.autonomous_model`;
+without its time-varying excitation (:func:`contin.bifurcation.backbone.autonomous_model`;
 the constant loads stay):
 
     R(x, lambda) = K x + f_nl(x, 0) - f_const(lambda),     dR/dx = K_t (tangent stiffness),
@@ -28,9 +28,9 @@ import time
 
 import numpy as np
 
-from contin.analyses import register_analysis, shortfalls
-from contin.model import suggest
-from contin.schema import Key, SceneError, flag, is_number, mapping, number, string
+from contin.scene.registry import register_analysis, shortfalls
+from contin.util.naming import suggest
+from contin.scene.schema import Key, SceneError, flag, is_number, mapping, number, string
 
 __all__ = ["STATIC", "check", "result_columns", "run", "static_stability"]
 
@@ -70,7 +70,7 @@ def static_stability(Ju: np.ndarray, M: np.ndarray) -> dict:
 
 def result_columns(model, parameter: str, names_lin) -> dict:
     """``values`` (dofs and linear observables), and the columns of ``branches.csv`` and ``special_points.csv``."""
-    from contin.measures import measure_names
+    from contin.hb.measures import measure_names
 
     obs_cols = list(getattr(model, "observable_names", ())) if getattr(model, "observables", None) else []
     values = list(model.dof_names) + list(names_lin)
@@ -86,7 +86,7 @@ class _StaticRecorder:
     """Streams ``branches.csv`` and ``special_points.csv`` of a static analysis."""
 
     def __init__(self, outdir, model, parameter, names_lin):
-        from contin.results import CsvStream
+        from contin.output.results import CsvStream
 
         self.model = model
         self.parameter = parameter
@@ -103,7 +103,7 @@ class _StaticRecorder:
         self.special_list: list = []
 
     def _values(self, x) -> dict:
-        from contin.measures import point_measures
+        from contin.hb.measures import point_measures
 
         out = {d: float(v) for d, v in zip(self.model.dof_names, x)}
         for name, c in self.lin.items():
@@ -150,7 +150,7 @@ class _StaticRecorder:
 
 def validate(data, model, analysis, lines) -> None:
     """Refuse parameter values that make no physical sense (a negative frequency, mass, ...)."""
-    from contin.scene import check_parameter_values
+    from contin.scene.parse import check_parameter_values
 
     check_parameter_values(model, analysis, analysis["parameter"],
                            [(f"analysis.{k}", analysis[k]) for k in ("range", "start") if analysis[k] is not None],
@@ -167,10 +167,10 @@ def check(scene, model) -> dict:
         time-varying excitation), ``hb`` (its ``H = 0`` problem), ``opts``,
         ``lin`` (linear observables) and ``measure`` (the plotted column).
     """
-    from contin.analyses import check_output
-    from contin.backbone import BackboneError, autonomous_model
-    from contin.continuation import ContinuationOptions
-    from contin.harmonic_balance import HarmonicBalance, HBOptions
+    from contin.scene.registry import check_output
+    from contin.bifurcation.backbone import BackboneError, autonomous_model
+    from contin.engine.continuation import ContinuationOptions
+    from contin.hb.problem import HarmonicBalance, HBOptions
 
     a = scene.analysis
     param = a["parameter"]
@@ -206,9 +206,9 @@ def check(scene, model) -> dict:
 @register_analysis("static", STATIC, validate=validate, check=check)
 def run(ctx) -> dict:
     """Run a ``static`` scene; returns its part of ``summary.json``."""
-    from contin.backbone import BackboneError, dropped_excitations, static_equilibrium
-    from contin.continuation import continuation
-    from contin.runner import RunError
+    from contin.bifurcation.backbone import BackboneError, dropped_excitations, static_equilibrium
+    from contin.engine.continuation import continuation
+    from contin.scene.registry import RunError
 
     scene, model = ctx.scene, ctx.model
     a = scene.analysis
@@ -258,7 +258,7 @@ def run(ctx) -> dict:
 
 
 def _plot(ctx, rec, param, measure):
-    from contin.plotting import bifurcation_diagram
+    from contin.output.plotting import bifurcation_diagram
 
     out = ctx.scene.output
     curves = []

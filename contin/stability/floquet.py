@@ -41,7 +41,7 @@ Hill's method alone the margin can be lowered to about 1e-9 for dissipative
 systems; the RK4 monodromy needs a margin above its drift
 ``~ (w_eff h)^4 T / 120``. The engine's own branch-point test (sign of the
 bordered determinant) is exact and is preferred by
-:func:`contin.switching.follow` when both report the same point.
+:func:`contin.bifurcation.switching.follow` when both report the same point.
 
 Verdicts are those of the harmonic-balance orbit: with too few harmonics the
 HB orbit and its stability can both be wrong. Method BOTH exposes this where
@@ -59,11 +59,11 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from contin.branch import SpecialKind
-from contin.events import OVERSHOOT, Event, FunctionEvent, Location, PointInfo, locate, narrow, predicted_zero
-from contin.model import suggest
+from contin.engine.branch import SpecialKind
+from contin.engine.events import OVERSHOOT, Event, FunctionEvent, Location, PointInfo, locate, narrow, predicted_zero
+from contin.util.naming import is_real, suggest
 from contin.stability.hill import hill_spectrum
-from contin.newton import NUMERICAL_ERRORS
+from contin.engine.newton import NUMERICAL_ERRORS
 from contin.stability.monodromy import monodromy_orbit_ivp, monodromy_reference, monodromy_rk4, switching_events
 from contin.stability.rk4 import RK4StepError
 from contin.stability.saltation import _frequency, _switching_elements
@@ -117,10 +117,6 @@ class StabilityMethod(str, enum.Enum):
 
 _METHOD_ALIASES = {"monodromy": "floquet", "shooting": "floquet", "off": "none"}
 _INTEGRATORS = ("rk4", "dop853")
-
-
-def _is_real(v) -> bool:
-    return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -229,7 +225,7 @@ class StabilityOptions:
             ("agreement", 0.0, 1.0, True),
         ):
             v = getattr(self, name)
-            ok = _is_real(v) and math.isfinite(v) and (v > lo if lo_open else v >= lo) and v <= hi
+            ok = is_real(v) and math.isfinite(v) and (v > lo if lo_open else v >= lo) and v <= hi
             if not ok:
                 bad(name, f"a number in {'(' if lo_open else '['}{lo:g}, {hi:g}]", v)
             object.__setattr__(self, name, float(v))
@@ -681,7 +677,7 @@ def multiplier_distance(a: np.ndarray, b: np.ndarray) -> float:
 
 
 class StabilityMonitor:
-    """Monitor for :func:`contin.continuation.continuation`: stability at each point.
+    """Monitor for :func:`contin.engine.continuation.continuation`: stability at each point.
 
     Called as ``monitor(u, lam, Ju, Jlam)``, it returns (see
     :meth:`FloquetResult.monitor_data`) ``evaluated`` (True), ``stable``,
@@ -755,7 +751,7 @@ class StabilityMonitor:
         key = (np.asarray(u, dtype=float).tobytes(), float(lam))
         if key == self._last_key and self.last is not None:
             return self.last
-        # a condensed problem (contin.condensation): Hill and the monodromy on the full problem and coefficients
+        # a condensed problem (contin.hb.condensation): Hill and the monodromy on the full problem and coefficients
         hb = getattr(self.hb, "full", self.hb)
         uf = self.hb.expand(u, lam) if hb is not self.hb else u
         previous = self._restored_counts if self.last is None else self.last.counts
@@ -1024,7 +1020,7 @@ class MultiplierCrossingEvent(Event):
     (the pairing of the two ends' multipliers that moves them least, then at
     each solved point the multiplier nearest to where it is expected),
     minus ``1 + tolerance``, is the continuous test that the Illinois
-    iteration of :func:`contin.events.narrow` solves, so a point costs a few
+    iteration of :func:`contin.engine.events.narrow` solves, so a point costs a few
     solves instead of the bisection's dozens. :meth:`step_limit` extrapolates
     each multiplier's distance to the circle from the last two points: the
     engine keeps the next step near where the closest one is predicted to
@@ -1245,7 +1241,7 @@ class StabilityChangeEvent(Event):
         return ga != gb
 
     def locate(self, component, point_at, h, a, b, ga, gb, *, tol=1e-10, max_iter=60):
-        """Bisection on ``n_unstable`` (:func:`contin.events.locate`); a point without a verdict ends it."""
+        """Bisection on ``n_unstable`` (:func:`contin.engine.events.locate`); a point without a verdict ends it."""
         def count(info):
             d = _counts_of(info, self.monitor)
             if d is None:

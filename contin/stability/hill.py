@@ -6,7 +6,7 @@ expanded on the harmonics of the base phase ``theta = Omega t``
 
     (Delta0 + s Delta1 + s^2 Delta2) q = 0,          q of shape (m,), m = n(2H+1),
 
-(:meth:`contin.harmonic_balance.HarmonicBalance.hill_matrices`). It is
+(:meth:`contin.hb.problem.HarmonicBalance.hill_matrices`). It is
 linearised to a first-order problem of size ``2m`` (companion form)
 
     [ 0       I      ] [ q ]       [ I   0      ] [ q ]

@@ -43,8 +43,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from contin import aft
-from contin.harmonics import coefficient_blocks
+from contin.hb import aft
+from contin.hb.harmonics import coefficient_blocks
 from contin.stability.monodromy_reference import Monodromy, monodromy_orbit_ivp, monodromy_reference
 from contin.stability.rk4 import (
     RK4StepError,
@@ -173,7 +173,7 @@ def monodromy_rk4(hb, u: np.ndarray, lam: float, steps: int = 512, switches: str
         orbit samples resolve every harmonic).
     switches : {'saltation', 'piecewise', 'ignore'}
         ``'saltation'`` (default): the switches of the force elements'
-        switching functions (:meth:`contin.model.ForceElement.switching_functions`)
+        switching functions (:meth:`contin.model.base.ForceElement.switching_functions`)
         are located on the orbit, the variational equations are integrated
         piecewise between them (each segment in steps of at most ``T/S``,
         about ``S`` in all) and the saltation matrix is applied at each switch.

@@ -8,7 +8,7 @@ between the switches is :func:`contin.stability.monodromy.monodromy_rk4`.
 Non-smooth forces: switches and saltation matrices
 --------------------------------------------------
 A contact law is piecewise: each force element with a switching surface
-reports it through :meth:`contin.model.ForceElement.switching_functions`
+reports it through :meth:`contin.model.base.ForceElement.switching_functions`
 (value ``h``, gradient ``n = (dh/dx, dh/dx')`` and the jump of the force
 across the surface; the gap and radial-gap contacts do, ``h = r - delta`` or,
 with ``clip``, ``min(r - delta, Fn/k)`` so that the end of contact where the
@@ -42,7 +42,7 @@ frozen between them) and applies the same saltation matrices.
 
 Checks (``tests/stability/test_saltation.py``): against central finite
 differences of the flow map of the independent simulator
-(:func:`contin.simulation.simulate`), the reference monodromy of a
+(:func:`contin.timedomain.simulation.simulate`), the reference monodromy of a
 clearance oscillator with contact damping agrees to 1e-8 with saltation and
 is off by 0.5 without, clipped and unclipped; on the rotor with ``c2 = 5``
 (impacts) 9e-9 against 1.6e-5 without (the bearing damping wipes the kick
@@ -65,8 +65,8 @@ import dataclasses
 import numba as nb
 import numpy as np
 
-from contin import aft
-from contin.harmonics import coefficient_blocks
+from contin.hb import aft
+from contin.hb.harmonics import coefficient_blocks
 from contin.stability.rk4 import _force_jacobians
 
 __all__ = ["SwitchEvent", "switching_events", "orbit_state"]
@@ -276,7 +276,7 @@ def switching_events(hb, u: np.ndarray, lam: float, samples: int = 4096, saltati
     """Locate where the HB orbit crosses the switching surfaces of its force elements.
 
     The switching functions ``h(x(t), x'(t))`` of every element that has
-    them (:meth:`contin.model.ForceElement.switching_functions`) are sampled
+    them (:meth:`contin.model.base.ForceElement.switching_functions`) are sampled
     on ``samples`` equidistant points of the period; each sign change is
     refined by Brent's method on the orbit's trigonometric series (evaluated
     exactly at any ``t``) to ``|dt| <= 4 eps T``, and the saltation matrix

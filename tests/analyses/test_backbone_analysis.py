@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from contin.cli import main
+from contin.app.cli import main
 from contin.models.timing_belt import PAPER_MAGNET, galerkin_tensors
-from contin.results import read_csv
+from contin.output.results import read_csv
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENE = ROOT / "scenes" / "belt_backbone.yaml"

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from scipy.special import mathieu_a, mathieu_b
 
-from contin.cli import main
-from contin.results import read_csv
+from contin.app.cli import main
+from contin.output.results import read_csv
 
 ROOT = Path(__file__).resolve().parents[2]
 C, K, B3 = 0.1, 1.0, 0.75
@@ -87,7 +87,7 @@ def test_mathieu_scene_curves_are_the_transition_curves(tmp_path):
 
 @pytest.mark.slow  # the curves against the transition curves: test_mathieu_scene_curves_are_the_transition_curves
 def test_shooting_reference_finds_the_transition_curves_and_the_curves(tmp_path):
-    """Period doublings of the integrated flow (contin.shooting) at eps = 0.2, 0.6: scipy's curves, on the HB curves."""
+    """Period doublings of the integrated flow (contin.timedomain.shooting) at eps = 0.2, 0.6: scipy's curves, on the HB curves."""
     out = run("mathieu_pd_curve.yaml", tmp_path, "analysis.overlay=[]", "analysis.shooting=[0.2, 0.6]",
               "analysis.shooting_points=21", "analysis.shooting_options={steps_per_period: 1024}")
     pts = read_csv(out / "shooting_points.csv")

@@ -10,9 +10,9 @@ import yaml
 from scipy.optimize import brentq, minimize_scalar
 
 from contin.analyses.convergence import recommend
-from contin.cli import main
-from contin.results import read_csv
-from contin.scene import SceneError, parse_scene
+from contin.app.cli import main
+from contin.output.results import read_csv
+from contin.scene.parse import SceneError, parse_scene
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -5,9 +5,9 @@ import math
 import numpy as np
 import pytest
 
-from contin.results import read_csv
-from contin.runner import run_scene
-from contin.scene import SceneError, parse_scene
+from contin.output.results import read_csv
+from contin.app.runner import run_scene
+from contin.scene.parse import SceneError, parse_scene
 
 SEED002 = """
 model:
@@ -80,7 +80,7 @@ def test_absorber_exercise_peak_and_closed_form(tmp_path):
     height = math.sqrt((2 + beta) / beta)
     top = max(q["amplitude"] for q in pk) / (F / k1)
     assert height < top < 1.002 * height  # the true peak, slightly above the fixed points
-    from contin.absorber import design_absorber
+    from contin.modal.absorber import design_absorber
 
     assert top == pytest.approx(design_absorber(m1, k1, m2).true_peak.amplification, rel=1e-10)
 

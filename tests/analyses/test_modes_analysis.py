@@ -7,9 +7,10 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from contin.results import read_csv
-from contin.runner import RunError, run_scene
-from contin.scene import SceneError, parse_scene
+from contin.output.results import read_csv
+from contin.app.runner import run_scene
+from contin.scene.registry import RunError
+from contin.scene.parse import SceneError, parse_scene
 
 SEED002 = """
 model:

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 from scipy.optimize import fsolve
 
-from contin.cli import main
+from contin.app.cli import main
 from contin.models.timing_belt import PAPER_MAGNET, galerkin_tensors, load_shape
-from contin.results import read_csv
-from contin.scene import SceneError, parse_scene
+from contin.output.results import read_csv
+from contin.scene.parse import SceneError, parse_scene
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENE = ROOT / "scenes" / "belt_static.yaml"

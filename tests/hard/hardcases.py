@@ -8,8 +8,8 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from contin.elements import GapForce
-from contin.model import Monomial
+from contin.model.elements import GapForce
+from contin.model.base import Monomial
 from contin.models.polynomial import polynomial_model
 
 

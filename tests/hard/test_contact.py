@@ -26,10 +26,10 @@ import numpy as np
 import pytest
 from hardcases import clearance_orbit, clearance_oscillator, hb_state
 
-from contin.branch import BranchStatus, SpecialKind
-from contin.continuation import connection_report, continuation
-from contin.harmonic_balance import HarmonicBalance, HBOptions
-from contin.measures import point_measures
+from contin.engine.branch import BranchStatus, SpecialKind
+from contin.engine.continuation import connection_report, continuation
+from contin.hb.problem import HarmonicBalance, HBOptions
+from contin.hb.measures import point_measures
 
 pytestmark = pytest.mark.hard
 G = 0.5

@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 from hardcases import duffing_cusp, duffing_folds
 
-from contin.branch import BranchStatus, SpecialKind
-from contin.catalog import build_model
-from contin.continuation import connection_report, continuation
-from contin.harmonic_balance import HarmonicBalance, HBOptions
+from contin.engine.branch import BranchStatus, SpecialKind
+from contin.model.catalog import build_model
+from contin.engine.continuation import connection_report, continuation
+from contin.hb.problem import HarmonicBalance, HBOptions
 
 pytestmark = pytest.mark.hard
 C = 0.1

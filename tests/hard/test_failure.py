@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 import yaml
 
-from contin.branch import BranchStatus
-from contin.catalog import build_model
-from contin.cli import main
-from contin.continuation import ContinuationOptions, continuation
-from contin.harmonic_balance import HarmonicBalance, HBOptions
-from contin.results import read_csv
+from contin.engine.branch import BranchStatus
+from contin.model.catalog import build_model
+from contin.app.cli import main
+from contin.engine.continuation import ContinuationOptions, continuation
+from contin.hb.problem import HarmonicBalance, HBOptions
+from contin.output.results import read_csv
 
 pytestmark = pytest.mark.hard
 

@@ -15,14 +15,14 @@ import yaml
 from scipy.optimize import brentq
 from scipy.special import mathieu_a, mathieu_b
 
-from contin.branch import SpecialKind
-from contin.catalog import build_model
-from contin.cli import main
-from contin.continuation import continuation
-from contin.harmonic_balance import HarmonicBalance, HBOptions
+from contin.engine.branch import SpecialKind
+from contin.model.catalog import build_model
+from contin.app.cli import main
+from contin.engine.continuation import continuation
+from contin.hb.problem import HarmonicBalance, HBOptions
 from contin.stability import StabilityMethod, StabilityOptions, floquet_multipliers
 from contin.stability.floquet import multiplier_distance
-from contin.switching import follow
+from contin.bifurcation.switching import follow
 
 pytestmark = pytest.mark.hard
 HILL = StabilityOptions(method="hill")

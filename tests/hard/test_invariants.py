@@ -1,6 +1,6 @@
 """No silent branch jumping: consecutive stored points are connected.
 
-:func:`contin.continuation.connection_report` recomputes, from the problem
+:func:`contin.engine.continuation.connection_report` recomputes, from the problem
 alone, the tangent at every stored point and the solution on the hyperplane
 through each chord's midpoint; the secant-tangent angle must stay bounded and
 the midpoint solution must lie between the two points. Checked on every
@@ -18,15 +18,15 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from contin.analyses.frequency_response import build_problem, engine_problem
-from contin.branch import BranchBuilder, BranchStatus
-from contin.catalog import build_model
-from contin.checkpoint import read_records, rebuild_branches
-from contin.continuation import connection_report, continuation
-from contin.harmonic_balance import HarmonicBalance, HBOptions
+from contin.engine.branch import BranchBuilder, BranchStatus
+from contin.model.catalog import build_model
+from contin.output.checkpoint import read_records, rebuild_branches
+from contin.engine.continuation import connection_report, continuation
+from contin.hb.problem import HarmonicBalance, HBOptions
 from contin.models.polynomial import polynomial_model
-from contin.runner import build_model as scene_model
-from contin.scene import load_scene
-from contin.switching import doubled_problem
+from contin.scene.build import build_model as scene_model
+from contin.scene.parse import load_scene
+from contin.bifurcation.switching import doubled_problem
 
 pytestmark = pytest.mark.hard
 ROOT = Path(__file__).resolve().parents[2]

@@ -15,11 +15,11 @@ import pytest
 from scipy.optimize import brentq
 from scipy.special import mathieu_a, mathieu_b
 
-from contin.branch import BranchStatus, SpecialKind
-from contin.catalog import build_model
-from contin.continuation import connection_report, continuation
-from contin.harmonic_balance import HarmonicBalance, HBOptions
-from contin.switching import follow
+from contin.engine.branch import BranchStatus, SpecialKind
+from contin.model.catalog import build_model
+from contin.engine.continuation import connection_report, continuation
+from contin.hb.problem import HarmonicBalance, HBOptions
+from contin.bifurcation.switching import follow
 
 pytestmark = pytest.mark.hard
 DELTA, EPS = 1.0, 0.3

@@ -30,12 +30,12 @@ not by kbn.
 import numpy as np
 import pytest
 
-from contin.branch import BranchStatus
-from contin.catalog import build_model
-from contin.continuation import ContinuationOptions, continuation
-from contin.harmonic_balance import HarmonicBalance, HBOptions
-from contin.newton import solve_at_parameter
-from contin.simulation import simulate
+from contin.engine.branch import BranchStatus
+from contin.model.catalog import build_model
+from contin.engine.continuation import ContinuationOptions, continuation
+from contin.hb.problem import HarmonicBalance, HBOptions
+from contin.engine.newton import solve_at_parameter
+from contin.timedomain.simulation import simulate
 from contin.stability import orbit_state
 
 pytestmark = pytest.mark.hard

@@ -15,12 +15,12 @@ import pytest
 import yaml
 from hardcases import duffing_folds
 
-from contin.branch import BranchStatus, SpecialKind
-from contin.cli import main
-from contin.continuation import ContinuationOptions, continuation
-from contin.harmonic_balance import HarmonicBalance, HBOptions
+from contin.engine.branch import BranchStatus, SpecialKind
+from contin.app.cli import main
+from contin.engine.continuation import ContinuationOptions, continuation
+from contin.hb.problem import HarmonicBalance, HBOptions
 from contin.models.polynomial import polynomial_model
-from contin.results import read_csv
+from contin.output.results import read_csv
 
 pytestmark = pytest.mark.hard
 A, B = 1e-6, 1e3

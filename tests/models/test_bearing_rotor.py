@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from contin.catalog import build_model
-from contin.harmonic_balance import HarmonicBalance, HBOptions
+from contin.model.catalog import build_model
+from contin.hb.problem import HarmonicBalance, HBOptions
 from contin.models.bearing_rotor import contact_damping, hertz_cylinder_stiffness, restitution_coefficient
-from contin.poincare import steady_state
-from contin.simulation import compile_model, simulate
+from contin.timedomain.poincare import steady_state
+from contin.timedomain.simulation import compile_model, simulate
 
 NAMES = ("alpha", "ks2", "ip", "beta", "delta", "e", "f0", "kbn", "cbn", "c1", "c2", "w")
 
@@ -274,7 +274,7 @@ def test_rotor_entrainment_and_self_excited_whirl():
 
 def test_whirl_components_of_circular_orbits():
     """x + i y = r e^{+i k theta} is a forward whirl of radius r; r e^{-i k theta} a backward one."""
-    from contin.harmonics import index
+    from contin.hb.harmonics import index
     from contin.models.bearing_rotor import whirl_components
 
     n, H = 4, 4

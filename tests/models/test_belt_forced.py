@@ -3,14 +3,14 @@
 import numpy as np
 import pytest
 
-from contin.catalog import build_model
-from contin.continuation import ContinuationOptions
-from contin.harmonic_balance import HarmonicBalance, HBOptions
+from contin.model.catalog import build_model
+from contin.engine.continuation import ContinuationOptions
+from contin.hb.problem import HarmonicBalance, HBOptions
 from contin.models.timing_belt import observe, shape_values
-from contin.newton import solve_at_parameter
-from contin.simulation import simulate
+from contin.engine.newton import solve_at_parameter
+from contin.timedomain.simulation import simulate
 from contin.stability import StabilityOptions
-from contin.switching import follow
+from contin.bifurcation.switching import follow
 
 C_OBS = shape_values(5, 0.6)
 
@@ -135,7 +135,7 @@ def test_one_half_subharmonic_from_period_doubling_agrees_with_time_integration(
 
 
 def test_subharmonic_start_fails_with_a_reason_where_no_backbone_reaches_w_over_nu():
-    from contin.start import HomotopyFailed
+    from contin.bifurcation.start import HomotopyFailed
 
     # hardening modes never come down to w/3 = 2, below the first natural frequency 2.67
     model = build_model("timing_belt", {"p_d": 2.0}, ["rotor_mass", "stretching", "periodic_load"])

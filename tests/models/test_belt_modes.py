@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from contin.cli import main
-from contin.results import read_csv
+from contin.app.cli import main
+from contin.output.results import read_csv
 
 ROOT = Path(__file__).resolve().parents[2]
 XI1 = 0.4

@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from contin.branch import BranchStatus, SpecialKind
-from contin.catalog import build_model
-from contin.continuation import ContinuationOptions, continuation
-from contin.harmonic_balance import HarmonicBalance, HBOptions
-from contin.harmonics import harmonic_amplitudes
+from contin.engine.branch import BranchStatus, SpecialKind
+from contin.model.catalog import build_model
+from contin.engine.continuation import ContinuationOptions, continuation
+from contin.hb.problem import HarmonicBalance, HBOptions
+from contin.hb.harmonics import harmonic_amplitudes
 
 C, F = 0.1, 0.5
 W_RANGE = (0.5, 3.0)

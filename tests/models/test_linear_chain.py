@@ -6,11 +6,11 @@ import math
 import numpy as np
 import pytest
 
-from contin.catalog import build_model
-from contin.continuation import ContinuationOptions, continuation
-from contin.harmonic_balance import HarmonicBalance, HBOptions
-from contin.modal import chain_matrices, frf
-from contin.newton import solve_at_parameter
+from contin.model.catalog import build_model
+from contin.engine.continuation import ContinuationOptions, continuation
+from contin.hb.problem import HarmonicBalance, HBOptions
+from contin.modal.modes import chain_matrices, frf
+from contin.engine.newton import solve_at_parameter
 from conftest import fd_jacobian
 
 M1, K1, M2 = 100.0, 5e5, 10.0

@@ -9,11 +9,11 @@ the discretisation is not reduced here; the cost is kept down by a short stretch
 import numpy as np
 import pytest
 
-from contin.bifurcation_curves import FlipTestEvent, curve_from_point
-from contin.catalog import build_model
-from contin.continuation import ContinuationOptions, continuation
-from contin.harmonic_balance import HarmonicBalance, HBOptions
-from contin.shooting import period_doubling_scan, periodic_orbit
+from contin.bifurcation.two_parameter import FlipTestEvent, curve_from_point
+from contin.model.catalog import build_model
+from contin.engine.continuation import ContinuationOptions, continuation
+from contin.hb.problem import HarmonicBalance, HBOptions
+from contin.timedomain.shooting import period_doubling_scan, periodic_orbit
 from contin.stability import StabilityMonitor, StabilityOptions, floquet_multipliers, orbit_state, stability_events
 
 OPTIONS = HBOptions(harmonics=40, samples=1024, crossings="none")  # plainly sampled contact: the cheapest form, exact enough in permanent contact
@@ -79,7 +79,7 @@ def _tip_branch(model, f0):
 
 @pytest.mark.slow  # the region's curve from f0 = 0.5 to 0.3 by default
 def test_tip_of_the_region_in_f0_by_the_flow_at_the_harmonic_balances_period_doublings():
-    """Either side of the tongue's tip, the flow's orbit (contin.shooting) at a few speeds only.
+    """Either side of the tongue's tip, the flow's orbit (contin.timedomain.shooting) at a few speeds only.
 
     At f0 = 0.145 the harmonic balance has the pair w1 < w2 (2.18493, 2.18785); the flow's flip test
     det(Phi + I) changes sign between w - 1e-7 and w + 1e-7 at each (measured +-2e-10 there, linear in the
@@ -111,7 +111,7 @@ def test_tip_of_the_region_in_f0_by_shooting_and_by_harmonic_balance():
     """Either side of the tongue's tip (f0 = 0.14045 on the curve of scenes/rotor_entrainment_f0.yaml).
 
     At f0 = 0.145 both methods find the pair of period doublings (w = 2.18493 and 2.18785) to 1e-7
-    of each other; at f0 = 0.135 neither finds one. Shooting (contin.shooting) integrates the
+    of each other; at f0 = 0.135 neither finds one. Shooting (contin.timedomain.shooting) integrates the
     equations of motion; its pair at 0.145 falls between two grid values (det(Phi + I) > 0 at all
     three) and is found from the minimum of det(Phi + I).
     """

@@ -14,7 +14,7 @@ contact crowd the centre and the selection picks the wrong ones (quality
 1e-3 of the monodromy's (algebraic convergence in H), which is what is checked
 there.
 
-HB against simulation: :func:`contin.simulation.simulate` (compiled RK4 with
+HB against simulation: :func:`contin.timedomain.simulation.simulate` (compiled RK4 with
 located contact switches, 32768 steps per period) started at the HB state at
 t = 0, compared with the HB orbit over one period (512 instants). The
 simulation's own error is estimated by halving the step. Measured max
@@ -39,11 +39,11 @@ the bearing velocity, whose contact dynamics at 823 rad/s (harmonic ~400) H =
 import numpy as np
 import pytest
 
-from contin.catalog import build_model
-from contin.continuation import ContinuationOptions
-from contin.harmonic_balance import HarmonicBalance, HBOptions
-from contin.newton import solve_at_parameter
-from contin.simulation import simulate
+from contin.model.catalog import build_model
+from contin.engine.continuation import ContinuationOptions
+from contin.hb.problem import HarmonicBalance, HBOptions
+from contin.engine.newton import solve_at_parameter
+from contin.timedomain.simulation import simulate
 from contin.stability import (
     StabilityOptions,
     floquet_multipliers,
@@ -52,7 +52,7 @@ from contin.stability import (
     multiplier_distance,
     orbit_state,
 )
-from contin.start import simulation_start
+from contin.bifurcation.start import simulation_start
 
 N_DOF = 4
 

@@ -1,7 +1,7 @@
 """Bearing rotor (seed 001): the 1/2-subharmonic branch of the equations of motion, by shooting.
 
 The branch is switched at a period doubling of the integrated flow's harmonic orbit
-(contin.shooting.period_doubling_start) and followed by the continuation engine on the
+(contin.timedomain.shooting.period_doubling_start) and followed by the continuation engine on the
 flow map. The references are independent of it: the converged harmonic balance (H = 80
 harmonics of w/2) where the bearing stays on its casing, the period doublings located
 by a scan of the harmonic orbit, and a time simulation from rest.
@@ -15,20 +15,20 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from contin.catalog import build_model
-from contin.results import read_csv
-from contin.continuation import ContinuationOptions, continuation
-from contin.harmonic_balance import HarmonicBalance, HBOptions
-from contin.shooting import (
+from contin.model.catalog import build_model
+from contin.output.results import read_csv
+from contin.engine.continuation import ContinuationOptions, continuation
+from contin.hb.problem import HarmonicBalance, HBOptions
+from contin.timedomain.shooting import (
     ShootingOptions,
     ShootingProblem,
     ShootingStability,
     period_doubling_scan,
     period_doubling_start,
 )
-from contin.simulation import simulate
+from contin.timedomain.simulation import simulate
 from contin.stability import orbit_state, stability_events
-from contin.start import simulation_start
+from contin.bifurcation.start import simulation_start
 
 ROOT = Path(__file__).resolve().parents[2]
 HARMONIC = ShootingOptions(steps_per_period=4096)

@@ -10,13 +10,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from contin.catalog import build_model
-from contin.checkpoint import read_records
-from contin.harmonic_balance import HarmonicBalance, HBOptions
-from contin.cli import main
+from contin.model.catalog import build_model
+from contin.output.checkpoint import read_records
+from contin.hb.problem import HarmonicBalance, HBOptions
+from contin.app.cli import main
 from contin.models.bearing_rotor import stable_subharmonic_interval
-from contin.poincare import steady_state
-from contin.results import read_csv
+from contin.timedomain.poincare import steady_state
+from contin.output.results import read_csv
 
 ROOT = Path(__file__).resolve().parents[2]
 NARROW = ["--set", "analysis.range=[2.05, 2.3]", "--set", "analysis.start=2.05"]

@@ -7,9 +7,9 @@ import pytest
 from numpy.polynomial.legendre import leggauss
 
 from conftest import fd_jacobian
-from contin.backbone import linear_modes, static_equilibrium
-from contin.catalog import build_model
-from contin.harmonic_balance import HarmonicBalance, HBOptions
+from contin.bifurcation.backbone import linear_modes, static_equilibrium
+from contin.model.catalog import build_model
+from contin.hb.problem import HarmonicBalance, HBOptions
 from contin.models.timing_belt import (PAPER_MAGNET, deflection, galerkin_tensors, load_shape, magnet_coefficients,
                                        modal_form, observe, shape_values, string_mass_frequencies)
 
@@ -258,7 +258,7 @@ def test_modal_equations_reproduce_the_galerkin_equations(rng):
 
 
 def test_compiled_simulation_right_hand_side_matches_the_model(rng):
-    from contin.simulation import compile_model
+    from contin.timedomain.simulation import compile_model
 
     model = belt(ALL, terms=3, zeta=0.01, p_s=2.0)
     cm = compile_model(model)

@@ -8,11 +8,11 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
 import contin.stability.floquet as floquet_module
-from contin.catalog import build_model
-from contin.continuation import ContinuationOptions, continuation
-from contin.elements import GapForce
-from contin.harmonic_balance import HarmonicBalance, HBOptions
-from contin.model import Monomial
+from contin.model.catalog import build_model
+from contin.engine.continuation import ContinuationOptions, continuation
+from contin.model.elements import GapForce
+from contin.hb.problem import HarmonicBalance, HBOptions
+from contin.model.base import Monomial
 from contin.models.polynomial import polynomial_model
 from contin.stability import (
     StabilityChangeEvent,
@@ -224,7 +224,7 @@ def test_unclassified_stability_event_classifies_in_its_data():
 def test_both_trusts_the_monodromy_on_disagreement(monkeypatch):
     hb = HarmonicBalance(build_model("duffing", {"F": F}), "w", HBOptions(harmonics=5))
     w = 0.8
-    from contin.newton import solve_at_parameter
+    from contin.engine.newton import solve_at_parameter
 
     u = solve_at_parameter(hb, hb.linear_solution(w), w).x
     true = floquet_multipliers(hb, u, w, StabilityOptions(method="floquet"))

@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 from conftest import check_mathieu_tongues
 
-from contin.catalog import build_model
-from contin.continuation import ContinuationOptions, continuation
-from contin.elements import GapForce
-from contin.harmonic_balance import HarmonicBalance, HBOptions
-from contin.model import Monomial
+from contin.model.catalog import build_model
+from contin.engine.continuation import ContinuationOptions, continuation
+from contin.model.elements import GapForce
+from contin.hb.problem import HarmonicBalance, HBOptions
+from contin.model.base import Monomial
 from contin.models.polynomial import polynomial_model
 from contin.stability import (
     StabilityOptions,

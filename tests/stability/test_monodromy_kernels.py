@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from contin.elements import GapForce, RadialGapForce
-from contin.harmonic_balance import HarmonicBalance, HBOptions
-from contin.model import Monomial
+from contin.model.elements import GapForce, RadialGapForce
+from contin.hb.problem import HarmonicBalance, HBOptions
+from contin.model.base import Monomial
 from contin.models.polynomial import polynomial_model
 from contin.stability import monodromy_rk4, orbit_state, switching_events
 from contin.stability.monodromy import state_matrices

@@ -1,7 +1,7 @@
 """Saltation matrices at contact switches: the monodromy against finite differences of the simulated flow.
 
 The truth is the flow map of the independent time integrator
-(:func:`contin.simulation.simulate`: compiled fixed-step RK4 with the contact
+(:func:`contin.timedomain.simulation.simulate`: compiled fixed-step RK4 with the contact
 switches located in time), differentiated by central finite differences in
 each of the ``2n`` directions of the initial state:
 
@@ -26,11 +26,11 @@ import pytest
 from conftest import fd_jacobian
 from contin.models.polynomial import polynomial_model
 
-from contin.catalog import build_model
-from contin.elements import GapForce, RadialGapForce
-from contin.harmonic_balance import HarmonicBalance, HBOptions
-from contin.model import Monomial
-from contin.simulation import simulate
+from contin.model.catalog import build_model
+from contin.model.elements import GapForce, RadialGapForce
+from contin.hb.problem import HarmonicBalance, HBOptions
+from contin.model.base import Monomial
+from contin.timedomain.simulation import simulate
 from contin.stability import (
     StabilityMethod,
     StabilityOptions,
@@ -40,7 +40,7 @@ from contin.stability import (
     orbit_state,
 )
 from contin.stability.monodromy import switching_events
-from contin.start import simulation_start
+from contin.bifurcation.start import simulation_start
 
 
 def flow_jacobian(model, w, z0, periods=1, steps=8192, eps=1e-6):
@@ -191,7 +191,7 @@ def test_hill_misses_the_saltation_and_both_reports_the_monodromy(gap_orbit):
     """Hill's matrices from the plain sampled Jacobian cannot hold the jump of the force (a delta at the
     surface): with the clipped law its multipliers are those of the monodromy without saltation, 0.27 off
     the flow map's, whatever its selection quality says. With the crossings resolved between samples
-    (``crossings: interval``, :mod:`contin.crossings`) dR/du holds the jump through the crossing's dependence
+    (``crossings: interval``, :mod:`contin.hb.crossings`) dR/du holds the jump through the crossing's dependence
     on the orbit, and Hill lands on the flow map's multipliers. With the exact arcs (the default) dR/du holds
     it as Leibniz terms at the arc ends, which do not make a Hill matrix of the same kind; its selection
     quality drops. Method 'both' reports the monodromy there and 'hill' flags the point every way."""

@@ -17,12 +17,12 @@ import pytest
 
 import contin.stability.floquet as floquet_module
 import contin.stability.rk4 as rk4_module
-from contin.branch import BranchStatus
-from contin.continuation import ContinuationOptions, continuation
-from contin.elements import GapForce
-from contin.events import PointInfo
-from contin.harmonic_balance import HarmonicBalance, HBOptions
-from contin.model import Monomial
+from contin.engine.branch import BranchStatus
+from contin.engine.continuation import ContinuationOptions, continuation
+from contin.model.elements import GapForce
+from contin.engine.events import PointInfo
+from contin.hb.problem import HarmonicBalance, HBOptions
+from contin.model.base import Monomial
 from contin.models.polynomial import polynomial_model
 from contin.stability import (
     FloquetResult,
@@ -36,7 +36,7 @@ from contin.stability import (
     stability_events,
 )
 from contin.stability.floquet import MultiplierCrossingEvent, StabilityChangeEvent
-from contin.start import simulation_start
+from contin.bifurcation.start import simulation_start
 
 KEYS = set(FloquetResult(np.ones(2, complex), np.zeros(2, complex), True, 0, 0, 0, 0, 1.0, "hill", 1.0).monitor_data())
 

@@ -1,0 +1,2 @@
+"""The application: the command line, the runner of one scene, parameter sweeps, progress.
+"""

@@ -1,0 +1,321 @@
+"""The ``contin`` command: ``run``, ``sweep``, ``check``, ``models``, ``absorber``, ``budget`` and ``plot``.
+
+Exit status: 0 when the run did everything the scene asked, 1 when it fell
+short or failed for numerical reasons (a branch that ended ``start_failed``,
+``newton_failed``, ``step_too_small``, ...; the reasons are printed and
+recorded in ``summary.json``; for ``sweep``: when at least one grid point fell
+short or failed; the sweep still runs every other point and lists them in
+``sweep.csv``), 2 on bad input, 130 when interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import textwrap
+
+__all__ = ["main"]
+
+EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
+
+
+def _parser() -> argparse.ArgumentParser:
+    import contin
+
+    p = argparse.ArgumentParser(prog="contin", description="Continuation of periodic vibrations of nonlinear "
+                                "mechanical systems: branches, stability, folds and bifurcations.")
+    p.add_argument("--version", action="version", version=f"contin {contin.__version__}")
+    sub = p.add_subparsers(dest="command", required=True)
+    r = sub.add_parser("run", help="run a scene and write result files and plots")
+    r.add_argument("scene", help="scene file (YAML)")
+    r.add_argument("-o", "--outdir", default=None, help="output directory (default: results/<scene name>)")
+    r.add_argument("--set", dest="overrides", action="append", default=[], metavar="dotted.key=value",
+                   help="override a scene value; the value is parsed as YAML (repeatable)")
+    r.add_argument("-q", "--quiet", action="store_true", help="no progress display")
+    r.add_argument("--resume", action="store_true",
+                   help="continue an interrupted run in OUTDIR from its last stored point")
+    r.add_argument("--budget", type=float, default=None, metavar="ERR",
+                   help="convergence scenes: recommend the cheapest setting whose errors are all <= ERR "
+                   "(the same as --set analysis.budget=ERR)")
+    sw = sub.add_parser("sweep", help="run a scene at every point of a grid of values, on Dask",
+                        description="Run SCENE once per point of the outer product of the --grid axes, each "
+                        "point in OUTDIR/points/<name>, indexed in OUTDIR/sweep.csv. Points already complete "
+                        "in OUTDIR (same scene) are not run again. Exit status 0 when every point is "
+                        "complete, 1 when some failed or fell short (recorded with their messages; a rerun runs "
+                        "them again), 2 on bad input, "
+                        "130 when interrupted.")
+    sw.add_argument("scene", help="scene file (YAML)")
+    sw.add_argument("--grid", action="append", required=True, metavar="dotted.key=SPEC",
+                    help="a grid axis: a list v1,v2,... or a range start:stop:count (inclusive); "
+                    "several --grid give the outer product")
+    sw.add_argument("-o", "--outdir", default=None, help="sweep directory (default: results/<scene name>-sweep)")
+    sw.add_argument("--set", dest="overrides", action="append", default=[], metavar="dotted.key=value",
+                    help="override a scene value at every point (repeatable)")
+    sw.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                    help="run on an existing Dask cluster (tcp://HOST:PORT of its scheduler) instead of an "
+                    "embedded local cluster")
+    sw.add_argument("--workers", type=int, default=None, metavar="N",
+                    help="worker processes of the embedded local cluster (default: one per core)")
+    sw.add_argument("--serial", action="store_true", help="run the points one after another in this process")
+    sw.add_argument("--retries", type=int, default=2, metavar="N",
+                    help="times a task that raised an unexpected error is run again (default 2)")
+    sw.add_argument("--no-map", dest="map_plot", action="store_false", help="do not draw sweep_map.png")
+    sw.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    c = sub.add_parser("check", help="validate a scene and print what would run")
+    c.add_argument("scene")
+    c.add_argument("--set", dest="overrides", action="append", default=[], metavar="dotted.key=value")
+    sub.add_parser("models", help="list the built-in models with their parameters, defaults and effects")
+    ab = sub.add_parser("absorber", help="Den Hartog's optimal damped vibration absorber for a main system m1, k1",
+                        description="Optimal tuning and damping of a dynamic vibration absorber (fixed-point theory): "
+                        "k2, c with both damping ratios, the fixed points P and Q, the true peak of the optimal "
+                        "response, and the undamped absorber's anti-resonance and resonances. Any consistent units.")
+    ab.add_argument("--m1", type=float, required=True, help="main mass")
+    ab.add_argument("--k1", type=float, required=True, help="main spring stiffness")
+    size = ab.add_mutually_exclusive_group(required=True)
+    size.add_argument("--m2", type=float, help="absorber mass")
+    size.add_argument("--max-amplification", type=float, metavar="A",
+                      help="instead of --m2: the largest allowed |X1|/delta_st (> 1)")
+    ab.add_argument("--sizing", choices=("fixed_points", "peak"), default="fixed_points",
+                    help="with --max-amplification: put the fixed points (seed rule) or the true peak at A")
+    ab.add_argument("--plot", metavar="FILE", default=None, help="save |X1|/delta_st against w (PNG, PDF, SVG)")
+    ab.add_argument("--json", metavar="FILE", default=None, help="also write the design as JSON")
+    bu = sub.add_parser("budget", help="recommend a setting from a finished convergence run",
+                        description="Read OUTDIR/convergence.csv of a convergence run, print the cheapest "
+                        "setting whose errors are all <= ERR (the reference excluded) or say that none is, "
+                        "and redraw OUTDIR/convergence.png with ERR as a line.")
+    bu.add_argument("outdir", help="a result directory of `contin run` on a convergence scene")
+    bu.add_argument("error", type=float, metavar="ERR", help="largest error accepted")
+    pl = sub.add_parser("plot", help="time history, orbit and spectrum of a stored point")
+    pl.add_argument("outdir", help="a result directory of `contin run`")
+    pl.add_argument("--point", type=int, required=True, metavar="ROW", help="row of branches.csv (0-based)")
+    return p
+
+
+def _fail(message: str, code: int = EXIT_BAD_INPUT) -> int:
+    sys.stderr.write("contin: error: " + "\n".join(textwrap.wrap(message, 100)) + "\n")
+    return code
+
+
+def cmd_models() -> int:
+    from contin.model.catalog import MODELS, _load
+
+    _load()
+    for name in sorted(MODELS):
+        spec = MODELS[name]
+        print(f"{name}: {spec.summary}")
+        print("  parameters: " + ", ".join(f"{k}={v:g}" for k, v in spec.parameters.items()))
+        print("  effects (default on: " + ", ".join(spec.default_effects) + "):")
+        for e, d in spec.effects.items():
+            print(f"    {e:18s} {d}")
+        if spec.options:
+            print("  options: " + ", ".join(f"{k}={v!r}" for k, v in spec.options.items()))
+    return EXIT_OK
+
+
+def cmd_check(args) -> int:
+    from contin.scene.registry import check_scene
+    from contin.scene.build import build_model
+    from contin.scene.parse import load_scene
+
+    # the same steps as `contin run` before it writes anything, so that check refuses what run would
+    scene = load_scene(args.scene, args.overrides)
+    model = build_model(scene)
+    plan = check_scene(scene, model)
+    a = scene.analysis
+    print(f"scene: {scene.source}")
+    print(model.describe())
+    print("parameters: " + ", ".join(f"{k}={v:g}" for k, v in model.parameters.items()))
+    print(f"analysis: {a['type']}")
+    if a["type"] == "frequency_response":
+        _, hb, problem, *_ = plan[0]
+        print(f"  parameter {hb.parameter} over {a['range']}, harmonics H={hb.H}, subharmonic nu={hb.nu}, "
+              f"samples N={hb.N}")
+        print(f"  unknowns: {hb.size} = {hb.n} dof x (2H+1)")
+        if problem is not hb:
+            print(f"  {problem.describe()}")
+        print(f"  stability: {a['stability']}; switching at: {', '.join(a['switch']) or 'none'}")
+    elif a["type"] == "modes":
+        what = f"versus {a['parameter']}" if a["parameter"] else "at the model's parameters"
+        print(f"  natural frequencies and modes about the static equilibrium {what}"
+              + ("; damped eigenvalues" if a["damped"] else ""))
+    elif a["type"] == "frf":
+        print(f"  impedance-matrix FRF over {a['range']} ({a['points']} points, {a['spacing']}), force: "
+              + ("the model's excitation" if a["force"] is None else str(a["force"])))
+    elif a["type"] == "bifurcation_curve":
+        from contin.analyses.bifurcation_curve import describe
+
+        print(describe(scene, model, plan))
+    elif a["type"] == "convergence":
+        from contin.analyses.convergence import setting_label
+
+        settings, iref = plan["settings"], plan["iref"]
+        print(f"  the {a['base']['type']} analysis of analysis.base run at {len(settings)} settings of "
+              f"{', '.join(a['vary'])} ({a['combine']}); reference {setting_label(settings[iref], a['labels'])}")
+        print("  settings: " + "; ".join(setting_label(s, a["labels"]) for s in settings))
+        print("  quantities: " + ", ".join(q if isinstance(q, str) else q["type"] for q in a["quantities"]))
+    elif a["type"] == "static":
+        print(f"  equilibria (H = 0) in {a['parameter']} over {a['range']}; unknowns: {model.n_dof} dof")
+    elif a["type"] == "backbone":
+        print(f"  free periodic solutions of mode(s) {a['mode']}, {a['amplitude']} amplitude of "
+              f"{a['dof'] or 'the first observable'} over {a['range']} ({a['spacing']} spacing), harmonics "
+              f"H={a['harmonics']}; unknowns: {model.n_dof * (2 * a['harmonics'] + 1) + 2} = {model.n_dof} dof x "
+              f"(2H+1) + frequency + unfolding parameter")
+    return EXIT_OK
+
+
+def cmd_run(args) -> int:
+    from pathlib import Path
+
+    from contin.app.runner import run_scene
+    from contin.scene.parse import SceneError, load_scene
+
+    overrides = list(args.overrides)
+    if args.budget is not None:
+        import math
+
+        if not (math.isfinite(args.budget) and args.budget > 0):
+            raise SceneError("--budget", "a positive finite number (the largest error accepted)", args.budget)
+        kind = load_scene(args.scene, overrides).analysis["type"]
+        if kind != "convergence":
+            raise SceneError("--budget", "a convergence scene (analysis.type: convergence)", kind)
+        overrides.append(f"analysis.budget={args.budget!r}")
+    scene = load_scene(args.scene, overrides)
+    outdir = Path(args.outdir) if args.outdir else Path("results") / Path(args.scene).stem
+    if outdir.exists() and not outdir.is_dir():
+        raise SceneError("-o", "a directory for the results (new or existing)", str(outdir),
+                         hint=" (a file of that name exists)")
+    summary = run_scene(scene, outdir, progress=not args.quiet, resume=args.resume)
+    a = summary.get("analysis", {})
+    for line in a.get("table", []) if scene.analysis["type"] == "convergence" else []:
+        print(line)
+    for b in a.get("branches", []):
+        print(f"branch {b['branch']} (nu={b['nu']}): {b['points']} points, {b['status']}: {b['message']}")
+    for c in a.get("curves", []):
+        ends = "; ".join(f"{e['side']} {e['status']}" for e in c["ends"])
+        found = ", ".join(f"{n} {k}" for k, n in c["special_points"].items() if n)
+        print(f"curve {c['curve']} ({c['kind']}, nu={c['nu']}): {c['points']} points, {ends}"
+              + (f"; {found}" if found else ""))
+    print(f"results in {outdir} ({summary['timings']['total']:.2f} s)")
+    if summary["status"] == "interrupted":
+        sys.stderr.write(f"contin: interrupted; the same command with --resume (and -o {outdir}) continues "
+                         "from the last stored point\n")
+        return EXIT_INTERRUPTED
+    if summary["status"] == "incomplete":
+        lines = summary.get("shortfalls") or []
+        sys.stderr.write("contin: the run fell short of what the scene asked:\n"
+                         + "".join(f"  {line}\n" for line in lines))
+        return EXIT_FAILED
+    return EXIT_OK
+
+
+def cmd_budget(args) -> int:
+    import json
+    import math
+    from pathlib import Path
+
+    from contin.analyses.convergence import read_records, recommend, replot
+    from contin.scene.parse import SceneError
+
+    if not (math.isfinite(args.error) and args.error > 0):
+        raise SceneError("ERR", "a positive finite number (the largest error accepted)", args.error)
+    out = Path(args.outdir)
+    try:
+        summary = json.loads((out / "summary.json").read_text())
+        a = summary["analysis"]
+        columns, cost = a["columns"], a.get("cost", "wall_time")
+    except (OSError, ValueError, KeyError, TypeError):
+        raise SceneError(str(out), "the result directory of a finished convergence run (summary.json with "
+                         "its analysis)", None) from None
+    rec = recommend(read_records(out / "convergence.csv", columns), columns, args.error, cost)
+    print(rec["message"])
+    if summary.get("scene", {}).get("output", {}).get("plots", True):
+        print(f"plot: {replot(out, args.error)}")
+    return EXIT_OK
+
+
+def cmd_absorber(args) -> int:
+    import math
+
+    from contin.modal.absorber import design_absorber, plot_design
+    from contin.scene.parse import SceneError
+
+    for flag, v in (("--m1", args.m1), ("--k1", args.k1), ("--m2", args.m2),
+                    ("--max-amplification", args.max_amplification)):
+        if v is not None and not (math.isfinite(v) and v > 0):
+            raise SceneError(flag, "a positive finite number", v)
+    if args.max_amplification is not None and args.max_amplification <= 1:
+        raise SceneError("--max-amplification", "a number above 1 (the static response |X1|/delta_st = 1)",
+                         args.max_amplification)
+    if args.m2 is not None and args.sizing != "fixed_points":
+        raise SceneError("--sizing", "to be used with --max-amplification (with --m2 the mass is given)", args.sizing)
+    d = design_absorber(args.m1, args.k1, args.m2, max_amplification=args.max_amplification, sizing=args.sizing)
+    print(d.report())
+    if args.plot:
+        plot_design(d, args.plot)
+        print(f"plot: {args.plot}")
+    if args.json:
+        from contin.output.results import write_json_atomic
+
+        write_json_atomic(args.json, d.as_dict())
+        print(f"json: {args.json}")
+    return EXIT_OK
+
+
+def cmd_sweep(args) -> int:
+    from pathlib import Path
+
+    from contin.app.sweep import SweepOptions, parse_grid, run_sweep
+
+    opts = SweepOptions(scene=args.scene, grid=tuple(parse_grid(g) for g in args.grid),
+                        outdir=args.outdir or str(Path("results") / (Path(args.scene).stem + "-sweep")),
+                        overrides=tuple(args.overrides), scheduler=args.scheduler, workers=args.workers,
+                        serial=args.serial, retries=args.retries, map_plot=args.map_plot, progress=not args.quiet)
+    result = run_sweep(opts)
+    c = result.counts
+    print(f"sweep: {len(result.records)} points, {c.get('complete', 0)} complete ({c.get('reused', 0)} from "
+          f"before), {len(result.failed)} failed or incomplete; index in {Path(opts.outdir) / 'sweep.csv'} "
+          f"({result.seconds:.1f} s)")
+    for r in result.failed:
+        msg = " ".join(str(r.get("message", "")).split())
+        print(f"  {r['status']} {r['point']}: {msg}")
+    return EXIT_FAILED if result.failed else EXIT_OK
+
+
+def main(argv=None) -> int:
+    from contin.scene.registry import RunError
+    from contin.scene.parse import SceneError
+
+    args = _parser().parse_args(argv)
+    from contin.util.blas import limit_blas_threads
+
+    limit_blas_threads()
+    try:
+        if args.command == "models":
+            return cmd_models()
+        if args.command == "check":
+            return cmd_check(args)
+        if args.command == "absorber":
+            return cmd_absorber(args)
+        if args.command == "budget":
+            return cmd_budget(args)
+        if args.command == "plot":
+            from contin.app.pointplot import plot_point
+
+            print(plot_point(args.outdir, args.point))
+            return EXIT_OK
+        if args.command == "sweep":
+            return cmd_sweep(args)
+        return cmd_run(args)
+    except SceneError as exc:
+        return _fail(str(exc))
+    except RunError as exc:
+        return _fail(str(exc), EXIT_FAILED)
+    except KeyboardInterrupt:
+        return _fail("interrupted", EXIT_INTERRUPTED)
+    except OSError as exc:  # a place that cannot be written or read: a message, not a traceback
+        where = f"{exc.filename}: " if exc.filename else ""
+        return _fail(f"{where}{exc.strerror or exc}", EXIT_BAD_INPUT)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,2 @@
+"""Result files and figures: CSV and JSON streams, the resume checkpoint, plots.
+"""

@@ -1,0 +1,2 @@
+"""Scenes: the YAML format, its schema and checks, the analysis registry, and the model a scene describes.
+"""

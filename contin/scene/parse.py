@@ -1,0 +1,520 @@
+"""Scene files: YAML loading, ``--set`` overrides, schema check and defaults.
+
+A scene has three sections, ``model``, ``analysis`` and ``output`` (SPEC 4.2).
+Loading uses PyYAML's safe loader, with YAML 1.2's float syntax (PyYAML
+follows YAML 1.1, where ``1e-6`` without a dot is a string); the schema check then reports every problem
+as a :class:`SceneError` naming the dotted key, the expected form, what was
+found and, where the YAML parser knows it, the line.
+
+Beyond the schema a scene is refused for names that are not in Unicode
+normal form NFKC (:func:`check_names`: Python reads identifiers in that form,
+so look-alikes would merge), for parameter values that make no physical
+sense in a built-in model (:attr:`contin.model.catalog.ModelSpec.constraints`), and
+for values an analysis gives a parameter against the same rules, a negative
+excitation frequency included (:func:`check_parameter_values`). The checks
+that need the built model are each analysis's ``check``
+(:func:`contin.analyses.check_scene`). docs/scenes.md lists them all.
+"""
+
+from __future__ import annotations
+
+import re
+import unicodedata
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from contin.util.naming import suggest
+from contin.scene.schema import (Key, SceneError, anything, check_section, integer, is_int, is_number, listing,
+                           mapping, number, string)
+
+__all__ = ["SceneError", "Scene", "load_scene", "parse_scene", "scene_from_data", "apply_override", "analysis_schemas",
+           "SceneLoader", "START_SIMULATION", "check_names", "check_parameter_values", "model_frequency",
+           "parameter_rule"]
+
+
+class SceneLoader(yaml.SafeLoader):
+    """Safe YAML loader that reads ``1e-6`` as a number, as YAML 1.2 does, and refuses a key given twice
+    in one mapping (PyYAML keeps the last silently; a merge ``<<`` may still be overridden)."""
+
+    def construct_mapping(self, node, deep=False):
+        if isinstance(node, yaml.MappingNode):
+            seen: dict = {}
+            for key_node, _ in node.value:
+                if key_node.tag == "tag:yaml.org,2002:merge":
+                    continue
+                key = self.construct_object(key_node, deep=deep)
+                try:
+                    if key in seen:
+                        raise yaml.constructor.ConstructorError(
+                            "while constructing a mapping", node.start_mark,
+                            f"the key {key!r} is given twice (first on line {seen[key]})", key_node.start_mark)
+                except TypeError:  # an unhashable key: the base class reports it
+                    continue
+                seen[key] = key_node.start_mark.line + 1
+        return super().construct_mapping(node, deep)
+
+
+SceneLoader.yaml_implicit_resolvers = {k: list(v) for k, v in yaml.SafeLoader.yaml_implicit_resolvers.items()}
+SceneLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+    |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
+    |\.[0-9_]+(?:[eE][-+][0-9]+)?
+    |[-+]?\.(?:inf|Inf|INF)
+    |\.(?:nan|NaN|NAN))$""", re.X),
+    list("-+0123456789."),
+)
+
+
+#: values a scene may hold once its YAML aliases are expanded (a scene has a few hundred)
+MAX_VALUES = 100_000
+#: nesting depth a scene may have (a scene has about five levels)
+MAX_DEPTH = 64
+
+
+def _load(text: str, source: str = "<string>"):
+    try:
+        data = yaml.load(text, Loader=SceneLoader)  # noqa: S506  (a SafeLoader subclass)
+    except RecursionError:
+        raise SceneError(source, f"YAML nested at most {MAX_DEPTH} levels deep", "deeper nesting") from None
+    except ValueError as exc:  # Python refuses to convert integers of more than 4300 digits
+        raise SceneError(source, "numbers a scene can hold", "a number too long to read",
+                         hint=f" ({exc})") from None
+    _check_expansion(data, source)
+    return data
+
+
+def _check_expansion(data, source: str) -> None:
+    """Refuse what YAML aliases can build: a structure that contains itself, or one that expands
+    to more values than any scene holds (the "billion laughs" of nested aliases)."""
+    count = 0
+    stack = [(data, 0, ())]
+    while stack:
+        node, depth, path = stack.pop()
+        count += 1
+        if count > MAX_VALUES:
+            raise SceneError(source, f"a scene of at most {MAX_VALUES} values with its YAML aliases expanded",
+                             "more (aliases nested within aliases)")
+        if isinstance(node, (dict, list)):
+            if id(node) in path:
+                raise SceneError(source, "YAML whose aliases do not refer to themselves", "a recursive alias")
+            if depth >= MAX_DEPTH:
+                raise SceneError(source, f"YAML nested at most {MAX_DEPTH} levels deep", "deeper nesting")
+            inner = (*path, id(node))
+            items = list(node.keys()) + list(node.values()) if isinstance(node, dict) else node
+            stack.extend((v, depth + 1, inner) for v in items)
+
+
+# ---------------------------------------------------------------- schema
+CONTINUATION_KEYS = mapping()  # validated by ContinuationOptions.from_dict
+
+#: keys a further start (``analysis.starts``) may change; the others are shared
+START_KEYS = ("start", "start_from", "start_simulation", "subharmonic", "harmonics", "samples", "crossings", "both_ways",
+              "guess", "stability_options", "switch", "continuation")
+
+
+def _start_simulation_ok(v) -> bool:
+    if not isinstance(v, dict) or set(v) - {"transient", "steps_per_period"}:
+        return False
+    t, s = v.get("transient"), v.get("steps_per_period")
+    return (t is None or (is_number(t) and t > 0)) and (s is None or (is_int(s) and 4 <= s <= 2**20))
+
+
+#: ``start_simulation``: how :func:`contin.bifurcation.start.simulation_start` integrates to its start
+START_SIMULATION = Key("a mapping with keys among transient (revolutions, a number > 0) and steps_per_period "
+                       "(an integer from 4 to 2**20)", _start_simulation_ok, {})
+
+FREQUENCY_RESPONSE = {
+    "type": string(required=True),
+    "parameter": string(),
+    "range": Key("a list of two different numbers [start, end]",
+                 lambda v: isinstance(v, list) and len(v) == 2 and all(is_number(x) for x in v) and v[0] != v[1],
+                 required=True),
+    "start": number(),
+    "frequency": string(),
+    "harmonics": Key("an integer from 1 to 2000", lambda v: is_int(v) and 1 <= v <= 2000, 5),
+    "subharmonic": Key("an integer from 1 to 64", lambda v: is_int(v) and 1 <= v <= 64, 1),
+    "samples": Key("an integer from 2*harmonics+1 to 2**20, or null",
+                   lambda v: v is None or (is_int(v) and 3 <= v <= 2**20), None),
+    "crossings": string("exact", ("exact", "interval", "none")),
+    # eliminate the dofs free of nonlinear forces exactly (contin.hb.condensation)
+    "condense": Key("'auto', true or false", lambda v: v == "auto" or isinstance(v, bool), "auto"),
+    "stability": string("both", ("hill", "floquet", "both", "none")),
+    "stability_options": mapping(),
+    "switch": listing([], lambda x: x in ("pd", "bp"), "a list of bifurcation kinds among 'pd', 'bp'"),
+    "max_branches": integer(8, 1),
+    "continuation": CONTINUATION_KEYS,
+    "start_from": string("model", ("model", "linear", "simulation")),
+    "start_simulation": START_SIMULATION,
+    "both_ways": Key("true or false", lambda v: isinstance(v, bool), False),
+    "guess": Key("a list of numbers (the harmonic coefficients) or null",
+                 lambda v: v is None or (isinstance(v, list) and all(is_number(x) for x in v)), None),
+    "starts": listing([], lambda x: isinstance(x, dict),
+                      "a list of mappings, each a further start with keys among " + ", ".join(START_KEYS)),
+}
+
+
+OUTPUT = {
+    "measure": string(),
+    "plots": Key("true or false", lambda v: isinstance(v, bool), True),
+    "harmonic_columns": integer(5, 0),
+    "units": mapping(),
+    "labels": mapping(),
+    "title": string(),
+}
+
+BUILTIN_MODEL = {
+    "builtin": string(required=True),
+    "parameters": mapping(),
+    "effects": Key("a list of effect names", lambda v: v is None or (isinstance(v, list) and all(isinstance(x, str) for x in v)), None),
+    "options": mapping(),
+}
+
+CUSTOM_MODEL = {
+    "name": string("custom"),
+    "dofs": Key("a non-empty list of distinct names", lambda v: isinstance(v, list) and len(v) > 0
+                and all(isinstance(x, str) and x.isidentifier() for x in v) and len(set(v)) == len(v), required=True),
+    "parameters": mapping(),
+    "mass": anything(),
+    "damping": anything(),
+    "stiffness": anything(),
+    "gyroscopic": mapping(None),
+    "forces": listing([]),
+    "excitation": listing([]),
+    "frequency": string("w"),
+}
+
+
+# ---------------------------------------------------------------- names
+#: keys whose values are free text (titles, axis labels, units, a model's name), not names
+FREE_TEXT_KEYS = ("title", "name")
+#: mappings whose keys are names but whose values are free text
+FREE_TEXT_MAPPINGS = ("labels", "units")
+
+
+def _look_alike(text: str) -> str:
+    """The characters of ``text`` that NFKC changes, each with the text it becomes."""
+    parts = [f"{c!r} (U+{ord(c):04X}) reads as {unicodedata.normalize('NFKC', c)!r}"
+             for c in dict.fromkeys(text) if unicodedata.normalize("NFKC", c) != c]
+    return ", ".join(parts) if parts else "its characters combine into others"
+
+
+def check_names(data, lines: dict | None = None, prefix: str = "") -> None:
+    """Refuse a key or name that is not in Unicode normal form NFKC.
+
+    Python's parser reads identifiers in NFKC, so an expression would read
+    ``ﬁ`` (U+FB01) as ``fi`` and a fullwidth ``ｘ`` as ``x``: names that look
+    distinct in a scene would silently be one. Every mapping key and every
+    string value must equal its NFKC form, except free text (``title``,
+    ``name``, and the values under ``labels`` and ``units``).
+
+    Raises
+    ------
+    SceneError
+        Naming the key, the offending characters and the NFKC spelling.
+    """
+    lines = lines or {}
+    stack = [(data, prefix, False)]
+    while stack:
+        node, path, free = stack.pop()
+        if isinstance(node, dict):
+            for k, v in node.items():
+                key = f"{path}.{k}" if path else str(k)
+                if isinstance(k, str):
+                    _normal(k, key, lines)
+                text_only = k in FREE_TEXT_KEYS or path.rsplit(".", 1)[-1] in FREE_TEXT_MAPPINGS
+                stack.append((v, key, text_only))
+        elif isinstance(node, list):
+            stack.extend((v, f"{path}[{i}]", free) for i, v in enumerate(node))
+        elif isinstance(node, str) and not free:
+            _normal(node, path, lines)
+
+
+def _normal(text: str, key: str, lines: dict) -> None:
+    norm = unicodedata.normalize("NFKC", text)
+    if norm != text:
+        raise SceneError(key, "a name in Unicode normal form NFKC (expressions read every name in that form: "
+                         "a look-alike would merge with another name)", text, lines.get(key),
+                         hint=f"; {_look_alike(text)}: write {norm!r}")
+
+
+# ---------------------------------------------------------------- physical values
+def parameter_rule(model: dict, name: str, analysis: dict | None = None):
+    """``(rule, meaning)`` that the values of parameter ``name`` must obey, or None.
+
+    Built-in models give theirs (:attr:`contin.model.catalog.ModelSpec.constraints`);
+    the excitation frequency (``analysis.frequency``, else the model's) is
+    never negative.
+
+    Parameters
+    ----------
+    model : dict
+        The checked ``model`` section.
+    name : str
+    analysis : dict, optional
+        The checked ``analysis`` section (for ``frequency``).
+    """
+    rules, freq = {}, model.get("frequency")
+    if "builtin" in model:
+        from contin.model.catalog import get_spec
+
+        try:
+            spec = get_spec(model["builtin"])
+        except (TypeError, ValueError):
+            return None  # the model's build names it
+        options = model.get("options") if isinstance(model.get("options"), dict) else {}
+        rules, freq = spec.parameter_constraints(options), spec.frequency
+    if analysis is not None and isinstance(analysis.get("frequency"), str):
+        freq = analysis["frequency"]
+    if name in rules:
+        return rules[name]
+    if name == freq:
+        return ("nonnegative", "the excitation frequency")
+    return None
+
+
+def check_parameter_values(model: dict, analysis: dict, name, items, lines: dict | None = None) -> None:
+    """Refuse values of parameter ``name`` that its rule (:func:`parameter_rule`) forbids.
+
+    Parameters
+    ----------
+    model, analysis : dict
+        The checked sections.
+    name : str or None
+        The parameter (None: nothing to check).
+    items : iterable of (str, value)
+        Scene key and its value: a number or a list of numbers (a range).
+    """
+    from contin.model.catalog import rule_violation
+
+    if not isinstance(name, str):
+        return
+    rule = parameter_rule(model, name, analysis)
+    if rule is None:
+        return
+    for key, value in items:
+        for v in value if isinstance(value, list) else [value]:
+            bad = rule_violation(rule, v)
+            if bad:
+                raise SceneError(key, f"values of {name}, each {bad}", value, (lines or {}).get(key))
+
+
+def _check_builtin_parameters(model: dict, lines: dict) -> None:
+    """A built-in model's parameter values against its constraints (before the model is built)."""
+    from contin.model.catalog import get_spec, rule_violation
+
+    try:
+        spec = get_spec(model["builtin"])
+    except (TypeError, ValueError):
+        return  # the model's build names it
+    rules = spec.parameter_constraints(model["options"] if isinstance(model["options"], dict) else {})
+    for k, v in model["parameters"].items():
+        bad = rule_violation(rules[k], v) if k in rules else None
+        if bad:
+            key = f"model.parameters.{k}"
+            raise SceneError(key, bad, v, lines.get(key))
+
+
+def model_frequency(model: dict) -> str | None:
+    """The excitation-frequency parameter of a checked ``model`` section (None for an unknown built-in)."""
+    if "builtin" not in model:
+        return model.get("frequency")
+    from contin.model.catalog import get_spec
+
+    try:
+        return get_spec(model["builtin"]).frequency
+    except (TypeError, ValueError):
+        return None
+
+
+def _check_frequency_response(model: dict, analysis: dict, lines: dict) -> None:
+    """Values of the continued parameter: ``range``, ``start`` and the starts' ``start``."""
+    name = analysis["parameter"] or analysis["frequency"] or model_frequency(model)
+    items = [("analysis.range", analysis["range"]), ("analysis.start", analysis["start"])]
+    items += [(f"analysis.starts[{i}].start", extra.get("start")) for i, extra in enumerate(analysis["starts"])]
+    check_parameter_values(model, analysis, name, [(k, v) for k, v in items if v is not None], lines)
+
+
+@dataclass
+class Scene:
+    """A validated scene with defaults filled in.
+
+    Attributes
+    ----------
+    data : dict
+        The scene (``model``, ``analysis``, ``output``), defaults included.
+    source : str
+        File name or ``"<string>"``.
+    lines : dict
+        Dotted key to YAML line number (1-based), where known.
+    """
+
+    data: dict
+    source: str = "<string>"
+    lines: dict = field(default_factory=dict)
+
+    @property
+    def model(self) -> dict:
+        return self.data["model"]
+
+    @property
+    def analysis(self) -> dict:
+        return self.data["analysis"]
+
+    @property
+    def output(self) -> dict:
+        return self.data["output"]
+
+    def error(self, key: str, expected: str, found: Any = None, hint: str = "") -> SceneError:
+        return SceneError(key, expected, found, self.lines.get(key), hint)
+
+
+def _line_map(text: str) -> dict:
+    """Dotted key -> line number, from the YAML node tree."""
+    lines: dict = {}
+    try:
+        root = yaml.compose(text, Loader=SceneLoader)
+    except (yaml.YAMLError, RecursionError, ValueError):
+        return lines
+
+    def walk(node, prefix):
+        if isinstance(node, yaml.MappingNode):
+            for k, v in node.value:
+                key = f"{prefix}.{k.value}" if prefix else str(k.value)
+                lines[key] = k.start_mark.line + 1
+                walk(v, key)
+        elif isinstance(node, yaml.SequenceNode):
+            for i, v in enumerate(node.value):
+                key = f"{prefix}[{i}]"
+                lines[key] = v.start_mark.line + 1
+                walk(v, key)
+
+    if root is not None:
+        walk(root, "")
+    return lines
+
+
+def apply_override(data: dict, assignment: str) -> None:
+    """Apply ``dotted.key=value`` (value parsed as YAML) to ``data`` in place."""
+    if "=" not in assignment:
+        raise SceneError("--set", "dotted.key=value", assignment)
+    key, _, text = assignment.partition("=")
+    key = key.strip()
+    if not key or any(not part for part in key.split(".")):
+        raise SceneError("--set", "a dotted key such as model.parameters.f0", key)
+    try:
+        value = _load(text, f"--set {key}") if text.strip() else None
+    except yaml.YAMLError as exc:
+        raise SceneError(f"--set {key}", "a YAML value", text, hint=f" ({str(exc).splitlines()[0]})") from None
+    node = data
+    parts = key.split(".")
+    for i, part in enumerate(parts[:-1]):
+        nxt = node.get(part)
+        if nxt is None:
+            nxt = node[part] = {}
+        if not isinstance(nxt, dict):
+            raise SceneError(f"--set {key}", f"'{'.'.join(parts[: i + 1])}' to be a mapping", nxt)
+        node = nxt
+    node[parts[-1]] = value
+
+
+def parse_scene(text: str, source: str = "<string>", overrides=()) -> Scene:
+    """Parse, override and validate a scene given as YAML text.
+
+    Raises
+    ------
+    SceneError
+        On malformed YAML or any schema violation.
+    """
+    try:
+        data = _load(text, source)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        line = mark.line + 1 if mark is not None else None
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise SceneError(source, "valid YAML", None, line, hint=f"; the YAML parser says: {problem}") from None
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise SceneError("(top level)", "a mapping with the sections model, analysis, output", type(data).__name__)
+    for ov in overrides:
+        apply_override(data, ov)
+    return scene_from_data(data, source, _line_map(text))
+
+
+def scene_from_data(data: dict, source: str = "<string>", lines: dict | None = None) -> Scene:
+    """Validate scene data already loaded (a mapping with ``model``, ``analysis``, ``output``).
+
+    Parameters
+    ----------
+    data : dict
+        The scene as loaded from YAML; not modified.
+    source : str
+        File name for messages.
+    lines : dict, optional
+        Dotted key to YAML line number.
+
+    Raises
+    ------
+    SceneError
+        On any schema violation.
+    """
+    lines = lines or {}
+    check_names(data, lines)
+    for k in data:
+        if k not in ("model", "analysis", "output"):
+            raise SceneError(k, "one of the sections model, analysis, output", None, lines.get(k),
+                             hint=f"; unknown key '{k}'{suggest(k, ('model', 'analysis', 'output'))}")
+    for sec in ("model", "analysis"):
+        if not isinstance(data.get(sec), dict):
+            raise SceneError(sec, "a mapping (required section)", data.get(sec), lines.get(sec))
+    model = data["model"]
+    schema = BUILTIN_MODEL if "builtin" in model else CUSTOM_MODEL
+    model = check_section(model, schema, "model", lines)
+    if "builtin" in model:
+        _check_builtin_parameters(model, lines)
+    analysis = data["analysis"]
+    atype = analysis.get("type")
+    schemas = analysis_schemas()
+    if not isinstance(atype, str) or atype not in schemas:
+        raise SceneError("analysis.type", "one of " + ", ".join(repr(a) for a in schemas), atype,
+                         lines.get("analysis.type"), hint=suggest(atype, schemas) if isinstance(atype, str) else "")
+    analysis = check_section(analysis, schemas[atype], "analysis", lines)
+    if atype == "frequency_response":
+        start_schema = {k: FREQUENCY_RESPONSE[k] for k in START_KEYS}
+        for i, extra in enumerate(analysis["starts"]):
+            check_section(extra, start_schema, f"analysis.starts[{i}]", lines)
+        _check_frequency_response(model, analysis, lines)
+    from contin.scene.registry import ANALYSIS_VALIDATORS
+
+    if atype in ANALYSIS_VALIDATORS:
+        ANALYSIS_VALIDATORS[atype](data, model, analysis, lines)
+    output = data.get("output") or {}
+    if not isinstance(output, dict):
+        raise SceneError("output", "a mapping", output, lines.get("output"))
+    output = check_section(output, OUTPUT, "output", lines)
+    return Scene({"model": model, "analysis": analysis, "output": output}, source, lines)
+
+
+def load_scene(path: str | Path, overrides=()) -> Scene:
+    """Read and validate a scene file; see :func:`parse_scene`."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise SceneError(str(path), "a readable scene file", None, hint=f" ({exc.strerror})") from None
+    except UnicodeDecodeError as exc:
+        raise SceneError(str(path), "a scene file in UTF-8", f"byte 0x{exc.object[exc.start]:02x} at offset {exc.start}",
+                         hint=" (save the file as UTF-8)") from None
+    return parse_scene(text, str(path), overrides)
+
+
+def analysis_schemas() -> dict:
+    """``analysis.type`` name -> schema of its section, for every registered analysis."""
+    from contin.scene.registry import ANALYSIS_SCHEMAS, load_all
+
+    load_all()
+    return {"frequency_response": FREQUENCY_RESPONSE, **ANALYSIS_SCHEMAS}

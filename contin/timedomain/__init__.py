@@ -1,0 +1,2 @@
+"""Time integration of a model: the compiled integrator, shooting and Poincare sections.
+"""

@@ -1,0 +1,532 @@
+"""Periodic orbits of the time integrator by shooting: an independent reference for harmonic balance.
+
+Harmonic balance solves a truncated problem. Where the truncation converges
+slowly (orbits that graze or hit a contact converge algebraically in ``H``),
+its bifurcations can lie far from those of the equations of motion, and no
+result of the harmonic-balance code can tell by how much. Shooting finds the
+periodic orbit of the time integrator itself,
+
+    F(z) = phi_T(z) - z = 0,        T = nu 2 pi / w,
+
+with ``phi_T`` the flow map of :func:`contin.timedomain.simulation.simulate` (compiled
+RK4, contact switches located in time: fourth order through them) and
+``z = (x, x')`` the state at ``t = 0`` (shape (2n,)). Newton's matrix is
+``Phi - I`` with the monodromy ``Phi = d phi_T / dz`` taken by central
+differences of the flow map in the ``2n`` directions of the state, the
+construction the tests use as the truth for the saltation matrices
+(``tests/stability/test_saltation.py``). The monodromy at the converged orbit
+comes with it, so the Floquet multipliers are those of the integrated flow,
+saltation included, not of a harmonic-balance orbit. The module shares only
+the model's compiled time-domain kernels with the harmonic-balance code; it
+is a reference (``2n + 1`` simulations of one period per Newton step), not
+the production path.
+
+Period doubling: a real multiplier crosses -1 exactly where the flip test
+
+    d(lambda) = det(Phi + I) = prod_i (mu_i + 1)
+
+changes sign (a complex pair contributes ``|mu + 1|^2 > 0``; Kuznetsov,
+*Elements of Applied Bifurcation Theory*, 3rd ed., 2004, sec. 7.4). It is
+located by Brent's method in the parameter, each evaluation a converged orbit.
+
+Branches: :class:`ShootingProblem` hands ``R(z, lambda) = phi_T(z) - z`` to the
+continuation engine, :class:`ShootingStability` gives it the flow's
+multipliers at every point (so the classified stability events locate folds,
+period doublings, Neimark-Sacker and branch points of the flow), and
+:func:`period_doubling_start` starts the branch of twice the period at a
+period doubling. Where an orbit starts or stops touching a contact (grazing)
+the flow map stays continuous but its derivative jumps, so the branch has a
+corner there, which harmonic balance, whose truncated series ripples about
+the contact, cannot pass.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Mapping
+
+import numpy as np
+from scipy.optimize import brentq, minimize_scalar
+
+from contin.timedomain.simulation import SimulationError, simulate
+from contin.stability.floquet import FloquetResult, StabilityOptions, monodromy_result
+
+__all__ = ["ShootingOptions", "ShootingOrbit", "PeriodDoublingScan", "ShootingProblem", "ShootingStability",
+           "flow_map", "periodic_orbit", "period_doubling_scan", "period_doubling_start"]
+
+
+@dataclasses.dataclass(frozen=True)
+class ShootingOptions:
+    """Options of :func:`periodic_orbit`.
+
+    Attributes
+    ----------
+    steps_per_period : int
+        RK4 steps per forcing period ``2 pi / w`` (the rotor paper: 4096).
+    tol : float
+        Newton ends when ``max |phi_T(z) - z| <= tol * max(1, max |z|)``.
+    max_iter : int
+        Newton iterations at most.
+    fd_step : float
+        Step of the central differences of the flow map, relative to
+        ``max(1, max |z|)``.
+    subharmonic : int
+        ``nu``: the orbit's period is ``nu`` forcing periods.
+    """
+
+    steps_per_period: int = 4096
+    tol: float = 1e-10
+    max_iter: int = 20
+    fd_step: float = 1e-6
+    subharmonic: int = 1
+
+    def __post_init__(self):
+        for name in ("steps_per_period", "max_iter", "subharmonic"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+                raise ValueError(f"ShootingOptions.{name} must be a positive integer, got {v!r}")
+        for name, hi in (("tol", 1e-2), ("fd_step", 1e-2)):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not (0.0 < v <= hi):
+                raise ValueError(f"ShootingOptions.{name} must be a number in (0, {hi:g}], got {v!r}")
+
+    @classmethod
+    def from_dict(cls, d: Mapping) -> "ShootingOptions":
+        """From a mapping; an unknown key raises ``ValueError`` naming it and the valid ones."""
+        names = [f.name for f in dataclasses.fields(cls)]
+        for k in d:
+            if k not in names:
+                raise ValueError(f"unknown option {k!r} of ShootingOptions; valid: {names}")
+        return cls(**dict(d))
+
+
+@dataclasses.dataclass
+class ShootingOrbit:
+    """A periodic orbit of the integrated flow (or the last Newton iterate, with ``converged`` False).
+
+    Attributes
+    ----------
+    params : dict
+        Parameter overrides it was computed with.
+    state : ndarray, shape (2n,)
+        ``(x, x')`` at ``t = 0``.
+    monodromy : ndarray, shape (2n, 2n)
+        ``d phi_T / dz`` at ``state`` (central differences of the flow).
+    multipliers : ndarray of complex, shape (2n,)
+        Eigenvalues of ``monodromy``, by decreasing modulus.
+    residual : float
+        ``max |phi_T(state) - state|``.
+    iterations : int
+    converged : bool
+    message : str
+    """
+
+    params: dict
+    state: np.ndarray
+    monodromy: np.ndarray
+    multipliers: np.ndarray
+    residual: float
+    iterations: int
+    converged: bool
+    message: str
+
+    @property
+    def flip_test(self) -> float:
+        """``det(Phi + I)``: changes sign where a real multiplier crosses -1."""
+        return _flip(self.multipliers)
+
+    @property
+    def stable(self) -> bool:
+        return bool(np.abs(self.multipliers).max() < 1.0)
+
+
+def _flip(mu: np.ndarray) -> float:
+    """``det(Phi + I) = prod (mu_i + 1)`` from the multipliers (module docstring)."""
+    return float(np.real(np.prod(mu + 1.0)))
+
+
+def flow_map(model, params: Mapping[str, float], z: np.ndarray, options: ShootingOptions = ShootingOptions()):
+    """``phi_T(z)``: the state after ``nu`` forcing periods from ``z`` at ``t = 0``, shape (2n,)."""
+    n = model.n_dof
+    z = np.asarray(z, float)
+    S = options.steps_per_period
+    run = simulate(model, dict(params), z[:n], z[n:], periods=options.subharmonic, steps_per_period=S,
+                   record_every=S * options.subharmonic)
+    return run.final_state
+
+
+def _flow_and_jacobian(model, params, z, options):
+    """``phi_T(z)`` and its central-difference Jacobian (``2n + 1`` integrations)."""
+    f0 = flow_map(model, params, z, options)
+    m = z.size
+    h = options.fd_step * max(1.0, float(np.max(np.abs(z))))
+    Phi = np.empty((m, m))
+    for j in range(m):
+        e = np.zeros(m)
+        e[j] = h
+        Phi[:, j] = (flow_map(model, params, z + e, options) - flow_map(model, params, z - e, options)) / (2.0 * h)
+    return f0, Phi
+
+
+def periodic_orbit(model, params: Mapping[str, float], z0, options: ShootingOptions = ShootingOptions()) -> ShootingOrbit:
+    """Newton on ``phi_T(z) - z = 0`` from ``z0`` (module docstring).
+
+    Never raises for a numerical failure: a Newton that does not converge in
+    ``max_iter`` steps, a singular ``Phi - I`` (a multiplier +1) or a flow
+    that blows up returns the last finite iterate with ``converged`` False and
+    the reason in ``message``.
+
+    Parameters
+    ----------
+    model : Model
+    params : dict
+        Parameter overrides by name (the frequency included when it differs
+        from the model's).
+    z0 : array_like, shape (2n,)
+    options : ShootingOptions
+    """
+    params = dict(params)
+    z = np.array(z0, dtype=float)
+    if z.shape != (2 * model.n_dof,):
+        raise ValueError(f"z0 must have shape ({2 * model.n_dof},) = (x, x') of model '{model.name}', got {z.shape}")
+    m = z.size
+    Phi = np.full((m, m), 0.0)
+    res = math.inf
+    message = ""
+    converged = False
+    it = 0
+    for it in range(options.max_iter + 1):
+        try:
+            f, Phi_new = _flow_and_jacobian(model, params, z, options)
+        except SimulationError as exc:
+            message = f"the flow blew up from iterate {it}: {exc}"
+            break
+        if not (np.all(np.isfinite(f)) and np.all(np.isfinite(Phi_new))):
+            message = f"non-finite flow map at iterate {it}"
+            break
+        Phi = Phi_new
+        r = f - z
+        res = float(np.max(np.abs(r)))
+        if res <= options.tol * max(1.0, float(np.max(np.abs(z)))):
+            converged = True
+            message = f"converged in {it} Newton steps, residual {res:.1e}"
+            break
+        if it == options.max_iter:
+            message = f"Newton did not converge in {options.max_iter} steps (residual {res:.1e})"
+            break
+        A = Phi - np.eye(m)
+        if np.linalg.cond(A) > 1e14:
+            message = f"Phi - I is singular at iterate {it} (a multiplier +1: a fold or a branch point)"
+            break
+        dz = np.linalg.solve(A, -r)
+        if not np.all(np.isfinite(dz)):
+            message = f"non-finite Newton step at iterate {it}"
+            break
+        z = z + dz
+    mu = np.linalg.eigvals(Phi)
+    mu = mu[np.argsort(-np.abs(mu))]
+    return ShootingOrbit(params, z, Phi, mu, res, it, converged, message)
+
+
+@dataclasses.dataclass
+class PeriodDoublingScan:
+    """Orbits along a grid of one parameter, and the period doublings located between them.
+
+    Attributes
+    ----------
+    parameter : str
+    values : ndarray, shape (K,)
+        Grid values with a converged orbit (in the order scanned).
+    flip : ndarray, shape (K,)
+        ``det(Phi + I)`` there.
+    orbits : list of ShootingOrbit
+    points : list of ShootingOrbit
+        Located period doublings (``params[parameter]`` is the located value).
+    located : list of bool
+        Whether Brent's method converged for each point (False: the bracket's midpoint, with why in
+        the orbit's message).
+    status : str
+        ``complete`` or ``failed`` (an orbit did not converge; the scan ends there).
+    message : str
+    """
+
+    parameter: str
+    values: np.ndarray
+    flip: np.ndarray
+    orbits: list
+    points: list
+    located: list
+    status: str
+    message: str
+
+
+class _OrbitFailed(ArithmeticError):
+    pass
+
+
+def period_doubling_scan(model, params: Mapping[str, float], parameter: str, values, z0,
+                         options: ShootingOptions = ShootingOptions(), xtol: float = 1e-10,
+                         hidden_pairs: bool = True) -> PeriodDoublingScan:
+    """Follow the orbit over ``values`` of ``parameter`` (natural continuation) and locate its period doublings.
+
+    Each orbit starts from the previous one. Between two grid values where the
+    flip test changes sign, the period doubling is located by Brent's method to
+    ``xtol`` in the parameter. Two period doublings close together (near the
+    tip of a region, where they merge) can fall between two grid values without
+    a sign change: with ``hidden_pairs``, at every interior local minimum of a
+    positive flip test on the grid, its minimum between the neighbours is
+    found (bounded Brent), and if negative the pair is located on both sides
+    of it. A grid value whose orbit does not converge ends the scan with status
+    ``failed`` and keeps what was computed.
+
+    Parameters
+    ----------
+    model : Model
+    params : dict
+        The other parameter overrides.
+    parameter : str
+    values : array_like, shape (K,)
+        Monotonic grid; the grid must be fine enough that no two period
+        doublings fall between neighbours.
+    z0 : array_like, shape (2n,)
+        A state near the orbit at ``values[0]``.
+    """
+    if parameter not in model.parameters:
+        raise ValueError(f"unknown parameter {parameter!r} of model '{model.name}'; valid: {list(model.parameters)}")
+    values = np.asarray(values, float)
+    if values.ndim != 1 or values.size < 2 or not (np.all(np.diff(values) > 0) or np.all(np.diff(values) < 0)):
+        raise ValueError("values must be a monotonic list of at least two parameter values")
+    base = dict(params)
+    z = np.asarray(z0, float)
+    done, flips, orbits, points, located = [], [], [], [], []
+    status, message = "complete", f"{values.size} orbits"
+
+    def orbit_at(v, guess):
+        orb = periodic_orbit(model, {**base, parameter: float(v)}, guess, options)
+        if not orb.converged:
+            raise _OrbitFailed(f"{parameter} = {v:.10g}: {orb.message}")
+        return orb
+
+    def locate(a, b, start):
+        """The sign change of the flip test between ``a`` and ``b`` (orbits from ``start``)."""
+        last = {"orbit": start}
+
+        def test(lam):
+            o = orbit_at(lam, last["orbit"].state)
+            last["orbit"] = o
+            return o.flip_test
+
+        try:
+            lam = brentq(test, a, b, xtol=xtol, rtol=4 * np.finfo(float).eps, maxiter=100)
+            points.append(orbit_at(lam, last["orbit"].state))
+            located.append(True)
+        except (_OrbitFailed, RuntimeError) as exc:
+            mid = last["orbit"]
+            mid.message = f"period doubling between {a:.10g} and {b:.10g} not located: {exc}"
+            points.append(mid)
+            located.append(False)
+
+    for v in values:
+        try:
+            orb = orbit_at(v, z)
+        except _OrbitFailed as exc:
+            status, message = "failed", f"the orbit was lost at {exc}; {len(done)} orbits kept"
+            break
+        if orbits and np.sign(orb.flip_test) != np.sign(orbits[-1].flip_test):
+            locate(done[-1], float(v), orbits[-1])
+        z = orb.state
+        done.append(float(v))
+        flips.append(orb.flip_test)
+        orbits.append(orb)
+    if hidden_pairs:
+        for i in range(1, len(done) - 1):
+            f = flips
+            if not (0 < f[i] <= f[i - 1] and f[i] <= f[i + 1] and f[i + 1] > 0):
+                continue
+            a, b = sorted((done[i - 1], done[i + 1]))
+            near = {"orbit": orbits[i]}
+
+            def flip_at(lam):
+                o = orbit_at(lam, near["orbit"].state)
+                near["orbit"] = o
+                return o.flip_test
+
+            try:
+                res = minimize_scalar(flip_at, bounds=(a, b), method="bounded",
+                                      options={"xatol": xtol * max(1.0, abs(a))})
+            except _OrbitFailed:
+                continue
+            if res.fun < 0:
+                centre = near["orbit"]
+                locate(min(done[i - 1], float(res.x)), max(done[i - 1], float(res.x)), centre)
+                locate(min(float(res.x), done[i + 1]), max(float(res.x), done[i + 1]), centre)
+    order = np.argsort([float(p.params[parameter]) for p in points])
+    points = [points[k] for k in order]
+    located = [located[k] for k in order]
+    return PeriodDoublingScan(parameter, np.array(done), np.array(flips), orbits, points, located, status, message)
+
+
+class ShootingProblem:
+    """``R(z, lam) = phi_T(z; lam) - z`` for the continuation engine (:func:`contin.engine.continuation.continuation`).
+
+    Follows a branch of periodic orbits of the integrated flow through folds
+    with the engine's pseudo-arclength steps, as the independent reference for
+    a harmonic-balance branch (the orbit of a forced system needs no phase
+    condition). Unlike the harmonic-balance problems, its Jacobians are not
+    analytic: ``dR/dz = Phi - I`` with the monodromy by central differences of
+    the flow map (the construction of this module, error about 1e-9 at 4096
+    steps per period for the rotor) and ``dR/dlam`` by a central difference of
+    the flow map in ``lam``; each linearisation costs ``2n + 3`` integrations of
+    the orbit's period.
+
+    Parameters
+    ----------
+    model : Model
+    parameter : str
+        The continuation parameter (the forcing frequency or another).
+    params : dict, optional
+        The other parameter overrides.
+    options : ShootingOptions
+    """
+
+    def __init__(self, model, parameter: str, params: Mapping[str, float] | None = None,
+                 options: ShootingOptions = ShootingOptions()):
+        if parameter not in model.parameters:
+            raise ValueError(f"unknown parameter {parameter!r} of model '{model.name}'; "
+                             f"valid: {list(model.parameters)}")
+        self.model, self.parameter, self.options = model, parameter, options
+        self.base = dict(params or {})
+        self.size = 2 * model.n_dof
+
+    def frequency_at(self, lam: float) -> float:
+        """The forcing frequency at ``lam`` (the parameter itself, or fixed by the overrides)."""
+        params = {**self.base, self.parameter: float(lam)}
+        return float(self.model.parameter_vector(params)[self.model.parameter_index(self.model.frequency)])
+
+    def params_at(self, lam: float) -> dict:
+        """Parameter overrides at ``lam``; a Newton iterate with no positive forcing period fails the evaluation."""
+        w = self.frequency_at(lam)
+        if not w > 0.0:
+            raise ArithmeticError(f"the iterate has {self.model.frequency} = {w:g}: no positive forcing period")
+        return {**self.base, self.parameter: float(lam)}
+
+    def _flow(self, z, lam):
+        try:
+            return flow_map(self.model, self.params_at(lam), z, self.options)
+        except SimulationError as exc:
+            raise ArithmeticError(str(exc)) from None
+
+    def residual(self, z: np.ndarray, lam: float) -> np.ndarray:
+        """``phi_T(z) - z``, shape (2n,)."""
+        return self._flow(np.asarray(z, float), lam) - z
+
+    def linearize(self, z: np.ndarray, lam: float):
+        """Residual (2n,), ``Phi - I`` (2n, 2n) and ``d phi_T / d lam`` (2n,)."""
+        z = np.asarray(z, float)
+        try:
+            f, Phi = _flow_and_jacobian(self.model, self.params_at(lam), z, self.options)
+        except SimulationError as exc:
+            raise ArithmeticError(str(exc)) from None
+        h = self.options.fd_step * max(1.0, abs(float(lam)))
+        dlam = (self._flow(z, lam + h) - self._flow(z, lam - h)) / (2.0 * h)
+        return f - z, Phi - np.eye(z.size), dlam
+
+    def monitor(self, z, lam, Ju, Jlam) -> dict:
+        """Engine monitor: the multipliers of the integrated flow (``Ju + I`` is the monodromy)."""
+        mu = np.linalg.eigvals(Ju + np.eye(Ju.shape[0]))
+        return {"max_multiplier": float(np.abs(mu).max()), "flip_test": _flip(mu)}
+
+
+class ShootingStability:
+    """Stability monitor of a :class:`ShootingProblem` branch: the multipliers of the integrated flow.
+
+    The engine passes ``Ju = Phi - I`` to its monitors, so the monodromy costs
+    nothing more. The returned data are those of
+    :class:`contin.stability.StabilityMonitor` (``stable``, ``n_unstable``,
+    ``n_plus``, ``n_minus``, ``n_complex``, ``max_multiplier``,
+    ``multipliers``, ...) plus ``flip_test``, so the classified events of
+    :func:`contin.stability.stability_events` locate the period doublings
+    (a real multiplier through -1), Neimark-Sacker points (a complex pair
+    through the unit circle) and branch points of the flow on the branch.
+    Pass the same object in ``monitors`` and to ``stability_events``.
+
+    Parameters
+    ----------
+    problem : ShootingProblem
+    options : StabilityOptions, optional
+        Its ``tolerance`` and ``real_angle_tol`` decide the verdict (the
+        method is that of the problem: the flow's monodromy).
+    """
+
+    #: no harmonic-balance problem: located points carry no Hill eigenvector
+    hb = None
+
+    def __init__(self, problem: ShootingProblem, options: StabilityOptions | None = None):
+        self.problem = problem
+        self.options = StabilityOptions(method="floquet") if options is None else options
+
+    def analyze(self, u: np.ndarray, lam: float, Ju: np.ndarray | None = None) -> FloquetResult:
+        """The verdict at ``(u, lam)``, from ``Ju = Phi - I`` when given (else one linearisation)."""
+        if Ju is None:
+            _, Ju, _ = self.problem.linearize(u, lam)
+        period = self.problem.options.subharmonic * 2.0 * math.pi / self.problem.frequency_at(lam)
+        return monodromy_result(np.linalg.eigvals(Ju + np.eye(Ju.shape[0])), period, self.options)
+
+    def __call__(self, u, lam, Ju=None, Jlam=None) -> dict:
+        res = self.analyze(u, lam, Ju)
+        return {**res.monitor_data(), "flip_test": _flip(res.multipliers)}
+
+
+def period_doubling_start(problem: ShootingProblem, z, lam: float, eps: float = 1e-3):
+    """The first point of the branch of period ``2 nu`` born at a period doubling of ``problem``'s branch.
+
+    At a period doubling the monodromy ``Phi`` of the period-``nu`` orbit
+    ``z`` has a multiplier ``-1`` with real eigenvector ``v``; seen with twice
+    the period, the orbit has the double multiplier ``+1`` and the new branch
+    leaves it tangent to ``(v, 0)`` (a pitchfork in the parameter; Kuznetsov
+    2004, sec. 7.4). Pass the returned point and tangent to
+    :func:`contin.engine.continuation.continuation` with ``solve_start=False``: the
+    engine corrects the point on the hyperplane through it normal to the
+    tangent, which cuts the new branch and not the old one.
+
+    Parameters
+    ----------
+    problem : ShootingProblem
+        The problem of the period-``nu`` branch.
+    z : array_like, shape (2n,)
+        The located period-doubling orbit (e.g. a point of
+        :func:`period_doubling_scan` or a located ``pd`` special point).
+    lam : float
+        Its parameter value.
+    eps : float
+        Offset along ``v``, relative to ``max(1, max |z|)``.
+
+    Returns
+    -------
+    doubled : ShootingProblem
+        The problem of period ``2 nu`` (same model, parameter and options).
+    u0 : ndarray, shape (2n,)
+        ``z + eps v``.
+    tangent : ndarray, shape (2n + 1,)
+        ``(v, 0)``.
+
+    Raises
+    ------
+    ValueError
+        If no multiplier of ``Phi`` lies within 1e-3 of ``-1`` (not a period
+        doubling).
+    """
+    z = np.asarray(z, dtype=float)
+    _, Ju, _ = problem.linearize(z, lam)
+    mu, V = np.linalg.eig(Ju + np.eye(z.size))
+    j = int(np.argmin(np.abs(mu + 1.0)))
+    if abs(mu[j] + 1.0) > 1e-3:
+        raise ValueError(f"no multiplier near -1 at {problem.parameter} = {lam:.10g} (closest {complex(mu[j]):.6g}): "
+                         "not a period doubling")
+    v = np.real(V[:, j]) if np.linalg.norm(np.real(V[:, j])) >= np.linalg.norm(np.imag(V[:, j])) else np.imag(V[:, j])
+    v = v / np.linalg.norm(v)
+    opts = dataclasses.replace(problem.options, subharmonic=2 * problem.options.subharmonic)
+    doubled = ShootingProblem(problem.model, problem.parameter, problem.base, opts)
+    u0 = z + eps * max(1.0, float(np.max(np.abs(z)))) * v
+    return doubled, u0, np.r_[v, 0.0]
