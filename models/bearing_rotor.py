@@ -86,8 +86,8 @@ def _build(params: dict, effects: tuple, clip: bool = False) -> Model:
     elif "contact_damping" in effects:
         raise ValueError("model.effects: 'contact_damping' needs 'contact'")
     if "unbalance" in effects:
-        excitations.append(HarmonicExcitation(0, _mono("e*w^2", names), 1.0, 0.0, "unbalance"))
-        excitations.append(HarmonicExcitation(1, _mono("e*w^2", names), 1.0, -math.pi / 2, "unbalance"))
+        excitations.append(HarmonicExcitation(0, _mono("e*w**2", names), 1.0, 0.0, "unbalance"))
+        excitations.append(HarmonicExcitation(1, _mono("e*w**2", names), 1.0, -math.pi / 2, "unbalance"))
     if "static_force" in effects:
         excitations.append(HarmonicExcitation(1, _mono("f0", names), 0.0, 0.0, "static_force"))
     model = Model(
@@ -174,7 +174,7 @@ def _homotopy_start(hb, lam0: float):
     try:
         return homotopy_start(hb, lam0, "kbn", 20.0, guess, harmonics=coarse)
     except HomotopyFailed:
-        if hb.parameter != "w":
+        if not hb.frequency_moves:
             raise
         try:
             return homotopy_start(hb, lam0, "kbn", 20.0, guess, at=2.0, harmonics=coarse)

@@ -10,13 +10,14 @@ closed-form reference.
 
 from __future__ import annotations
 
+from contin.model.base import Model
 from contin.model.catalog import ModelSpec, register_model
 from contin.models.polynomial import polynomial_model
 
 __all__ = ["duffing"]
 
 
-def _build(params: dict, effects: tuple) -> "Model":  # noqa: F821
+def _build(params: dict, effects: tuple) -> Model:
     nonlinear = [{"dof": "x", "coef": "g", "x": {"x": 3}}] if "cubic" in effects else []
     forcing = [{"dof": "x", "amplitude": "F", "order": 1}] if "forcing" in effects else []
     terms = ["m*x'' + k*x (frequency domain)"]

@@ -27,11 +27,11 @@ term ``b_j''``.) How the model evaluates it:
   stiffness (frequency domain, exact);
 - the stretching ``E`` term is ``(alpha pi^4/8) i^2 b_i sum_k k^2 b_k^2``,
   evaluated in ``O(n)`` per time sample
-  (:class:`contin.model.elements.galerkin.StringStretchingForce`), never as an
+  (:class:`contin.model.elements.string_stretching.StringStretchingForce`), never as an
   ``n^4`` contraction;
 - the magnet's orders 2 and 3 act through the single point ``xi1``: with
   ``y = w(xi1) = s . b``, ``f_i = -s_i (gamma2 y^2 + gamma3 y^3)``
-  (:class:`contin.model.elements.galerkin.PointForce`); order 0 is the constant
+  (:class:`contin.model.elements.point_polynomial.PointForce`); order 0 is the constant
   force ``F``, order 1 the stiffness term;
 - the loads are ``p_s G`` (constant) and ``p_d G cos(w tau)``.
 
@@ -326,20 +326,21 @@ def _start(hb, lam0: float):
     backbone reaches ``w/nu`` is added (:func:`contin.bifurcation.backbone.subharmonic_guess`,
     trying modes 1, 2, ... until one converges to a subharmonic solution).
     """
-    from contin.bifurcation.backbone import BackboneError, static_equilibrium, subharmonic_guess
+    from contin.bifurcation.backbone import subharmonic_guess
+    from contin.modal.equilibrium import ModalError, static_equilibrium
     from contin.bifurcation.start import HomotopyFailed
 
     params = dict(zip(hb.model.param_names, hb.params_at(lam0)))
     try:
         x0 = static_equilibrium(hb.model, params)
-    except BackboneError as exc:
+    except ModalError as exc:
         raise HomotopyFailed(str(exc)) from None
-    if hb.nu > 1 and hb.parameter == hb.model.frequency:
+    if hb.nu > 1 and hb.frequency_moves:
         errors = []
         for mode in range(1, min(hb.n, 3) + 1):
             try:
                 return subharmonic_guess(hb, lam0, mode)
-            except BackboneError as exc:
+            except ModalError as exc:
                 errors.append(f"mode {mode}: {exc}")
         raise HomotopyFailed("no subharmonic start: " + "; ".join(errors))
     U = np.zeros((2 * hb.H + 1, hb.n))
@@ -386,7 +387,7 @@ def modal_form(params: dict | None = None, b0: np.ndarray | None = None, effects
         ``E`` (n, n, n, n), ``G`` (n,), ``b0`` (n,), ``shapes(xi)`` callable
         giving ``zeta_bar_i(xi)`` (P, n).
     """
-    from contin.bifurcation.backbone import linear_modes
+    from contin.modal.static_path import linear_modes
 
     p = dict(PARAMETERS)
     p.update(params or {})

@@ -1,11 +1,14 @@
 """``backbone``: free conservative periodic solutions, frequency unknown, versus amplitude.
 
 For each requested linear mode about the static equilibrium, the backbone
-problem of :mod:`contin.bifurcation.backbone` (harmonic balance of the autonomous model,
-a phase condition, an unfolding parameter that vanishes on the solutions,
-and the amplitude of the observed dof as the continuation parameter) is
-followed over ``range`` of that amplitude, starting at the linear natural
-frequency.
+problem of :mod:`contin.bifurcation.backbone` (harmonic balance of the model
+under its static load, the period mean of its excitation
+(:func:`contin.modal.equilibrium.static_model`), a phase condition, an
+unfolding parameter that vanishes on the solutions, and the amplitude of the
+observed dof as the continuation parameter) is followed over ``range`` of
+that amplitude, starting at the linear natural frequency. ``summary.json``
+names the excitations that vary in time (``dropped_excitations``): only
+their mean loads the equilibrium.
 
 Scene keys: ``mode`` (an integer or a list: 1 = lowest), ``dof`` (a dof or
 a linear observable of the model, e.g. the belt's ``w``), ``range`` (of the
@@ -151,8 +154,9 @@ def check(scene, model) -> dict:
         per mode).
     """
     from contin.scene.registry import check_output
-    from contin.bifurcation.backbone import BackboneError, BackboneProblem
+    from contin.bifurcation.backbone import BackboneProblem
     from contin.engine.continuation import ContinuationOptions
+    from contin.modal.equilibrium import ModalError
 
     a = scene.analysis
     modes = a["mode"] if isinstance(a["mode"], list) else [a["mode"]]
@@ -173,7 +177,7 @@ def check(scene, model) -> dict:
     for mode in modes:
         try:
             problems.append(BackboneProblem(model, mode, a["dof"], a["harmonics"], a["samples"], a["amplitude"], log))
-        except BackboneError as exc:
+        except ModalError as exc:  # the backbone's own errors, and its static problem's
             key = "analysis.dof" if "neither a dof" in str(exc) or "does not move" in str(exc) else "analysis.mode" \
                 if "mode must" in str(exc) else "model"
             raise SceneError(key, "a backbone the model can have", None, hint=f": {exc}") from None
@@ -187,8 +191,9 @@ def check(scene, model) -> dict:
 @register_analysis("backbone", BACKBONE, check=check)
 def run(ctx) -> dict:
     """Run a ``backbone`` scene; returns its part of ``summary.json``."""
-    from contin.bifurcation.backbone import BackboneError, dropped_excitations, frequency_extremum_event
+    from contin.bifurcation.backbone import BackboneError, frequency_extremum_event
     from contin.engine.continuation import continuation
+    from contin.modal.equilibrium import time_varying_excitations
     from contin.scene.registry import RunError
 
     scene, model = ctx.scene, ctx.model
@@ -240,7 +245,7 @@ def run(ctx) -> dict:
         "unknowns": problems[0].m + 2,
         "linear_frequencies": [float(w) for w in problems[0].omega_all],
         "static_equilibrium": [float(v) for v in problems[0].x0],
-        "dropped_excitations": dropped_excitations(model),
+        "dropped_excitations": time_varying_excitations(model),
         "branches": info,
         "rows": rec.n_rows,
         "special_points": len(rec.special_list),

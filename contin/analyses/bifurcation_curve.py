@@ -3,7 +3,7 @@
 1. A one-parameter run in ``parameter`` (``p1``) over ``range`` at the scene's
    value of ``second_parameter`` (``p2``) locates folds (the engine's fold
    test) and period doublings (the flip test of
-   :class:`contin.bifurcation.two_parameter.FlipTestEvent`, or the multiplier
+   :class:`contin.bifurcation.curve_system.FlipTestEvent`, or the multiplier
    events of ``stability`` with ``pd_test: stability``).
 2. Each located point of the kinds in ``curves`` is continued in ``(p1, p2)``
    over ``second_range`` (and within ``range``) by
@@ -38,7 +38,9 @@ import numpy as np
 
 from contin.scene.registry import register_analysis, shortfalls
 from contin.analyses.frequency_response import BranchRecorder, _start, build_problem, continuation_options
-from contin.bifurcation.two_parameter import CurveOptions, FlipTestEvent, curve_from_point, special_point_kind
+from contin.bifurcation.curve_system import FlipTestEvent
+from contin.bifurcation.start import integrated_model
+from contin.bifurcation.two_parameter import CurveOptions, curve_from_point, special_point_kind
 from contin.engine.continuation import ContinuationOptions, continuation
 from contin.hb.problem import HarmonicBalance
 from contin.hb.measures import measure_names, point_measures
@@ -203,7 +205,7 @@ def validate(data, model, analysis, lines) -> None:
     from contin.scene.parse import check_parameter_values, model_frequency
 
     a = analysis
-    p1 = a["parameter"] or a["frequency"] or model_frequency(model)
+    p1 = a["parameter"] or model_frequency(model, a)
     check_parameter_values(model, a, p1, [(f"analysis.{k}", a[k]) for k in ("range", "start") if a[k] is not None],
                            lines)
     check_parameter_values(model, a, a["second_parameter"],
@@ -231,7 +233,7 @@ def check(scene, model) -> dict:
     if a["start_from"] == "simulation":  # each one-parameter run may start from a simulation
         for value in [p2_value] + [float(v) for v in a["overlay"]]:
             check_time_step(model, {p1: lam0, p2: value}, a["start_simulation"].get("steps_per_period", 4096),
-                            "analysis.start_simulation.steps_per_period", scene.lines, "analysis.start")
+                            "analysis.start_simulation.steps_per_period", scene.lines, "analysis.start", hb.frequency)
     obs = list(getattr(model, "observable_names", ()) if getattr(model, "observables", None) else ())
     measures = measure_names(model.dof_names, scene.output["harmonic_columns"], hb.H) + obs
     check_output(scene, measures + ["max_multiplier", "n_unstable"], [p1, p2])
@@ -279,7 +281,7 @@ def run(ctx) -> dict:
     def start_at(problem, value: float):
         """A start at ``p2 = value``: the first run's start followed in ``p2``, else the model's own start."""
         if "u" in first:
-            hb2 = HarmonicBalance(model, p2, hb.options, {p1: lam0})
+            hb2 = HarmonicBalance(model, p2, hb.options, {p1: lam0}, hb.frequency)
             step = opts.replace(direction=1 if value > p2_value else -1, detect_branch_points=False)
             br = continuation(hb2, first["u"], p2_value, sorted((p2_value, value)), step, parameter_name=p2,
                               solve_start=False)
@@ -288,7 +290,7 @@ def run(ctx) -> dict:
         return _start(scene, model, problem, lam0)
 
     def one_parameter(index: int, value: float):
-        problem = hb if value == p2_value else HarmonicBalance(model, p1, hb.options, {p2: value})
+        problem = hb if value == p2_value else HarmonicBalance(model, p1, hb.options, {p2: value}, hb.frequency)
         if index == 0 and a["guess"] is not None:
             u0 = np.array(a["guess"], dtype=float)
         elif index == 0:
@@ -426,7 +428,7 @@ def _shooting_reference(ctx, problem0, branch0, curves, p1, p2, p2_value, range1
     values, the end of the region is bracketed by that many bisections in ``p2``.
     """
     a = ctx.scene.analysis
-    model = ctx.model
+    model = integrated_model(problem0)  # integrated at the problem's frequency
     opt = _shooting_options(ctx.scene)
     lam0 = float(branch0.parameter[0])
     z0 = orbit_state(problem0, branch0.unknowns[0], lam0, 0.0)

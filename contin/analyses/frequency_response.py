@@ -31,7 +31,7 @@ from contin.hb.condensation import condensation_dofs, condense
 from contin.hb.measures import measure_names, point_measures
 from contin.output.checkpoint import read_records, rebuild_branches, resumable_prefix
 from contin.output.results import CsvStream, read_csv, truncate_to_valid_rows
-from contin.scene.parse import SceneError
+from contin.scene.parse import SceneError, model_frequency
 
 __all__ = ["run", "BranchRecorder", "build_problem", "engine_problem"]
 
@@ -43,19 +43,22 @@ _END_INFO = ("unknown_scale", "parameter_scale", "lam_range", "min_rcond", "min_
 
 
 def build_problem(scene, model) -> HarmonicBalance:
-    """The harmonic-balance problem of a ``frequency_response`` scene."""
+    """The harmonic-balance problem of a ``frequency_response`` scene.
+
+    Its frequency is the scene's (:func:`contin.scene.parse.model_frequency`),
+    handed to the problem; the model is not changed.
+    """
     a = scene.analysis
-    param = a["parameter"] or a["frequency"] or model.frequency
-    if a["frequency"] and a["frequency"] != model.frequency:
-        if a["frequency"] not in model.parameters:
-            raise scene.error("analysis.frequency", f"a parameter of the model {list(model.parameters)}", a["frequency"])
-        model.frequency = a["frequency"]
+    freq = model_frequency(scene.model, a)
+    if freq not in model.parameters:
+        raise scene.error("analysis.frequency", f"a parameter of the model {list(model.parameters)}", freq)
+    param = a["parameter"] or freq
     if param not in model.parameters:
         raise scene.error("analysis.parameter", f"a parameter of the model {list(model.parameters)}", param)
     try:
         opts = HBOptions(harmonics=a["harmonics"], subharmonic=a["subharmonic"], samples=a["samples"],
                          crossings=a["crossings"])
-        return HarmonicBalance(model, param, opts)
+        return HarmonicBalance(model, param, opts, frequency=freq)
     except ValueError as exc:
         raise SceneError("analysis", "a discretisation the model can use", None, hint=f": {exc}") from None
 
@@ -344,7 +347,7 @@ def check(scene, model) -> list:
 
             default = inspect.signature(simulation_start).parameters["steps_per_period"].default
             check_time_step(model, {hb.parameter: lam0}, a["start_simulation"].get("steps_per_period", default),
-                            f"{key}.start_simulation.steps_per_period", scene.lines, f"{key}.start")
+                            f"{key}.start_simulation.steps_per_period", scene.lines, f"{key}.start", hb.frequency)
         setups.append((sc, hb, problem, lam0, opts, stability_setup(a, problem)))
     hb = setups[0][1]
     check_output(scene, plot_measures(scene, model, hb), list(model.parameters))

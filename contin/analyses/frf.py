@@ -32,6 +32,7 @@ import time
 
 import numpy as np
 
+from contin.scene.parse import model_frequency
 from contin.scene.registry import register_analysis
 from contin.util.naming import suggest
 from contin.scene.schema import Key, SceneError, flag, int_range, is_number, string
@@ -116,12 +117,12 @@ class _Response:
         return frf(*self.matrices(w), w, F)
 
 
-def _own_force(model, kw):
-    """The model's excitation at the forcing frequency, ``F(w) = a_1 - i b_1``, shape (nw, n), and a note."""
+def _own_force(model, wname: str):
+    """The model's excitation at the forcing frequency ``wname``, ``F(w) = a_1 - i b_1``, shape (nw, n)."""
     from contin.hb.problem import HarmonicBalance, HBOptions
 
     try:
-        hb = HarmonicBalance(model, model.frequency, HBOptions(harmonics=1))
+        hb = HarmonicBalance(model, wname, HBOptions(harmonics=1), frequency=wname)
     except ValueError as exc:
         raise SceneError("analysis.force", "a force at the forcing frequency: the model's excitation has other "
                          "harmonics; give analysis.force", None, hint=f" ({exc})") from None
@@ -129,7 +130,7 @@ def _own_force(model, kw):
         raise SceneError("analysis.force", "a dof name, a list of them or a mapping dof: amplitude (the model has "
                          "no excitation)", None)
     n = model.n_dof
-    depends = any(el.depends_on(kw) for el in model.excitations)
+    depends = any(el.depends_on(hb.kw) for el in model.excitations)
 
     def at(w):
         out = np.empty((w.size, n), dtype=complex)
@@ -166,18 +167,16 @@ def check(scene, model) -> dict:
 
     a = scene.analysis
     dofs = list(model.dof_names)
-    if a["frequency"] is not None and a["frequency"] != model.frequency:
-        if a["frequency"] not in model.parameters:
-            raise scene.error("analysis.frequency", f"a parameter of the model {list(model.parameters)}",
-                              a["frequency"], hint=suggest(a["frequency"], model.parameters))
-        model.frequency = a["frequency"]
+    wname = model_frequency(scene.model, a)
+    if wname not in model.parameters:
+        raise scene.error("analysis.frequency", f"a parameter of the model {list(model.parameters)}", wname,
+                          hint=suggest(wname, model.parameters))
     if model.forces:
         raise SceneError("model", "a linear model for analysis.type frf (no nonlinear forces)", None,
                          hint="; found " + "; ".join(el.describe(model.dof_names, model.param_names)
                                                      for el in model.forces)
                               + f" (effects on: {', '.join(model.effects)}). Switch the nonlinear effects off, "
                                 "or use analysis.type frequency_response")
-    wname = model.frequency
     kw = model.parameter_index(wname)
     p0 = model.parameter_vector()
     lo, hi = float(a["range"][0]), float(a["range"][1])
@@ -189,7 +188,7 @@ def check(scene, model) -> dict:
         w = np.linspace(lo, hi, a["points"])
     cases = force_cases(a["force"], dofs)
     if cases is None:
-        cases = [("excitation", _own_force(model, kw))]
+        cases = [("excitation", _own_force(model, wname))]
     check_output(scene, result_columns(wname, dofs)[1:], AXIS_NAMES)
     return {"wname": wname, "kw": kw, "p0": p0, "w": w, "cases": cases}
 

@@ -1,7 +1,7 @@
 """``modes``: natural frequencies and mode shapes about the static equilibrium, optionally versus a parameter.
 
 For any model: the static equilibrium ``K x + f_nl(x, 0) = f_0`` (the period
-mean of the excitation) is found by Newton from zero or ``guess``
+mean of the excitation) is found by Newton from rest or ``guess``
 (:mod:`contin.modal.equilibrium`), then the small motions about it,
 ``M y'' + C_t y' + K_t y = 0`` with the tangent stiffness ``K_t`` and tangent
 damping ``C_t``, are analysed by :mod:`contin.modal.modes` (seed 002, sec. 2-3):
@@ -147,7 +147,8 @@ def check(scene, model) -> dict:
 @register_analysis("modes", MODES, validate=validate, check=check)
 def run(ctx) -> dict:
     """Run a ``modes`` scene; returns its part of ``summary.json``."""
-    from contin.modal.equilibrium import EquilibriumFailed, equilibrium_path
+    from contin.modal.equilibrium import EquilibriumFailed
+    from contin.modal.static_path import equilibrium_path
     from contin.modal.modes import damped_modes, natural_modes, principal_coordinates
     from contin.output.results import CsvStream
     from contin.scene.registry import RunError

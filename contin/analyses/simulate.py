@@ -24,6 +24,7 @@ import time
 
 import numpy as np
 
+from contin.scene.parse import model_frequency
 from contin.scene.registry import register_analysis
 from contin.util.naming import suggest
 from contin.scene.schema import Key, SceneError, int_range, is_number
@@ -116,7 +117,7 @@ def _initial_state(a, model, previous, rng):
 
 
 def check_time_step(model, params: dict, steps_per_period, key: str, lines: dict | None = None,
-                    where: str = "") -> None:
+                    where: str = "", frequency: str | None = None) -> None:
     """What :func:`contin.timedomain.simulation.simulate` refuses before integrating, as a ``SceneError`` naming ``key``.
 
     A positive forcing frequency, a mass matrix it can invert, and a step
@@ -133,6 +134,8 @@ def check_time_step(model, params: dict, steps_per_period, key: str, lines: dict
         The scene key that sets ``steps_per_period`` (named when it is too small).
     where : str
         Where in the scene the parameter values come from (for messages).
+    frequency : str, optional
+        The forcing-frequency parameter (default the model's declared one).
     """
     from contin.timedomain.simulation import RK4_STABILITY, SimulationError, compile_model
 
@@ -143,12 +146,12 @@ def check_time_step(model, params: dict, steps_per_period, key: str, lines: dict
         raise SceneError(where or "analysis.parameter", "values the model can take without being rebuilt", None,
                          lines.get(where), hint=f": {exc}") from None
     p = model.parameter_vector(params)
-    w = float(p[model.parameter_index(model.frequency)])
+    freq = model.frequency if frequency is None else frequency
+    w = float(p[model.parameter_index(freq)])
     at = ", ".join(f"{k} = {v:g}" for k, v in params.items())
     if not (math.isfinite(w) and w > 0):
-        key_w = where if model.frequency in params and where else f"model.parameters.{model.frequency}"
-        raise SceneError(key_w, f"a forcing frequency {model.frequency} > 0 for a time simulation", w,
-                         lines.get(key_w))
+        key_w = where if freq in params and where else f"model.parameters.{freq}"
+        raise SceneError(key_w, f"a forcing frequency {freq} > 0 for a time simulation", w, lines.get(key_w))
     try:
         cm = compile_model(model)
         cm.arguments(p)
@@ -167,10 +170,10 @@ def check_time_step(model, params: dict, steps_per_period, key: str, lines: dict
 
 def validate(data, model, analysis, lines) -> None:
     """Refuse parameter values that make no physical sense (a negative frequency, mass, ...)."""
-    from contin.scene.parse import check_parameter_values, model_frequency
+    from contin.scene.parse import check_parameter_values
 
     if analysis["values"] is not None:
-        check_parameter_values(model, analysis, analysis["parameter"] or model_frequency(model),
+        check_parameter_values(model, analysis, analysis["parameter"] or model_frequency(model, analysis),
                                [("analysis.values", analysis["values"])], lines)
 
 
@@ -189,7 +192,7 @@ def check(scene, model) -> dict:
     from contin.scene.registry import check_output
 
     a = scene.analysis
-    param = a["parameter"] or model.frequency
+    param = a["parameter"] or model_frequency(scene.model, a)
     if param not in model.parameters:
         raise scene.error("analysis.parameter", f"a parameter of the model {list(model.parameters)}", param,
                           hint=suggest(param, model.parameters))

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from contin.scene.parse import SceneError
 from contin.stability import StabilityOptions
-from contin.bifurcation.switching import follow as follow_diagram
+from contin.bifurcation.diagram import follow as follow_diagram
 
 __all__ = ["stability_setup"]
 

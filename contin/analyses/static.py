@@ -1,10 +1,11 @@
 """``static``: equilibria versus a load parameter (restoring-force curves).
 
 The static residual is the harmonic balance with ``H = 0`` of the model
-without its time-varying excitation (:func:`contin.bifurcation.backbone.autonomous_model`;
-the constant loads stay):
+under its static load ``f_0``, the period mean of its excitation (constant
+loads stay, harmonic forcing has mean zero;
+:func:`contin.modal.equilibrium.static_problem`):
 
-    R(x, lambda) = K x + f_nl(x, 0) - f_const(lambda),     dR/dx = K_t (tangent stiffness),
+    R(x, lambda) = K x + f_nl(x, 0) - f_0(lambda),     dR/dx = K_t (tangent stiffness),
 
 followed in ``parameter`` over ``range`` by the continuation engine, which
 locates its folds (limit loads, snap-through) and branch points. Each
@@ -163,14 +164,13 @@ def check(scene, model) -> dict:
     Returns
     -------
     dict
-        ``param``, ``lo``, ``hi``, ``lam0``, ``auto`` (the model without its
-        time-varying excitation), ``hb`` (its ``H = 0`` problem), ``opts``,
-        ``lin`` (linear observables) and ``measure`` (the plotted column).
+        ``param``, ``lo``, ``hi``, ``lam0``, ``auto`` (the model under its
+        static load), ``hb`` (its ``H = 0`` problem), ``opts``, ``lin``
+        (linear observables) and ``measure`` (the plotted column).
     """
     from contin.scene.registry import check_output
-    from contin.bifurcation.backbone import BackboneError, autonomous_model
     from contin.engine.continuation import ContinuationOptions
-    from contin.hb.problem import HarmonicBalance, HBOptions
+    from contin.modal.equilibrium import static_problem
 
     a = scene.analysis
     param = a["parameter"]
@@ -182,10 +182,10 @@ def check(scene, model) -> dict:
     if not lo <= lam0 <= hi:
         raise scene.error("analysis.start", f"a value inside range [{lo:g}, {hi:g}]", lam0)
     try:
-        auto = autonomous_model(model)
-        hb = HarmonicBalance(auto, param, HBOptions(harmonics=0))
-    except (BackboneError, ValueError) as exc:
+        hb = static_problem(model, param)
+    except ValueError as exc:
         raise SceneError("analysis", "a model with a static problem", None, hint=f": {exc}") from None
+    auto = hb.model
     d = dict(a["continuation"])
     d.setdefault("direction", 1 if (lam_b if lam0 != lam_b else lam_a) > lam0 else -1)
     try:
@@ -206,8 +206,8 @@ def check(scene, model) -> dict:
 @register_analysis("static", STATIC, validate=validate, check=check)
 def run(ctx) -> dict:
     """Run a ``static`` scene; returns its part of ``summary.json``."""
-    from contin.bifurcation.backbone import BackboneError, dropped_excitations, static_equilibrium
     from contin.engine.continuation import continuation
+    from contin.modal.equilibrium import solve_equilibrium, time_varying_excitations
     from contin.scene.registry import RunError
 
     scene, model = ctx.scene, ctx.model
@@ -216,10 +216,12 @@ def run(ctx) -> dict:
     param, lo, hi, lam0 = plan["param"], plan["lo"], plan["hi"], plan["lam0"]
     auto, hb, opts, lin, measure = plan["auto"], plan["hb"], plan["opts"], plan["lin"], plan["measure"]
     t0 = time.perf_counter()
-    try:
-        x0 = static_equilibrium(auto, {param: lam0})
-    except BackboneError as exc:
-        raise RunError(f"no equilibrium at {param}={lam0:g}: {exc}") from None
+    res = solve_equilibrium(hb, lam0)
+    if not res.converged:
+        raise RunError(f"no equilibrium at {param}={lam0:g}: no static equilibrium of '{model.name}' found: "
+                       f"{res.message}")
+    x0 = res.x
+
     def monitor(u, lam, Ju, Jlam):
         return static_stability(Ju, auto.linear(hb.params_at(lam))[0])  # M may depend on the parameter
 
@@ -244,7 +246,7 @@ def run(ctx) -> dict:
     return {
         "parameter": param,
         "measure": measure,
-        "dropped_excitations": dropped_excitations(model),
+        "dropped_excitations": time_varying_excitations(model),
         "equilibrium_at_start": {"parameter": lam0, "x": [float(v) for v in x0]},
         "branches": [{"branch": i, "nu": 0, "points": len(b), "status": b.status.value, "message": b.message,
                       "special_points": {k: sum(1 for s in b.special_points if s.kind.value == k)

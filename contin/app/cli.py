@@ -6,6 +6,9 @@ short or failed for numerical reasons (a branch that ended ``start_failed``,
 recorded in ``summary.json``; for ``sweep``: when at least one grid point fell
 short or failed; the sweep still runs every other point and lists them in
 ``sweep.csv``), 2 on bad input, 130 when interrupted.
+
+Each command imports its machinery when it runs, so that ``contin --help`` and
+``contin models`` answer without loading numba and the compiled kernels.
 """
 
 from __future__ import annotations
@@ -146,7 +149,7 @@ def cmd_check(args) -> int:
 
         print(describe(scene, model, plan))
     elif a["type"] == "convergence":
-        from contin.analyses.convergence import setting_label
+        from contin.analyses.convergence_plan import setting_label
 
         settings, iref = plan["settings"], plan["iref"]
         print(f"  the {a['base']['type']} analysis of analysis.base run at {len(settings)} settings of "
@@ -213,7 +216,8 @@ def cmd_budget(args) -> int:
     import math
     from pathlib import Path
 
-    from contin.analyses.convergence import read_records, recommend, replot
+    from contin.analyses.convergence import replot
+    from contin.analyses.convergence_errors import read_records, recommend
     from contin.scene.parse import SceneError
 
     if not (math.isfinite(args.error) and args.error > 0):
@@ -236,7 +240,7 @@ def cmd_budget(args) -> int:
 def cmd_absorber(args) -> int:
     import math
 
-    from contin.modal.absorber import design_absorber, plot_design
+    from contin.modal.absorber_design import design_absorber, plot_design
     from contin.scene.parse import SceneError
 
     for flag, v in (("--m1", args.m1), ("--k1", args.k1), ("--m2", args.m2),
@@ -264,7 +268,8 @@ def cmd_absorber(args) -> int:
 def cmd_sweep(args) -> int:
     from pathlib import Path
 
-    from contin.app.sweep import SweepOptions, parse_grid, run_sweep
+    from contin.app.sweep import SweepOptions, run_sweep
+    from contin.app.sweep_grid import parse_grid
 
     opts = SweepOptions(scene=args.scene, grid=tuple(parse_grid(g) for g in args.grid),
                         outdir=args.outdir or str(Path("results") / (Path(args.scene).stem + "-sweep")),

@@ -73,11 +73,11 @@ def plot_point(outdir: Path, row: int, samples: int = 512) -> Path:
     lam = rec["lam"]
     n = model.n_dof
     p = hb.params_at(lam)
-    w = p[hb.kw]
-    T = 2 * np.pi * nu / w if w != 0 else 2 * np.pi * nu
+    Omega = hb.base_frequency(p)
+    T = hb.period(p) if Omega != 0 else 2 * np.pi * nu  # at rest in time: one period of the phase
     x, xp = aft.synthesize(np.ascontiguousarray(coefficient_blocks(u, n)), samples)
     t = np.linspace(0, T, samples, endpoint=False)
-    xd = xp * (w / nu)
+    xd = Omega * xp
     amps = harmonic_amplitudes(u, n)
     fig, axs = plt.subplots(1, 3, figsize=(12, 3.8), constrained_layout=True)
     for i, d in enumerate(model.dof_names):

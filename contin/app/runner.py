@@ -5,15 +5,12 @@ from __future__ import annotations
 import platform
 import signal
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 import contin
-from contin.model.catalog import get_spec
 from contin.output.checkpoint import CheckpointError, read_records, rebuild_branches, resumable_prefix
-from contin.model.base import Model
 from contin.app.progress import Progress
 from contin.output.results import write_json_atomic
 from contin.scene.parse import Scene, SceneError
@@ -34,7 +31,7 @@ def versions() -> dict:
 def run_scene(scene: Scene, outdir: str | Path, progress: bool = True, resume: bool = False) -> dict:
     """Run a validated scene and write its results into ``outdir``.
 
-    Every check of the scene (:func:`contin.analyses.check_scene`) is made
+    Every check of the scene (:func:`contin.scene.registry.check_scene`) is made
     before anything is written.
 
     Parameters

@@ -8,10 +8,10 @@ continuation parameter.
 
 Equations
 ---------
-The model with every time-varying excitation removed (:func:`autonomous_model`;
-constant loads stay, so the solutions oscillate about the loaded static
-equilibrium) gives the harmonic-balance residual ``R(u, w)`` of period
-``2 pi / w`` (:class:`contin.hb.problem.HarmonicBalance`, ``nu = 1``).
+The model under its static load alone (:func:`contin.modal.equilibrium.static_model`:
+the excitation replaced by its period mean, so the solutions oscillate about
+the loaded static equilibrium) gives the harmonic-balance residual ``R(u, w)``
+of period ``2 pi / w`` (:class:`contin.hb.problem.HarmonicBalance`, ``nu = 1``).
 For a conservative system this residual is degenerate twice over:
 
 - it is invariant under a time shift, so a phase condition is needed; here
@@ -34,7 +34,7 @@ oscillating part, the paper's ``w_rms`` of eq. 21) and ``A = exp(lambda)``
 (log spacing) or ``A = lambda``. All Jacobians are analytic.
 
 The branch starts at a small amplitude from the linear mode about the static
-equilibrium (:func:`static_equilibrium`, :func:`linear_modes`), so its first
+equilibrium (:func:`contin.modal.static_path.linear_modes`), so its first
 frequency is the linear natural frequency.
 """
 
@@ -44,199 +44,24 @@ import dataclasses
 import math
 
 import numpy as np
-import scipy.linalg
 
-from contin.hb import aft
-from contin.hb.measures import extremum_angle
 from contin.engine.continuation import ContinuationOptions, continuation
 from contin.engine.events import FunctionEvent
-from contin.hb.problem import HarmonicBalance, HBOptions
+from contin.engine.newton import newton, solve_at_parameter
+from contin.hb import aft
 from contin.hb.harmonics import coefficient_blocks
+from contin.hb.measures import extremum_angle
+from contin.hb.problem import HarmonicBalance, HBOptions
+from contin.modal.equilibrium import ModalError, static_model
+from contin.modal.static_path import linear_modes
 from contin.model.base import Model
-from contin.engine.newton import newton
 
-__all__ = ["autonomous_model", "static_equilibrium", "tangent_stiffness", "linear_modes", "observation_vector",
-           "BackboneProblem", "BackboneError", "trace_backbone", "frequency_extremum_event", "subharmonic_guess"]
-
-
-class BackboneError(ValueError):
-    """A backbone (or static, or modal) problem that cannot be set up; the message says why."""
+__all__ = ["observation_vector", "BackboneProblem", "BackboneError", "trace_backbone", "frequency_extremum_event",
+           "subharmonic_guess"]
 
 
-def autonomous_model(model: Model) -> Model:
-    """The model without its time-varying excitation (constant loads kept).
-
-    Raises
-    ------
-    BackboneError
-        If a force element varies explicitly in time (a parametric term):
-        such a model has no autonomous part to take.
-    """
-    for el in model.forces:
-        if el.tau_orders():
-            raise BackboneError(f"force '{el.kind}' varies explicitly in time (cos of tau): the model has no "
-                                f"static or free (autonomous) problem")
-    keep = [e for e in model.excitations if e.max_order() == 0.0]
-    if len(keep) == len(model.excitations):
-        return model
-    return dataclasses.replace(model, excitations=keep)
-
-
-def dropped_excitations(model: Model) -> list[str]:
-    """Labels of the time-varying excitations that :func:`autonomous_model` removes."""
-    return sorted({getattr(e, "label", e.kind) for e in model.excitations if e.max_order() != 0.0})
-
-
-def _static_problem(model: Model, params=None, parameter: str | None = None) -> HarmonicBalance:
-    auto = autonomous_model(model)
-    return HarmonicBalance(auto, parameter or auto.frequency, HBOptions(harmonics=0), params)
-
-
-def static_equilibrium(model: Model, params=None, guess=None, *, tol: float = 1e-10, max_iter: int = 60) -> np.ndarray:
-    """Static equilibrium ``K x + f_nl(x, 0) = f_const`` by damped Newton.
-
-    The residual is the harmonic balance with ``H = 0`` of the autonomous
-    model. Steps are halved until ``||R||`` decreases (up to 30 times), so
-    a start far from the equilibrium (the linear solution of a strongly
-    nonlinear problem) still converges; if it does not, a pseudo-transient
-    continuation from rest looks for a stable equilibrium.
-
-    Parameters
-    ----------
-    model : Model
-    params : dict, optional
-        Parameter overrides.
-    guess : ndarray, shape (n,), optional
-        Default: the linear solution ``K^-1 f_const`` (least squares if ``K``
-        is singular).
-    tol : float
-        Tolerance on ``||R||_inf``.
-
-    Returns
-    -------
-    ndarray, shape (n,)
-
-    Raises
-    ------
-    BackboneError
-        If Newton does not converge (with the residual reached).
-    """
-    hb = _static_problem(model, params)
-    lam = float(hb.p0[hb.k])
-    x = hb.linear_solution(lam) if guess is None else np.array(guess, dtype=float)
-    R, J, _ = hb.linearize(x, lam)
-    r = float(np.abs(R).max())
-    for it in range(max_iter):
-        if r <= tol:
-            return x
-        try:
-            dx = np.linalg.solve(J, -R)
-        except np.linalg.LinAlgError:
-            dx = np.linalg.lstsq(J, -R, rcond=None)[0]
-        t = 1.0
-        for _ in range(30):
-            xt = x + t * dx
-            Rt, Jt, _ = hb.linearize(xt, lam)
-            rt = float(np.abs(Rt).max())
-            if np.isfinite(rt) and rt < r:
-                break
-            t *= 0.5
-        else:
-            break
-        x, R, J, r = xt, Rt, Jt, rt
-    if r <= tol:
-        return x
-    if guess is None:
-        x = _pseudo_transient(hb, lam, tol)
-        if x is not None:
-            return x
-    raise BackboneError(f"no static equilibrium of '{model.name}' found: Newton stopped at residual {r:.2e}")
-
-
-def _pseudo_transient(hb: HarmonicBalance, lam: float, tol: float, max_iter: int = 300):
-    """A stable equilibrium by pseudo-transient continuation from rest (``x = 0``).
-
-    Steps ``(M/delta + K_t) dx = -R`` with the pseudo time step ``delta``
-    grown as the residual falls (switched evolution relaxation; Kelley & Keyes,
-    SIAM J. Numer. Anal. 35 (1998) 508-523): at first a heavily damped motion
-    towards a stable equilibrium, at the end Newton. Used when Newton from the
-    linear solution fails (a magnet whose negative stiffness makes the linear
-    solution point the wrong way). None if it does not converge.
-    """
-    M0 = hb.model.linear(hb.params_at(lam))[0]
-    # the pseudo-mass sets the path only: the model's M first, then a plain scaled identity
-    for M in (M0, np.eye(hb.size) * np.trace(M0) / hb.size):
-        x = _ptc_path(hb, lam, tol, max_iter, M)
-        if x is not None:
-            return x
-    return None
-
-
-def _ptc_path(hb, lam, tol, max_iter, M):
-    x = np.zeros(hb.size)
-    R, J, _ = hb.linearize(x, lam)
-    r = float(np.abs(R).max())
-    delta = 1e-2
-    for _ in range(max_iter):
-        if r <= tol:
-            return x
-        try:
-            dx = np.linalg.solve(M / delta + J, -R)
-        except np.linalg.LinAlgError:
-            return None
-        x = x + dx
-        R, J, _ = hb.linearize(x, lam)
-        rn = float(np.abs(R).max())
-        if not np.isfinite(rn):
-            return None
-        delta = delta * min(r / rn, 10.0) if rn > 0 else 1e300
-        r = rn
-    return x if r <= tol else None
-
-
-def tangent_stiffness(model: Model, x0: np.ndarray, params=None) -> np.ndarray:
-    """``dR/dx`` of the static residual at ``x0`` (the tangent stiffness), shape (n, n)."""
-    hb = _static_problem(model, params)
-    _, J, _ = hb.linearize(np.asarray(x0, dtype=float), float(hb.p0[hb.k]))
-    return J
-
-
-def linear_modes(model: Model, params=None, x0=None):
-    """Natural frequencies and mass-normalised mode shapes about the static equilibrium.
-
-    Solves ``K_t phi = omega^2 M phi`` with ``K_t`` the tangent stiffness at
-    ``x0`` (default :func:`static_equilibrium`), by ``scipy.linalg.eigh``.
-
-    Returns
-    -------
-    omega : ndarray, shape (n,)
-        Ascending; negative values stand for ``-sqrt(-omega^2)`` (an unstable
-        equilibrium).
-    phi : ndarray, shape (n, n)
-        Columns ``phi_j`` with ``phi_j^T M phi_j = 1``.
-    x0 : ndarray, shape (n,)
-
-    Raises
-    ------
-    BackboneError
-        If ``K_t`` or ``M`` is not symmetric (not a conservative system) or
-        ``M`` is not positive definite.
-    """
-    if x0 is None:
-        x0 = static_equilibrium(model, params)
-    Kt = tangent_stiffness(model, x0, params)
-    p = model.parameter_vector(params)
-    M, _, _ = model.linear(p)
-    scale = max(float(np.abs(Kt).max()), 1e-300)
-    if np.abs(Kt - Kt.T).max() > 1e-9 * scale or np.abs(M - M.T).max() > 1e-12 * np.abs(M).max():
-        raise BackboneError(f"model '{model.name}': the tangent stiffness or the mass matrix is not symmetric; "
-                            f"linear modes and backbones here are for conservative systems")
-    try:
-        lam, phi = scipy.linalg.eigh(0.5 * (Kt + Kt.T), M)
-    except np.linalg.LinAlgError as exc:
-        raise BackboneError(f"model '{model.name}': the mass matrix is not positive definite ({exc})") from None
-    omega = np.sign(lam) * np.sqrt(np.abs(lam))
-    return omega, phi, np.asarray(x0, dtype=float)
+class BackboneError(ModalError):
+    """A backbone problem that cannot be set up or traced; the message says why."""
 
 
 def observation_vector(model: Model, name: str | None) -> tuple[str, np.ndarray]:
@@ -287,8 +112,8 @@ class BackboneProblem:
     Parameters
     ----------
     model : Model
-        A conservative model (no damping matrix; constant loads allowed,
-        time-varying excitation is removed).
+        A conservative model (no damping matrix); its excitation enters as
+        the static load alone (:func:`contin.modal.equilibrium.static_model`).
     mode : int
         Linear mode about the static equilibrium, 1 = lowest frequency.
     observe : str, optional
@@ -306,10 +131,20 @@ class BackboneProblem:
     params : dict, optional
         Parameter overrides.
 
+    Raises
+    ------
+    BackboneError
+        A bad argument, a damping matrix, a mode without a positive frequency
+        or an observed point that does not move in it.
+    ModalError
+        From the static problem (:mod:`contin.modal.equilibrium`): a force
+        that varies in time, no static equilibrium, or a model that is not
+        conservative.
+
     Attributes
     ----------
     hb : HarmonicBalance
-        The autonomous problem with ``w`` as its parameter.
+        The free (autonomous) problem with its frequency ``w`` as its parameter.
     m : int
         Number of HB coefficients; the unknown ``v`` has ``m + 2`` entries.
     x0 : ndarray, shape (n,)
@@ -326,7 +161,7 @@ class BackboneProblem:
             raise BackboneError(f"amplitude must be 'peak' or 'rms', got {amplitude!r}")
         if isinstance(harmonics, bool) or not isinstance(harmonics, (int, np.integer)) or harmonics < 1:
             raise BackboneError(f"harmonics must be an integer >= 1 for a backbone, got {harmonics!r}")
-        auto = autonomous_model(model)
+        auto = static_model(model)
         p = auto.parameter_vector(params)
         _, C, _ = auto.linear(p)
         if np.any(C != 0.0):
@@ -577,14 +412,14 @@ def subharmonic_guess(hb: HarmonicBalance, lam0: float, mode: int = 1, *, phases
         If the backbone does not reach ``w/nu`` or no guess converges to a
         subharmonic solution.
     """
-    from contin.engine.newton import solve_at_parameter
-
-    if hb.parameter != hb.model.frequency:
+    if not hb.frequency_moves:
         raise BackboneError("a subharmonic guess needs the frequency as the continuation parameter")
     nu, n = hb.nu, hb.n
-    Omega = lam0 / nu
-    params = dict(zip(hb.model.param_names, hb.p0))
-    free = dataclasses.replace(hb.model, damping=dataclasses.replace(hb.model.damping, terms=()))
+    Omega = hb.base_frequency(hb.params_at(lam0))
+    params = hb.parameters()
+    # undamped, with the problem's frequency as the backbone's
+    free = dataclasses.replace(hb.model, damping=dataclasses.replace(hb.model.damping, terms=()),
+                               frequency=hb.frequency)
     prob = BackboneProblem(free, mode, None, harmonics or hb.H, None, "peak", True, params)
     opts = ContinuationOptions(ds=0.002, ds_max=0.01)
     A0 = 1e-4 * max(1.0, float(np.abs(prob.c @ prob.x0)))

@@ -20,8 +20,9 @@ import numpy as np
 from contin.engine.continuation import ContinuationOptions, continuation
 from contin.hb.problem import HarmonicBalance
 from contin.engine.newton import solve_at_parameter
+from contin.model.base import Model
 
-__all__ = ["HomotopyFailed", "homotopy_start", "simulation_start"]
+__all__ = ["HomotopyFailed", "homotopy_start", "simulation_start", "integrated_model"]
 
 
 class HomotopyFailed(RuntimeError):
@@ -81,15 +82,16 @@ def homotopy_start(hb: HarmonicBalance, lam0: float, parameter: str, soft_value:
     at = lam0 if at is None else at
     model = hb.model
     target = float(hb.p0[model.parameter_index(parameter)])
-    params = dict(zip(model.param_names, hb.p0))
+    params = hb.parameters()
     params[hb.parameter] = at
     params[parameter] = soft_value
-    easy = HarmonicBalance(model, parameter, hb.options, params)
+    easy = HarmonicBalance(model, parameter, hb.options, params, hb.frequency)
     guess = np.asarray(guess, float)
     if hb.options.crossings != "none":
         # Newton's path from a rough guess wanders through states with many contact switches; the plain
         # sampled law gets there as reliably, and its solution is within O(1/N) of the resolved one
-        plain = HarmonicBalance(model, parameter, dataclasses.replace(hb.options, crossings="none"), params)
+        plain = HarmonicBalance(model, parameter, dataclasses.replace(hb.options, crossings="none"), params,
+                                hb.frequency)
         first = solve_at_parameter(plain, guess, soft_value, opts)
         if first.converged:
             guess = first.x
@@ -134,13 +136,14 @@ def simulation_start(hb: HarmonicBalance, lam0: float, *, transient: float = 500
     """
     from contin.timedomain.simulation import simulate
 
-    params = dict(zip(hb.model.param_names, hb.p0))
+    params = hb.parameters()
     params[hb.parameter] = lam0
     n, nu, H = hb.n, hb.nu, hb.H
-    run = simulate(hb.model, params, x0, v0, periods=transient, steps_per_period=steps_per_period,
+    model = integrated_model(hb)
+    run = simulate(model, params, x0, v0, periods=transient, steps_per_period=steps_per_period,
                    record_every=steps_per_period)
     xs, vs = run.final_state[:n], run.final_state[n:]
-    last = simulate(hb.model, params, xs, vs, periods=nu, steps_per_period=steps_per_period, record_every=1,
+    last = simulate(model, params, xs, vs, periods=nu, steps_per_period=steps_per_period, record_every=1,
                     mode0=run.final_mode)
     x = last.x[: nu * steps_per_period]
     F = np.fft.rfft(x, axis=0) / len(x)
@@ -156,3 +159,16 @@ def simulation_start(hb: HarmonicBalance, lam0: float, *, transient: float = 500
         raise HomotopyFailed(f"the simulated motion at {hb.parameter}={lam0:g} after {transient:g} revolutions is not "
                              f"close to a solution of order nu={nu} (residual {r0:.2e}); Newton: {res.message}")
     return res.x
+
+
+def integrated_model(hb: HarmonicBalance) -> Model:
+    """The model that the time integrators take for ``hb``: ``hb.model`` with ``hb.frequency`` as its frequency.
+
+    The integrators (:func:`contin.timedomain.simulation.simulate`) read the
+    forcing frequency from the model; where the problem's frequency was
+    chosen apart from the model's declared one, a copy declares it (the
+    model itself is not changed).
+    """
+    if hb.frequency == hb.model.frequency:
+        return hb.model
+    return dataclasses.replace(hb.model, frequency=hb.frequency)

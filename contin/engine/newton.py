@@ -1,9 +1,17 @@
-"""Newton solvers and dense LU factorisations used by the continuation engine.
+"""Newton's method for ``F(x) = 0``, as the continuation engine uses it.
 
 Everything here is generic: a Newton iteration on ``F(x) = 0`` given a
-callable returning ``(F, J)``, and :func:`solve_at_parameter`, the plain
-Newton iteration in ``u`` at a fixed parameter for any object following the
-:class:`contin.engine.continuation.Problem` protocol.
+callable returning ``(F, J)`` (:func:`newton`), and :func:`solve_at_parameter`,
+the plain Newton iteration in ``u`` at a fixed parameter for any object
+following the :class:`contin.engine.problem.Problem` protocol. The dense
+factorisations live in :mod:`contin.engine.linalg` (re-exported here).
+
+:func:`newton` is a short loop over the pieces of one iteration
+(:class:`_Iteration`): the convergence test, the choice between a full
+Newton update and a chord step reusing a factorisation (Jacobian reuse,
+including a factorisation the caller hands in), the update with its
+optional step halving (a backtracking line search), and the residual's
+bookkeeping (best iterate, stall and divergence tests).
 
 Numerical trouble (non-finite values, singular matrices, divergence, and
 ``ArithmeticError`` / ``numpy.linalg.LinAlgError`` raised by the evaluated
@@ -17,9 +25,9 @@ import dataclasses
 import math
 from typing import Callable
 
-import numba as nb
 import numpy as np
-from scipy.linalg.lapack import get_lapack_funcs
+
+from contin.engine.linalg import LUFactor, SingularMatrixError, factorize
 
 __all__ = [
     "NUMERICAL_ERRORS",
@@ -33,181 +41,6 @@ __all__ = [
 
 #: Exceptions treated as a numerical failure of an evaluation (not as a bug).
 NUMERICAL_ERRORS = (ArithmeticError, np.linalg.LinAlgError)
-
-
-_GETRF, _GECON, _GETRS = get_lapack_funcs(("getrf", "gecon", "getrs"), (np.empty((1, 1)),))
-
-
-@nb.njit(cache=True)
-def _equilibrated_copy(a, equilibrate, work, row_scale):
-    """Row-scale ``a`` into the Fortran-ordered ``work`` in one compiled pass.
-
-    Returns ``(status, anorm)``: status 0 on success, -1 for a non-finite
-    entry, ``i + 1`` for a zero row ``i`` (with ``equilibrate``); ``anorm`` is
-    the 1-norm of the scaled matrix. One pass instead of the half dozen numpy
-    sweeps (and their temporaries) that dominate the factorisation of small
-    Jacobians.
-    """
-    n = a.shape[0]
-    finite = True
-    zero_row = -1
-    colsum = np.zeros(n)
-    # one sweep, row by row: the row's maximum, then its scaled copy while it is in cache. Rows are
-    # read contiguously and the Fortran-ordered columns written with a stride, measured faster than
-    # tiling or than numpy's multiply into the same array at orders 85 to 645.
-    for i in range(n):
-        m = 0.0
-        for j in range(n):
-            v = abs(a[i, j])
-            if not v <= 1.7976931348623157e308:  # NaN or inf
-                finite = False
-            elif v > m:
-                m = v
-        s = 1.0
-        if equilibrate:
-            if m == 0.0:
-                if zero_row < 0:
-                    zero_row = i
-            else:
-                s = 1.0 / m
-        row_scale[i] = s
-        for j in range(n):
-            w = a[i, j] * s
-            work[i, j] = w
-            colsum[j] += abs(w)
-    if not finite:
-        return -1, 0.0  # reported before a zero row, as the numpy version did
-    if zero_row >= 0:
-        return zero_row + 1, 0.0
-    anorm = 0.0
-    for j in range(n):
-        if colsum[j] > anorm:
-            anorm = colsum[j]
-    return 0, anorm
-
-
-class SingularMatrixError(np.linalg.LinAlgError):
-    """Raised by :func:`factorize` for a matrix that cannot be factorised."""
-
-
-@dataclasses.dataclass(frozen=True, eq=False)
-class LUFactor:
-    """LU factorisation of a row-equilibrated square matrix.
-
-    The factorised matrix is ``diag(row_scale) @ A`` (positive row scaling
-    changes neither the solution of ``A x = b`` nor the sign of ``det A``, but
-    makes the condition estimate meaningful for rows of different units).
-
-    Attributes
-    ----------
-    lu, piv : ndarray, shapes (n, n) and (n,)
-        LAPACK ``getrf`` output (the same as :func:`scipy.linalg.lu_factor`).
-    row_scale : ndarray, shape (n,)
-        Positive row scaling applied before factorising.
-    anorm : float
-        1-norm of ``diag(row_scale) @ A`` (for the condition estimate).
-    rcond : float
-        LAPACK ``gecon`` estimate of the reciprocal 1-norm condition number of
-        ``diag(row_scale) @ A``, computed on first access: a Newton
-        iteration reads it only for the last factorisation, and each estimate
-        costs several triangular solves.
-    """
-
-    lu: np.ndarray
-    piv: np.ndarray
-    row_scale: np.ndarray
-    anorm: float = float("nan")
-    _rcond: float | None = dataclasses.field(default=None, repr=False)
-
-    @property
-    def rcond(self) -> float:
-        if self._rcond is None:
-            if self.lu.shape[0] == 0:
-                value = float("inf")
-            else:
-                value, _ = _GECON(self.lu, self.anorm, norm="1")
-            object.__setattr__(self, "_rcond", float(value))  # a cache on a frozen record
-        return self._rcond
-
-    @property
-    def n(self) -> int:
-        """Order of the matrix."""
-        return self.lu.shape[0]
-
-    def solve(self, b: np.ndarray) -> np.ndarray:
-        """Solve ``A x = b``; ``b`` has shape (n,) or (n, k)."""
-        b = np.asarray(b, dtype=float)
-        if b.shape[:1] != (self.lu.shape[0],) or b.ndim > 2:
-            raise ValueError(f"LUFactor.solve: right-hand side of shape {b.shape} for a matrix of order {self.n}")
-        rb = self.row_scale * b if b.ndim == 1 else self.row_scale[:, None] * b
-        if rb.size == 0:
-            return rb
-        # LAPACK getrs directly: scipy.linalg.lu_solve adds checks and copies that cost as much as
-        # the solve itself for the small systems of low harmonic counts
-        x, info = _GETRS(self.lu, self.piv, rb, overwrite_b=True)
-        if info != 0:  # pragma: no cover - invalid argument, cannot happen here
-            raise ValueError(f"LAPACK getrs failed (info={info})")
-        return x
-
-    @property
-    def det_sign(self) -> int:
-        """Sign of ``det A`` (+1 or -1), without forming the determinant.
-
-        Product of the signs of ``diag(U)`` times the parity of the row
-        interchanges; immune to overflow.
-        """
-        d = np.diagonal(self.lu)
-        negatives = int(np.count_nonzero(d < 0))
-        swaps = int(np.count_nonzero(self.piv != np.arange(self.piv.size)))
-        return -1 if (negatives + swaps) % 2 else 1
-
-    @property
-    def log_abs_det(self) -> float:
-        """``log|det A|`` (the row scaling is undone)."""
-        return float(np.sum(np.log(np.abs(np.diagonal(self.lu)))) - np.sum(np.log(self.row_scale)))
-
-
-def factorize(a: np.ndarray, *, equilibrate: bool = True) -> LUFactor:
-    """LU-factorise a square matrix and estimate its condition.
-
-    Parameters
-    ----------
-    a : ndarray, shape (n, n)
-        Real matrix; it is not modified.
-    equilibrate : bool
-        Scale each row by the inverse of its largest absolute entry first.
-
-    Returns
-    -------
-    LUFactor
-
-    Raises
-    ------
-    SingularMatrixError
-        Non-finite entries, a zero row, or an exactly zero pivot.
-    """
-    a = np.asarray(a, dtype=float)
-    if a.ndim != 2 or a.shape[0] != a.shape[1]:
-        raise ValueError(f"factorize expects a square matrix, got shape {a.shape}")
-    n = a.shape[0]
-    if n == 0:
-        return LUFactor(lu=np.zeros((0, 0), order="F"), piv=np.zeros(0, dtype=np.int32), row_scale=np.ones(0),
-                        anorm=0.0)
-    # getrf works in place on a Fortran-ordered array; handed a C-ordered one, f2py makes a
-    # transposed copy that cost as much as the factorisation itself for orders of a few hundred
-    work = np.empty((n, n), order="F")
-    row_scale = np.empty(n)
-    status, anorm = _equilibrated_copy(np.ascontiguousarray(a), bool(equilibrate), work, row_scale)
-    if status < 0:
-        raise SingularMatrixError("non-finite entries in the matrix")
-    if status > 0:
-        raise SingularMatrixError(f"zero row {status - 1}")
-    lu, piv, info = _GETRF(work, overwrite_a=True)
-    if info > 0:
-        raise SingularMatrixError(f"zero pivot in column {info - 1}")
-    if info < 0:  # pragma: no cover - invalid argument, cannot happen here
-        raise SingularMatrixError(f"LAPACK getrf failed (info={info})")
-    return LUFactor(lu=lu, piv=piv, row_scale=row_scale, anorm=anorm)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -266,8 +99,230 @@ class NewtonResult:
 STALL_FLOOR = 1e3
 
 
+#: A chord step is taken when the observed contraction predicts convergence within this fraction of ``tol``.
+CHORD_MARGIN = 0.1
+#: Largest number of chord steps in a row.
+MAX_CHORDS = 2
+
+
 def _inf_norm(v: np.ndarray) -> float:
+    """``||v||_inf`` (0 for an empty vector)."""
     return float(np.max(np.abs(v))) if v.size else 0.0
+
+
+def _evaluate(fun_and_jac, x: np.ndarray):
+    """``(F, J, None)`` at ``x`` (``F`` flattened, both float arrays), or ``(None, None, why)`` when the
+    evaluation raised one of :data:`NUMERICAL_ERRORS`."""
+    try:
+        F, J = fun_and_jac(x)
+    except NUMERICAL_ERRORS as exc:
+        return None, None, f"{type(exc).__name__}: {exc}"
+    return np.asarray(F, dtype=float).reshape(-1), np.asarray(J, dtype=float), None
+
+
+class _Iteration:
+    """The state of one run of :func:`newton` and the pieces of its loop.
+
+    ``x`` is updated in place (the array ``fun_and_jac`` sees); ``F`` and
+    ``J`` are the latest evaluation, ``r = ||F||_inf`` the residual of the
+    accepted iterate, ``history`` all of them, ``best`` the finite iterate
+    with the smallest residual, ``k`` the number of updates.
+    """
+
+    def __init__(self, fun_and_jac, x: np.ndarray, scale, reuse_lu: bool, lu0: LUFactor | None):
+        self.fun_and_jac = fun_and_jac
+        self.x = x
+        self.scale = scale
+        self.reuse_lu = reuse_lu
+        self.history: list[float] = []
+        self.n_lu = 0
+        self.lu: LUFactor | None = None  # the last factorisation made here (its rcond is reported)
+        self.F = self.J = None
+        self.err: str | None = None  # why the latest evaluation failed
+        self.r = self.r0 = math.inf
+        self.best = (x, math.inf)
+        self.k = 0
+        self.step_norm: float | None = None
+        self.given = lu0 if reuse_lu else None  # the caller's factorisation, tried on the first update
+        self.step_lu = self.given  # the factorisation used for chord steps
+        self.chords = 0  # consecutive chord steps
+        self.no_best = 0  # consecutive updates without a new smallest residual
+
+    # -- results ---------------------------------------------------------
+    def failure(self, message: str, F=None, J=None, singular: bool = False) -> NewtonResult:
+        """The unconverged result: the best iterate, with ``F`` and ``J`` as given."""
+        return NewtonResult(
+            x=self.best[0].copy(),
+            converged=False,
+            iterations=self.k,
+            residual_norm=self.best[1],
+            message=message,
+            residual=F,
+            jacobian=J,
+            rcond=self.last_rcond(),
+            residual_history=tuple(self.history),
+            singular=singular,
+            factorizations=self.n_lu,
+        )
+
+    def success(self, factor_final: bool, equilibrate: bool) -> NewtonResult:
+        """The converged result (with the factorisation at the solution when ``factor_final``)."""
+        message = f"converged: residual {self.r:.1e} after {self.k} iterations"
+        lu_final = None
+        if factor_final:
+            try:
+                lu_final = factorize(self.J, equilibrate=equilibrate)
+                self.n_lu += 1
+            except SingularMatrixError as exc:
+                message += f"; singular Jacobian at the solution ({exc})"
+        return NewtonResult(
+            x=self.x,
+            converged=True,
+            iterations=self.k,
+            residual_norm=self.r,
+            message=message,
+            residual=self.F,
+            jacobian=self.J,
+            lu=lu_final,
+            rcond=lu_final.rcond if lu_final is not None else self.last_rcond(),
+            residual_history=tuple(self.history),
+            factorizations=self.n_lu,
+        )
+
+    def last_rcond(self) -> float:
+        """The condition estimate of the last factorisation only (LUFactor computes it on access)."""
+        return self.lu.rcond if self.lu is not None else float("nan")
+
+    # -- the pieces of an iteration -----------------------------------------
+    def start(self) -> NewtonResult | None:
+        """Evaluate at the initial guess; the failure if the iteration cannot start, else None."""
+        self.F, self.J, self.err = _evaluate(self.fun_and_jac, self.x)
+        if self.err is not None:
+            return self.failure(f"evaluation failed at the initial guess ({self.err})")
+        if not np.all(np.isfinite(self.F)):
+            return self.failure("non-finite residual at the initial guess", self.F, self.J)
+        self.r = _inf_norm(self.F)
+        self.history.append(self.r)
+        self.r0 = self.r
+        self.best = (self.x.copy(), self.r)
+        return None
+
+    def converged(self, tol: float, xtol: float | None) -> bool:
+        """``||F||_inf <= tol``, and with ``xtol`` the last scaled update within it (none needed at the guess)."""
+        return self.r <= tol and (xtol is None or self.step_norm is None or self.step_norm <= xtol)
+
+    def chord_step(self, tol: float) -> tuple[bool, bool]:
+        """Whether the next update reuses a factorisation; ``(chord, trial)``.
+
+        ``trial``: the first update, with the caller's factorisation. Else a
+        chord step with the last factorisation is taken when the observed
+        contraction ``q = r_k / r_{k-1}`` predicts convergence (``q r_k``
+        within ``CHORD_MARGIN`` of ``tol``), at most ``MAX_CHORDS`` in a row.
+        """
+        history, k = self.history, self.k
+        q = history[-1] / history[-2] if k >= 1 and history[-2] > 0 else math.inf
+        trial = self.given is not None and k == 0
+        if k == 1 and self.given is not None:
+            # measured on the rotor: after a chord step with a factorisation from elsewhere, the
+            # contraction of that step says nothing about the next one (it made the residual grow)
+            self.step_lu = self.given = None
+        chord = trial or (self.reuse_lu and self.step_lu is not None and self.chords < MAX_CHORDS and q < 1.0
+                          and q * self.r <= CHORD_MARGIN * tol)
+        return chord, trial
+
+    def refactorize(self, equilibrate: bool, rcond_min: float) -> NewtonResult | None:
+        """Factorise ``J`` here for a full Newton update; the failure if it is singular, else None."""
+        try:
+            lu = factorize(self.J, equilibrate=equilibrate)
+        except SingularMatrixError as exc:
+            return self.failure(f"singular Jacobian at iteration {self.k} ({exc})", self.F, self.J, True)
+        self.lu = lu
+        self.n_lu += 1
+        self.step_lu = lu
+        self.chords = 0
+        if rcond_min > 0 and lu.rcond < rcond_min:
+            return self.failure(f"singular Jacobian at iteration {self.k} (rcond={lu.rcond:.1e} < {rcond_min:.1e})",
+                                self.F, self.J, True)
+        return None
+
+    def drop_given(self) -> None:
+        """Stop using the caller's factorisation: the next update factorises here."""
+        self.given = self.step_lu = None
+        self.chords = 0
+
+    def update(self, dx: np.ndarray, backtrack: int) -> tuple[np.ndarray | None, float]:
+        """Take the update ``dx`` and evaluate there; returns the iterate before it (a copy, only when
+        backtracking) and its residual."""
+        x = self.x
+        x_old, r_old = x.copy() if backtrack else None, self.r
+        x += dx
+        self.k += 1
+        self.step_norm = _inf_norm(dx / self.scale)
+        self.F, self.J, self.err = _evaluate(self.fun_and_jac, x)
+        return x_old, r_old
+
+    def trial_failed(self) -> bool:
+        """Whether the update with the caller's factorisation failed to reduce the residual."""
+        return self.err is not None or not np.all(np.isfinite(self.F)) or _inf_norm(self.F) >= self.r
+
+    def undo(self, dx: np.ndarray) -> NewtonResult | None:
+        """Undo the update ``dx`` with the caller's factorisation and go on as full Newton from the guess.
+
+        One evaluation more restores the caller's state at the guess; returns
+        the failure if it failed, else None.
+        """
+        self.x -= dx
+        self.k -= 1
+        self.step_norm = None
+        self.drop_given()
+        self.F, self.J, self.err = _evaluate(self.fun_and_jac, self.x)
+        if self.err is not None:  # pragma: no cover - evaluated fine a moment ago
+            return self.failure(f"evaluation failed at the initial guess ({self.err})")
+        return None
+
+    def line_search(self, x_old: np.ndarray | None, r_old: float, dx: np.ndarray, backtrack: int) -> None:
+        """Halve the update (at most ``backtrack`` times) until the residual decreases below ``r_old``.
+
+        An update that no halving improves is taken in full, as in plain
+        Newton. ``dx`` is halved in place.
+        """
+        x = self.x
+        halvings = 0
+        while (backtrack and halvings < backtrack and self.err is None
+               and not (np.all(np.isfinite(self.F)) and _inf_norm(self.F) < r_old)):
+            halvings += 1
+            dx *= 0.5
+            np.add(x_old, dx, out=x)
+            F2, J2, err2 = _evaluate(self.fun_and_jac, x)
+            if err2 is None and np.all(np.isfinite(F2)) and _inf_norm(F2) < r_old:
+                self.F, self.J, self.err = F2, J2, None
+                self.step_norm = _inf_norm(dx / self.scale)
+                break
+            if halvings == backtrack:  # nothing better: the full update, as plain Newton would
+                x[:] = x_old + 2.0 ** backtrack * dx
+                self.F, self.J, self.err = _evaluate(self.fun_and_jac, x)
+
+    def record(self, tol: float, stall: int | None, divergence_factor: float) -> NewtonResult | None:
+        """Take the new residual into the history and the best iterate; the failure if the iteration
+        stops here (a failed evaluation, a non-finite residual, a stall, divergence), else None."""
+        if self.err is not None:
+            return self.failure(f"evaluation failed at iteration {self.k} ({self.err})")
+        if not np.all(np.isfinite(self.F)):
+            return self.failure(f"non-finite residual at iteration {self.k}", self.F, self.J)
+        r = self.r = _inf_norm(self.F)
+        self.history.append(r)
+        if r < self.best[1]:
+            self.best = (self.x.copy(), r)
+            self.no_best = 0
+        else:
+            self.no_best += 1
+            if stall is not None and self.no_best >= stall and self.best[1] > STALL_FLOOR * tol:
+                return self.failure(f"residual {self.best[1]:.1e} not improved in {self.no_best} iterations "
+                                    f"(stalled; at {r:.1e} after {self.k} iterations)", self.F, self.J)
+        if r > divergence_factor * max(self.r0, tol):
+            return self.failure(f"residual grew from {self.r0:.1e} to {r:.1e} at iteration {self.k} (diverging)",
+                                self.F, self.J)
+        return None
 
 
 def newton(
@@ -375,160 +430,40 @@ def newton(
     -------
     NewtonResult
     """
-    x = np.array(x0, dtype=float, copy=True).reshape(-1)
-    scale = 1.0 if x_scale is None else np.asarray(x_scale, dtype=float)
-    history: list[float] = []
-    n_lu = 0
-    lu = None  # the last factorisation made here (its rcond is reported)
-    step_lu = None  # the factorisation used for chord steps
-
-    def last_rcond():
-        # the condition estimate of the last factorisation only (LUFactor computes it on access)
-        return lu.rcond if lu is not None else float("nan")
-
-    def fail(message, best, F=None, J=None, k=0, singular=False):
-        return NewtonResult(
-            x=best[0].copy(),
-            converged=False,
-            iterations=k,
-            residual_norm=best[1],
-            message=message,
-            residual=F,
-            jacobian=J,
-            rcond=last_rcond(),
-            residual_history=tuple(history),
-            singular=singular,
-            factorizations=n_lu,
-        )
-
-    def evaluate(xk):
-        try:
-            F, J = fun_and_jac(xk)
-        except NUMERICAL_ERRORS as exc:
-            return None, None, f"{type(exc).__name__}: {exc}"
-        return np.asarray(F, dtype=float).reshape(-1), np.asarray(J, dtype=float), None
-
-    F, J, err = evaluate(x)
-    nan_best = (x, float("inf"))
-    if err is not None:
-        return fail(f"evaluation failed at the initial guess ({err})", nan_best)
-    if not np.all(np.isfinite(F)):
-        return fail("non-finite residual at the initial guess", nan_best, F, J)
-    r = _inf_norm(F)
-    history.append(r)
-    r0 = r
-    best = (x.copy(), r)
-    k = 0
-    step_norm = None
-    given = lu0 if reuse_lu else None  # the caller's factorisation, tried on the first update
-    step_lu = given
-    chords = 0  # consecutive chord steps
-    no_best = 0  # consecutive updates without a new smallest residual
-    while True:
-        if r <= tol and (xtol is None or step_norm is None or step_norm <= xtol):
-            break
-        if k >= max_iter:
-            return fail(f"residual {r:.1e} after {k} iterations", best, F, J, k)
-        q = history[-1] / history[-2] if k >= 1 and history[-2] > 0 else math.inf
-        trial = given is not None and k == 0
-        if k == 1 and given is not None:
-            # measured on the rotor: after a chord step with a factorisation from elsewhere, the
-            # contraction of that step says nothing about the next one (it made the residual grow)
-            step_lu = given = None
-        chord = trial or (reuse_lu and step_lu is not None and chords < 2 and q < 1.0 and q * r <= 0.1 * tol)
-        if not chord:
-            try:
-                lu = factorize(J, equilibrate=equilibrate)
-            except SingularMatrixError as exc:
-                return fail(f"singular Jacobian at iteration {k} ({exc})", best, F, J, k, True)
-            n_lu += 1
-            step_lu = lu
-            chords = 0
-            if rcond_min > 0 and lu.rcond < rcond_min:
-                return fail(
-                    f"singular Jacobian at iteration {k} (rcond={lu.rcond:.1e} < {rcond_min:.1e})",
-                    best, F, J, k, True,
-                )
+    it = _Iteration(fun_and_jac, np.array(x0, dtype=float, copy=True).reshape(-1),
+                    1.0 if x_scale is None else np.asarray(x_scale, dtype=float), reuse_lu, lu0)
+    failed = it.start()
+    if failed is not None:
+        return failed
+    while not it.converged(tol, xtol):
+        if it.k >= max_iter:
+            return it.failure(f"residual {it.r:.1e} after {it.k} iterations", it.F, it.J)
+        chord, trial = it.chord_step(tol)
+        if chord:
+            it.chords += 1
         else:
-            chords += 1
-        dx = step_lu.solve(-F)
+            failed = it.refactorize(equilibrate, rcond_min)
+            if failed is not None:
+                return failed
+        dx = it.step_lu.solve(-it.F)
         if not np.all(np.isfinite(dx)):
             if trial:
-                given = step_lu = None  # the caller's factorisation does not fit: factorise here
-                chords = 0
+                it.drop_given()  # the caller's factorisation does not fit: factorise here
                 continue
-            return fail(f"singular Jacobian at iteration {k} (non-finite update)", best, F, J, k, True)
-        x_old, r_old = x.copy() if backtrack else None, r
-        x += dx
-        k += 1
-        step_norm = _inf_norm(dx / scale)
-        F, J, err = evaluate(x)
-        if trial and (err is not None or not np.all(np.isfinite(F)) or _inf_norm(F) >= r):
-            # the caller's factorisation did not reduce the residual: undo the step (one evaluation
-            # more to restore the caller's state at x0) and go on as full Newton from x0
-            x -= dx
-            k -= 1
-            step_norm = None
-            given = step_lu = None
-            chords = 0
-            F, J, err = evaluate(x)
-            if err is not None:  # pragma: no cover - evaluated fine a moment ago
-                return fail(f"evaluation failed at the initial guess ({err})", best, None, None, k)
+            return it.failure(f"singular Jacobian at iteration {it.k} (non-finite update)", it.F, it.J, singular=True)
+        x_old, r_old = it.update(dx, backtrack)
+        if trial and it.trial_failed():
+            # the caller's factorisation did not reduce the residual: undo the step and go on as
+            # full Newton from the guess
+            failed = it.undo(dx)
+            if failed is not None:  # pragma: no cover - evaluated fine a moment ago
+                return failed
             continue
-        halvings = 0
-        while (backtrack and halvings < backtrack and err is None
-               and not (np.all(np.isfinite(F)) and _inf_norm(F) < r_old)):
-            halvings += 1
-            dx *= 0.5
-            np.add(x_old, dx, out=x)
-            F2, J2, err2 = evaluate(x)
-            if err2 is None and np.all(np.isfinite(F2)) and _inf_norm(F2) < r_old:
-                F, J, err = F2, J2, None
-                step_norm = _inf_norm(dx / scale)
-                break
-            if halvings == backtrack:  # nothing better: the full update, as plain Newton would
-                x[:] = x_old + 2.0 ** backtrack * dx
-                F, J, err = evaluate(x)
-        if err is not None:
-            return fail(f"evaluation failed at iteration {k} ({err})", best, None, None, k)
-        if not np.all(np.isfinite(F)):
-            return fail(f"non-finite residual at iteration {k}", best, F, J, k)
-        r = _inf_norm(F)
-        history.append(r)
-        if r < best[1]:
-            best = (x.copy(), r)
-            no_best = 0
-        else:
-            no_best += 1
-            if stall is not None and no_best >= stall and best[1] > STALL_FLOOR * tol:
-                return fail(f"residual {best[1]:.1e} not improved in {no_best} iterations (stalled; at {r:.1e} "
-                            f"after {k} iterations)", best, F, J, k)
-        if r > divergence_factor * max(r0, tol):
-            return fail(
-                f"residual grew from {r0:.1e} to {r:.1e} at iteration {k} (diverging)", best, F, J, k
-            )
-
-    message = f"converged: residual {r:.1e} after {k} iterations"
-    lu_final = None
-    if factor_final:
-        try:
-            lu_final = factorize(J, equilibrate=equilibrate)
-            n_lu += 1
-        except SingularMatrixError as exc:
-            message += f"; singular Jacobian at the solution ({exc})"
-    return NewtonResult(
-        x=x,
-        converged=True,
-        iterations=k,
-        residual_norm=r,
-        message=message,
-        residual=F,
-        jacobian=J,
-        lu=lu_final,
-        rcond=lu_final.rcond if lu_final is not None else last_rcond(),
-        residual_history=tuple(history),
-        factorizations=n_lu,
-    )
+        it.line_search(x_old, r_old, dx, backtrack)
+        failed = it.record(tol, stall, divergence_factor)
+        if failed is not None:
+            return failed
+    return it.success(factor_final, equilibrate)
 
 
 def solve_at_parameter(problem, u0: np.ndarray, lam: float, options=None, **newton_kwargs) -> NewtonResult:

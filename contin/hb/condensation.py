@@ -378,8 +378,8 @@ class CondensedHarmonicBalance:
     H, nu, N : int
     size : int
         ``n (2H+1)``, the length of the condensed ``u``.
-    parameter, k, kw, model, p0, options
-        As in the full problem.
+    parameter, k, kw, model, p0, options, frequency, frequency_moves
+        As in the full problem (and its frequency methods, :meth:`base_frequency`, ...).
     evaluations : int
         Condensed residual and Jacobian evaluations.
     """
@@ -405,6 +405,7 @@ class CondensedHarmonicBalance:
         self.H, self.nu, self.N = hb.H, hb.nu, hb.N
         self.size = self.n * (2 * self.H + 1)
         self.parameter, self.k, self.kw = hb.parameter, hb.k, hb.kw
+        self.frequency, self.frequency_moves = hb.frequency, hb.frequency_moves
         self.model, self.p0, self.options = hb.model, hb.p0, hb.options
         self.evaluations = 0
         self._cache: collections.OrderedDict = collections.OrderedDict()
@@ -424,6 +425,18 @@ class CondensedHarmonicBalance:
     # -- parameters -----------------------------------------------------------
     def params_at(self, lam: float) -> np.ndarray:
         return self.full.params_at(lam)
+
+    def excitation_frequency(self, p: np.ndarray) -> float:
+        """``w`` at ``p``, as the full problem has it."""
+        return self.full.excitation_frequency(p)
+
+    def base_frequency(self, p: np.ndarray) -> float:
+        """``Omega = w/nu`` at ``p``, as the full problem has it."""
+        return self.full.base_frequency(p)
+
+    def period(self, p: np.ndarray) -> float:
+        """The solution period at ``p``, as the full problem has it."""
+        return self.full.period(p)
 
     def with_options(self, **changes) -> "CondensedHarmonicBalance":
         """The condensed problem of ``full.with_options(**changes)`` (the same dofs)."""
@@ -450,7 +463,7 @@ class CondensedHarmonicBalance:
         b.Q = np.empty((K1, nc, nl), dtype=complex)
         b.g = np.empty((K1, nl), dtype=complex)
         b.S = np.empty((K1, nc, nc), dtype=complex)
-        ok = _eliminate(M, C, K, float(p[hb.kw]) / hb.nu, c, l, _to_complex(fext.reshape(2 * self.H + 1, hb.n)),
+        ok = _eliminate(M, C, K, hb.base_frequency(p), c, l, _to_complex(fext.reshape(2 * self.H + 1, hb.n)),
                         b.LU, b.perm, b.P, b.Q, b.g, b.S)
         if not (ok and np.all(np.isfinite(b.S)) and np.all(np.isfinite(b.g))):
             raise np.linalg.LinAlgError(

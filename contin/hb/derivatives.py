@@ -77,7 +77,8 @@ import enum
 import numpy as np
 
 from contin.hb import aft
-from contin.hb.problem import HarmonicBalance, linear_apply, linear_operator
+from contin.hb.linear import linear_apply, linear_operator
+from contin.hb.problem import HarmonicBalance
 from contin.hb.harmonics import coefficient_blocks, embed
 
 __all__ = ["MatrixKind", "HBDerivatives", "flip_indices"]
@@ -181,7 +182,7 @@ class HBDerivatives:
     def _samples(self, u: np.ndarray, p: np.ndarray):
         U = np.ascontiguousarray(coefficient_blocks(u, self.n))
         x, xp = aft.synthesize(U, self.N)
-        return x, (p[self.kw] / self.nu) * xp, xp
+        return x, self.hb.base_frequency(p) * xp, xp
 
     def _forces(self, x, xd, tau, p):
         N, n = x.shape
@@ -197,7 +198,7 @@ class HBDerivatives:
         """The order-``nu`` (or, with ``flip``, order-``2 nu``) problem at ``p``, continued in parameter ``k``."""
         opts = self._flip_options if flip else self.hb.options
         names = self.model.param_names
-        return HarmonicBalance(self.model, names[k], opts, dict(zip(names, (float(x) for x in p))))
+        return HarmonicBalance(self.model, names[k], opts, dict(zip(names, (float(x) for x in p))), self.hb.frequency)
 
     def _linearized(self, base: np.ndarray, p: np.ndarray, k: int, flip: bool):
         """``HarmonicBalance.linearize`` at ``base``, ``p`` in parameter ``k`` (the last call is kept)."""
@@ -262,7 +263,7 @@ class HBDerivatives:
             return R.copy(), J.copy(), dR
         model, n, H, nu, kw = self.model, self.n, self.H, self.nu, self.kw
         M, C, K = model.linear(p)
-        Om = p[kw] / nu
+        Om = self.hb.base_frequency(p)
         J = np.zeros((self.size, self.size))
         linear_operator(M, C, K, Om, H, J, False)
         U = np.ascontiguousarray(coefficient_blocks(u, n))
@@ -317,7 +318,7 @@ class HBDerivatives:
             J2 = self._linearized(self._embedded(u), p, self.kw, True)[1]
             return J2[np.ix_(self.flip_idx, self.flip_idx)]
         M, C, K = self.model.linear(p)
-        Om2 = p[self.kw] / (2 * self.nu)
+        Om2 = self.hb.base_frequency(p) / 2  # the base frequency of the order-2nu problem
         n = self.n
         B = np.zeros((self.flip_size, self.flip_size))
         for i in range(self.H):
@@ -349,13 +350,13 @@ class HBDerivatives:
     # ------------------------------------------------------------ S = w^T Mx v
     def _directions(self, v, w, kind: MatrixKind, p):
         """Sampled ``V``, ``Vd``, ``W`` on the grid of ``kind`` and the linear part ``w^T A v``."""
-        n, nu = self.n, self.nu
+        n = self.n
         M, C, K = self.model.linear(p)
         if kind is MatrixKind.JACOBIAN:
-            Hq, Nq, Omq = self.H, self.N, p[self.kw] / nu
+            Hq, Nq, Omq = self.H, self.N, self.hb.base_frequency(p)
             vf, wf = v, w
         else:
-            Hq, Nq, Omq = 2 * self.H, 2 * self.N, p[self.kw] / (2 * nu)
+            Hq, Nq, Omq = 2 * self.H, 2 * self.N, self.hb.base_frequency(p) / 2
             vf = np.zeros(n * (2 * Hq + 1))
             wf = np.zeros(n * (2 * Hq + 1))
             vf[self.flip_idx] = v
@@ -432,7 +433,7 @@ class HBDerivatives:
                 if kind is MatrixKind.FLIP:
                     s = s[:N] + s[N:]
                     t = t[:N] + t[N:]
-                Om = p[self.kw] / self.nu
+                Om = self.hb.base_frequency(p)
                 Fs = np.fft.rfft(s, axis=0)
                 Ft = np.fft.rfft(t, axis=0)
                 G = np.zeros((2 * H + 1, n))

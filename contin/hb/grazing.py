@@ -108,7 +108,7 @@ def orbit_contacts(hb, u: np.ndarray, lam: float) -> OrbitContacts:
     OrbitContacts
     """
     p = hb.params_at(lam)
-    Omega = float(p[hb.kw]) / hb.nu
+    Omega = hb.base_frequency(p)
     U = np.ascontiguousarray(coefficient_blocks(np.asarray(u, dtype=float), hb.n))
     N = hb.N
     x, xp = aft.synthesize(U, N)

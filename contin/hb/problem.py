@@ -13,7 +13,20 @@ and ``A`` is block diagonal: ``K`` on the mean and, for harmonic ``k``,
     [ -k Omega C            K - (k Omega)^2 M ]
 
 The residual is in force units with the same normalisation as the
-coefficients, so a linear system's residual is ``Z(k Omega) X - F``.
+coefficients, so a linear system's residual is ``Z(k Omega) X - F``. The
+kernels of ``A`` live in :mod:`contin.hb.linear`.
+
+The frequency
+-------------
+Which parameter is the excitation frequency ``w`` is decided once, when the
+problem is made: the model's declared frequency (``Model.frequency``), or
+the ``frequency`` argument, which overrides it for this problem alone (the
+model is not changed). Everything that needs ``w``, ``Omega = w/nu`` or the
+period ``2 pi nu / w`` asks the problem (:meth:`HarmonicBalance.excitation_frequency`,
+:meth:`HarmonicBalance.base_frequency`, :meth:`HarmonicBalance.period`), and
+:attr:`HarmonicBalance.frequency_moves` says whether the continuation
+parameter is that frequency (then ``Omega`` moves with ``lambda`` and the
+``lambda`` derivatives carry ``dOmega/dlambda = 1/nu``).
 """
 
 from __future__ import annotations
@@ -21,16 +34,16 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-import numba as nb
 import numpy as np
 
 from contin.hb import aft, contact_quadrature, crossings
-from contin.model.elements.harmonic import HarmonicExcitation
 from contin.hb.harmonics import coefficient_blocks, default_samples, derivative_coefficients, sample_phases
+from contin.hb.linear import LinearTerms, linear_apply, linear_apply_dOmega, linear_operator, split_operator
 from contin.model.base import Model
+from contin.model.elements.harmonic import HarmonicExcitation
 from contin.util.naming import suggest
 
-__all__ = ["HBOptions", "HarmonicBalance", "linear_operator", "CROSSINGS"]
+__all__ = ["HBOptions", "HarmonicBalance", "CROSSINGS"]
 
 #: values of :attr:`HBOptions.crossings`
 CROSSINGS = ("exact", "interval", "none")
@@ -92,82 +105,6 @@ class HBOptions:
         return cls(**d)
 
 
-@nb.njit(cache=True)
-def linear_operator(M, C, K, Omega, H, out, dOmega_only):
-    """Fill the block-diagonal linear operator ``A`` (or ``dA/dOmega``).
-
-    Parameters
-    ----------
-    M, C, K : ndarray, shape (n, n)
-    Omega : float
-    H : int
-    out : ndarray, shape (n(2H+1), n(2H+1)), overwritten on the diagonal blocks
-        (added to, so pass zeros).
-    dOmega_only : bool
-        If True, fill ``dA/dOmega`` instead of ``A``.
-    """
-    n = M.shape[0]
-    for a in range(n):
-        for b in range(n):
-            if not dOmega_only:
-                out[a, b] += K[a, b]
-            for k in range(1, H + 1):
-                rc = (2 * k - 1) * n
-                rs = 2 * k * n
-                if dOmega_only:
-                    diag = -2.0 * k * k * Omega * M[a, b]
-                    off = k * C[a, b]
-                else:
-                    diag = K[a, b] - (k * Omega) ** 2 * M[a, b]
-                    off = k * Omega * C[a, b]
-                out[rc + a, rc + b] += diag
-                out[rs + a, rs + b] += diag
-                out[rc + a, rs + b] += off
-                out[rs + a, rc + b] -= off
-
-
-@nb.njit(cache=True)
-def linear_apply(M, C, K, Omega, U):
-    """``A(Omega; M, C, K) u`` block by block, shape (2H+1, n), without the dense ``A``.
-
-    Written as loops rather than matrix products: the blocks are n x n with
-    small n, and numba's ``@`` pulls in its BLAS bindings, seconds of
-    compilation on a cold cache for no gain at these sizes.
-    """
-    n = M.shape[0]
-    H = (U.shape[0] - 1) // 2
-    res = np.zeros((2 * H + 1, n))
-    for i in range(n):
-        s = 0.0
-        for j in range(n):
-            s += K[i, j] * U[0, j]
-        res[0, i] = s
-    for k in range(1, H + 1):
-        kO = k * Omega
-        for i in range(n):
-            sa = 0.0
-            sb = 0.0
-            for j in range(n):
-                d = K[i, j] - kO * kO * M[i, j]
-                g = kO * C[i, j]
-                a = U[2 * k - 1, j]
-                b = U[2 * k, j]
-                sa += d * a + g * b
-                sb += d * b - g * a
-            res[2 * k - 1, i] = sa
-            res[2 * k, i] = sb
-    return res
-
-
-@nb.njit(cache=True)
-def linear_apply_dOmega(M, C, Omega, U):
-    """``(dA/dOmega) u`` block by block, shape (2H+1, n): ``-2 k^2 Omega M`` on the diagonal, ``k C`` off it.
-
-    That is ``A`` at ``Omega = 1`` with ``M -> 2 Omega M`` and ``K -> 0``.
-    """
-    return linear_apply(2.0 * Omega * M, C, np.zeros_like(M), 1.0, U)
-
-
 class HarmonicBalance:
     """The residual ``R(u, lambda)`` of a model's periodic solutions.
 
@@ -180,6 +117,9 @@ class HarmonicBalance:
     options : HBOptions
     params : dict, optional
         Values overriding the model's parameters.
+    frequency : str, optional
+        The excitation-frequency parameter ``w`` (``tau = w t``); default the
+        model's declared frequency.
 
     Attributes
     ----------
@@ -189,9 +129,16 @@ class HarmonicBalance:
         Harmonics, subharmonic order, samples.
     size : int
         ``n*(2H+1)``, length of ``u``.
+    frequency : str
+        The excitation-frequency parameter.
+    kw : int
+        Its index in the parameter vector.
+    frequency_moves : bool
+        The continuation parameter is the frequency (``lambda = w``).
     """
 
-    def __init__(self, model: Model, parameter: str, options: HBOptions = HBOptions(), params=None):
+    def __init__(self, model: Model, parameter: str, options: HBOptions = HBOptions(), params=None,
+                 frequency: str | None = None):
         self.model = model
         self.options = options
         self.n = model.n_dof
@@ -205,7 +152,9 @@ class HarmonicBalance:
         self.parameter = parameter
         self.k = model.parameter_index(parameter)
         model.check_variable(parameter, params)
-        self.kw = model.parameter_index(model.frequency)
+        self.frequency = model.frequency if frequency is None else frequency
+        self.kw = model.parameter_index(self.frequency)
+        self.frequency_moves = self.k == self.kw
         self.p0 = model.parameter_vector(params)
         self.theta = sample_phases(self.N)
         self.tau = self.nu * self.theta
@@ -227,19 +176,8 @@ class HarmonicBalance:
         self._fext_shapes = None
         # M, C, K are fixed during a run unless they depend on lambda; the dense split of A for
         # linear_matrix() is made on first use (the Newton path works block by block)
-        self._lin_depends = self._linear_depends_on_lambda()
+        self._lin = LinearTerms(model, self.k, self.p0)
         self._lin_parts = None
-        self._MCK = self.model.linear(self.p0)
-        # only p[k] = lambda changes during a run: sum the terms of M, C, K that do not depend on it
-        # once, and keep the few that do (the gyroscopic ip*w of the rotor) for each evaluation
-        self._lin_fixed, self._lin_terms = [], []
-        for mat in (model.mass, model.damping, model.stiffness):
-            fixed = np.zeros((self.n, self.n))
-            for mono, A in mat.terms:
-                if not mono.depends_on(self.k):
-                    fixed += mono.value(self.p0) * A
-            self._lin_fixed.append(fixed)
-            self._lin_terms.append([(mono, A) for mono, A in mat.terms if mono.depends_on(self.k)])
         self._work = (
             np.zeros((self.N, self.n)),
             np.zeros((self.N, self.n, self.n)),
@@ -269,73 +207,59 @@ class HarmonicBalance:
         return p
 
     def with_options(self, **changes) -> "HarmonicBalance":
-        """A new problem with changed :class:`HBOptions` (same model and parameters)."""
+        """A new problem with changed :class:`HBOptions` (same model, parameters and frequency)."""
         if "harmonics" in changes and "samples" not in changes:
             changes = {**changes, "samples": None}  # the default for the new H, not the old count
         opts = dataclasses.replace(self.options, **changes)
-        params = dict(zip(self.model.param_names, self.p0))
-        return HarmonicBalance(self.model, self.parameter, opts, params)
+        return HarmonicBalance(self.model, self.parameter, opts, self.parameters(), self.frequency)
+
+    def parameters(self) -> dict:
+        """The parameter values of the problem by name (``lambda`` at its value in ``p0``)."""
+        return dict(zip(self.model.param_names, self.p0))
+
+    # -- frequency --------------------------------------------------------
+    def excitation_frequency(self, p: np.ndarray) -> float:
+        """The excitation frequency ``w`` at the parameter vector ``p`` (``tau = w t``)."""
+        return float(p[self.kw])
+
+    def base_frequency(self, p: np.ndarray) -> float:
+        """The base frequency ``Omega = w/nu`` of the solution at ``p``.
+
+        A Python float: numba types numpy scalars slowly, and the kernels take it as is.
+        """
+        return float(p[self.kw]) / self.nu
+
+    def period(self, p: np.ndarray) -> float:
+        """The solution period ``2 pi nu / w = 2 pi / Omega`` at ``p``."""
+        return 2.0 * np.pi / self.base_frequency(p)
 
     # -- linear part ------------------------------------------------------
-    def _linear_depends_on_lambda(self) -> bool:
-        m = self.model
-        return any(t[0].depends_on(self.k) for mat in (m.mass, m.damping, m.stiffness) for t in mat.terms)
-
-    def _split_linear(self, p: np.ndarray):
-        """``A = A0 + Omega A1 + Omega^2 A2`` from K, C and M (the operator is quadratic in Omega)."""
-        M, C, K = self.model.linear(p)
-        Z = np.zeros_like(M)
-        parts = []
-        for Mi, Ci, Ki in ((Z, Z, K), (Z, C, Z), (M, Z, Z)):
-            A = np.zeros((self.size, self.size))
-            linear_operator(Mi, Ci, Ki, 1.0, self.H, A, False)
-            parts.append(A)
-        return parts
-
     def linear_matrix(self, p: np.ndarray) -> np.ndarray:
         """The linear operator ``A(Omega, p)``, shape (size, size)."""
-        Omega = float(p[self.kw]) / self.nu  # a Python float: numba types numpy scalars slowly
-        if self._lin_depends:
+        Omega = self.base_frequency(p)
+        if self._lin.depends:
             M, C, K = self.model.linear(p)
             A = np.zeros((self.size, self.size))
             linear_operator(M, C, K, Omega, self.H, A, False)
             return A
         if self._lin_parts is None:
-            self._lin_parts = self._split_linear(self.p0)
+            self._lin_parts = split_operator(*self.model.linear(self.p0), self.H)
         A0, A1, A2 = self._lin_parts
         return A0 + Omega * A1 + Omega * Omega * A2
 
     def _linear_mck(self, p: np.ndarray):
         """``(M, C, K)`` at ``p = params_at(lambda)``, from the parts split at construction."""
-        if not self._lin_depends:
-            return self._MCK
-        out = []
-        for fixed, terms in zip(self._lin_fixed, self._lin_terms):
-            mat = fixed.copy()
-            for mono, A in terms:
-                mat += mono.value(p) * A
-            out.append(mat)
-        return tuple(out)
-
-    def _linear_mck_dp(self, p: np.ndarray):
-        """``d(M, C, K)/dlambda`` at ``p = params_at(lambda)`` (only the terms that depend on lambda)."""
-        out = []
-        for terms in self._lin_terms:
-            mat = np.zeros((self.n, self.n))
-            for mono, A in terms:
-                mat += mono.derivative(p, self.k) * A
-            out.append(mat)
-        return tuple(out)
+        return self._lin.at(p)
 
     def _linear_dp_times(self, p: np.ndarray, U: np.ndarray, MCK=None):
         """``(dA/dlambda) u``, shape (size,), block by block from ``U`` (the ``(2H+1, n)`` view of ``u``)
         without forming ``dA``; None if ``A`` does not depend on lambda."""
-        Omega = float(p[self.kw]) / self.nu  # a Python float: numba types numpy scalars slowly
+        Omega = self.base_frequency(p)
         out = None
-        if self._lin_depends:
-            dM, dC, dK = self._linear_mck_dp(p)
+        if self._lin.depends:
+            dM, dC, dK = self._lin.dp(p)
             out = linear_apply(dM, dC, dK, Omega, U)
-        if self.k == self.kw:
+        if self.frequency_moves:
             M, C, _ = self._linear_mck(p) if MCK is None else MCK
             dw = linear_apply_dOmega(M, C, Omega, U)
             dw /= self.nu  # dOmega/dw
@@ -402,7 +326,7 @@ class HarmonicBalance:
         """
         U = self._blocks(u)
         x, xp = aft.synthesize(U, self.N)
-        Omega = lam / self.nu if self.k == self.kw else self.p0[self.kw] / self.nu
+        Omega = self.base_frequency(self.params_at(lam))
         return x, Omega * xp, xp
 
     def sample_jacobians(self, u: np.ndarray, lam: float):
@@ -435,7 +359,7 @@ class HarmonicBalance:
         if not self._switching:
             return f, dfdx, dfdxd
         U = self._blocks(u)
-        Omega = p[self.kw] / self.nu
+        Omega = self.base_frequency(p)
         if exact:
             xp, xpp = aft.synthesize(np.ascontiguousarray(derivative_coefficients(U)), self.N)
         for el in self._switching:
@@ -472,7 +396,7 @@ class HarmonicBalance:
         for el, i, law in self._laws:
             law.add_jacobian(J, dofs)
             dep = el.depends_on(self.k)
-            Jlam += law.lam_derivative(self.k == self.kw, self.k if dep else None).reshape(-1)
+            Jlam += law.lam_derivative(self.frequency_moves, self.k if dep else None).reshape(-1)
             if dep and law.quad.full:
                 _, Lp = el.switching_dp(x, xd, self.tau, p, self.k)
                 dfdp += Lp[:, i]
@@ -482,7 +406,7 @@ class HarmonicBalance:
 
         With ``dofs``, ``J`` is the block of those dofs' coefficients (see :meth:`linearize_into`).
         """
-        Omega = p[self.kw] / self.nu
+        Omega = self.base_frequency(p)
         for el, sw, cr, coef in self._crossings:
             dtdU = crossings.crossing_gradients(cr.phi, cr.gx, cr.gxd, cr.slope, Omega, self.H)
             if dofs is None:
@@ -491,7 +415,7 @@ class HarmonicBalance:
                 crossings.add_crossing_jacobian(cr.intervals, coef, sw.difference[:, :, dofs], self.theta,
                                                 dtdU[:, :, dofs], J)
             dt = np.zeros(cr.t.size)
-            if self.k == self.kw:  # x' = (w/nu) dx/dtheta at the crossing
+            if self.frequency_moves:  # x' = (w/nu) dx/dtheta at the crossing
                 dt -= np.einsum("kq,kq->k", cr.gxd, cr.dx1) / self.nu / cr.slope
             Lp = np.zeros((0, 1, 1))
             if el.depends_on(self.k):
@@ -507,7 +431,7 @@ class HarmonicBalance:
         fext, _ = self.excitation(p)
         M, C, K = self._linear_mck(p)
         U = self._blocks(u)
-        R = linear_apply(M, C, K, float(p[self.kw]) / self.nu, U).reshape(-1) - fext
+        R = linear_apply(M, C, K, self.base_frequency(p), U).reshape(-1) - fext
         if self.model.forces:
             x, xd, _ = self.samples_of(u, lam)
             f, _, _ = self._forces_at(x, xd, p, u)
@@ -532,7 +456,7 @@ class HarmonicBalance:
         M, C, K = self._linear_mck(p)
         # the linear part block by block, O(n^2 H): no dense A0 + Omega A1 + Omega^2 A2 nor dense products
         J = np.zeros((self.size, self.size))
-        linear_operator(M, C, K, float(p[self.kw]) / self.nu, self.H, J, False)
+        linear_operator(M, C, K, self.base_frequency(p), self.H, J, False)
         R, Jlam = self.linearize_into(u, lam, J)
         return R, J, Jlam
 
@@ -567,7 +491,7 @@ class HarmonicBalance:
         fext, dfext = self.excitation(p)
         MCK = self._linear_mck(p)
         M, C, K = MCK
-        Omega = float(p[self.kw]) / self.nu  # a Python float: numba types numpy scalars slowly
+        Omega = self.base_frequency(p)
         U = self._blocks(u)
         R = linear_apply(M, C, K, Omega, U).reshape(-1) - fext
         dAu = self._linear_dp_times(p, U, MCK)
@@ -585,7 +509,7 @@ class HarmonicBalance:
                 R += self._law_coefficients()
                 self._law_terms(x, xd, p, J, Jlam, dfdp, dofs)
             # when lambda is w, the velocity xdot = (w/nu) x'(theta) depends on it too
-            with_w = self.k == self.kw
+            with_w = self.frequency_moves
             if dofs is None:
                 Rn, Jn = aft.nonlinear_terms(f, dfdx, dfdxd, dfdp, xp, Omega, self.nu, self.H, with_w, J)
                 R += Rn
@@ -624,7 +548,7 @@ class HarmonicBalance:
         M, C, _ = self.model.linear(p)
         _, D0, _ = self.linearize(u, lam)
         H = self.H
-        Omega = float(p[self.kw]) / self.nu  # a Python float: numba types numpy scalars slowly
+        Omega = self.base_frequency(p)
         I = np.eye(2 * H + 1)
         D2 = np.kron(I, M)
         D1 = np.kron(I, C) + 2.0 * Omega * D2 @ self.derivative_operator()

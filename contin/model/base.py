@@ -9,7 +9,9 @@ linear part is applied exactly in the frequency domain; ``f_nl`` is a sum of
 *force elements* and ``f_ext`` a sum of *excitation elements*, each evaluated
 on time samples by a numba kernel. Elements are looked up by name in a
 registry (:func:`register_force`, :func:`register_excitation`), so a new force
-law is a new class, never a branch in the core.
+law is a new class, never a branch in the core: the class also says how a
+scene item builds it and how the time simulation compiles it
+(:mod:`contin.model.elements.registry`; ``docs/howto/contact-element.md``).
 
 A model is built from the *effects* a scene enables: only the elements and
 matrix terms of those effects exist in the model, so a disabled effect costs
@@ -19,10 +21,11 @@ nothing and cannot leak into results.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import ClassVar, Iterable, Mapping, Sequence
+from typing import ClassVar, Mapping, Sequence
 
 import numpy as np
 
+from contin.model import expressions as ex
 from contin.util.naming import suggest
 
 __all__ = [
@@ -56,40 +59,18 @@ class Monomial:
 
     @classmethod
     def parse(cls, text, names: Sequence[str], where: str = "coefficient") -> "Monomial":
-        """Parse a number, or a product such as ``"-0.5*k*w**2"``.
+        """Parse a number, or a product of parameter powers such as ``"-0.5*k*w**2"`` or ``"g/2"``.
+
+        The text is read by the expression parser, as in a scene
+        (:func:`contin.model.expressions.parse_monomial`).
 
         Raises
         ------
         ValueError
-            Naming ``where`` and the unknown name.
+            Naming ``where`` and what is wrong (an unknown name, or an
+            expression that is no product of parameter powers).
         """
-        if isinstance(text, (int, float, np.floating, np.integer)) and not isinstance(text, bool):
-            return cls(float(text))
-        if not isinstance(text, str):
-            raise ValueError(f"{where}: expected a number or a product of parameters, found {text!r}")
-        s = text.replace(" ", "").replace("**", "^")
-        const = 1.0
-        if s.startswith("-"):
-            const, s = -1.0, s[1:]
-        powers: dict[int, int] = {}
-        for factor in s.split("*"):
-            if not factor:
-                raise ValueError(f"{where}: malformed product {text!r}")
-            base, _, exp = factor.partition("^")
-            try:
-                const *= float(base)
-                continue
-            except ValueError:
-                pass
-            if base not in names:
-                raise ValueError(f"{where}: unknown parameter '{base}' in {text!r}{suggest(base, names)}")
-            try:
-                e = int(exp) if exp else 1
-            except ValueError:
-                raise ValueError(f"{where}: power of '{base}' must be an integer in {text!r}") from None
-            j = names.index(base)
-            powers[j] = powers.get(j, 0) + e
-        return cls(const, tuple(sorted(powers.items())))
+        return cls(*ex.parse_monomial(text, names, where))
 
     def value(self, p: np.ndarray) -> float:
         v = self.const
@@ -111,6 +92,10 @@ class Monomial:
 
     def depends_on(self, k: int) -> bool:
         return any(j == k for j, _ in self.powers)
+
+    def text(self, names: Sequence[str]) -> str:
+        """As written in descriptions, e.g. ``-0.5*k*w**2``."""
+        return f"{self.const:g}" + "".join(f"*{names[j]}" + (f"**{e}" if e != 1 else "") for j, e in self.powers)
 
 
 @dataclass(frozen=True)
@@ -291,6 +276,35 @@ class ForceElement:
     def describe(self, dof_names: Sequence[str], param_names: Sequence[str]) -> str:
         return self.kind
 
+    # -- what the scene and the time simulation need (contin.model.elements.registry) ---------
+    #: forms of a custom model's ``forces`` item that build this element
+    #: (:class:`contin.model.elements.registry.SceneKeys`); none: not available in scenes
+    scene_keys: ClassVar[tuple] = ()
+
+    @classmethod
+    def from_scene(cls, item: Mapping, key: str, scene):
+        """The element of a checked ``forces`` item (or a :class:`~contin.model.elements.registry.Joined` part).
+
+        Parameters
+        ----------
+        item : mapping
+            The item, its keys checked against :attr:`scene_keys`.
+        key : str
+            Its dotted key, ``model.forces[i]``.
+        scene : contin.model.elements.registry.SceneContext
+            Parses and checks values, naming their keys in errors.
+        """
+        raise NotImplementedError(f"force element '{cls.kind}' cannot be built from a scene")
+
+    @classmethod
+    def join(cls, parts: list, key: str, scene) -> "ForceElement":
+        """One element of the :class:`~contin.model.elements.registry.Joined` parts of several items."""
+        raise NotImplementedError(f"force element '{cls.kind}' joins no parts")
+
+    def compiled_form(self):
+        """Its :class:`contin.model.elements.registry.CompiledForm` for time simulation, or None if it has none."""
+        return None
+
 
 class ExcitationElement:
     """A time-domain external force (right-hand side) that does not depend on x."""
@@ -313,6 +327,24 @@ class ExcitationElement:
 
     def describe(self, dof_names: Sequence[str], param_names: Sequence[str]) -> str:
         return self.kind
+
+    #: forms of a custom model's ``excitation`` item that build this element, each selected by its
+    #: ``marker`` key (:class:`contin.model.elements.registry.SceneKeys`)
+    scene_keys: ClassVar[tuple] = ()
+
+    @classmethod
+    def from_scene(cls, item: Mapping, key: str, scene):
+        """The element of a checked ``excitation`` item; see :meth:`ForceElement.from_scene`."""
+        raise NotImplementedError(f"excitation element '{cls.kind}' cannot be built from a scene")
+
+    @classmethod
+    def join(cls, parts: list, key: str, scene) -> "ExcitationElement":
+        """One element of the :class:`~contin.model.elements.registry.Joined` parts of several items."""
+        raise NotImplementedError(f"excitation element '{cls.kind}' joins no parts")
+
+    def compiled_form(self):
+        """Its :class:`contin.model.elements.registry.CompiledForm` for time simulation, or None if it has none."""
+        return None
 
 
 FORCE_ELEMENTS: dict[str, type] = {}

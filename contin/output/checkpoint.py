@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from contin.engine.branch import Branch, BranchBuilder, BranchStatus, SpecialPoint
-from contin.engine.continuation import RESTART_KEYS
+from contin.engine.state import RESTART_KEYS
 
 __all__ = ["CheckpointError", "encode", "decode", "read_records", "rebuild_branches", "resumable_prefix",
            "special_record"]

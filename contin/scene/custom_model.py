@@ -6,25 +6,20 @@ A custom model is
 
 with dof names, parameters, matrices whose entries are numbers or
 expressions of parameters, optional gyroscopic terms ``speed * G`` added to
-the damping matrix, internal forces (expressions in dofs, velocities
-``NAME_dot``, the phase ``tau`` and parameters, or contact elements ``gap``
-and ``radial_gap``) and external forces (expressions in ``tau`` and
-parameters, harmonic or constant forcing). Expressions are parsed by
-:mod:`contin.model.expressions`, never evaluated as Python.
+the damping matrix, internal forces and external forces. Expressions are
+parsed by :mod:`contin.model.expressions`, never evaluated as Python.
 
-Parameters
-----------
-A parameter is a number or an expression of other parameters (for example
-``F: "0.1*w**2"``). Definitions are resolved in dependency order (a cycle is
-an error naming its parameters) and every *dependent* parameter is inlined
-into the expressions that use it, so it stays a function of the independent
-ones: continuing in ``w`` moves ``F`` along. Only the *independent*
-parameters (those given as numbers, or as expressions without names) form
-the model's parameter vector ``Model.parameters``; continuing in a dependent
-parameter is refused (:func:`check_continuation_parameter`). The dependent
-ones are kept in ``model.dependent_parameters`` (name to
-:class:`~contin.model.elements.expression.ExpressionCoefficient`, whose
-``value(p)`` gives their value).
+The items of ``forces`` and ``excitation`` are built by the registered
+element kinds (:mod:`contin.model.elements.registry`): a force item's
+``type`` names its kind (``expr`` when absent, ``gap``, ``radial_gap`` or a
+kind registered by the user), an excitation item's form is named by its one
+marker key (``expr``, ``amplitude``, ``constant``). Each kind lists its keys
+and checks and builds its item in its own file, through this module's
+builder; this module knows no kind.
+
+Parameters are resolved by :mod:`contin.scene.custom_parameters`: only the
+independent ones form the model's parameter vector, the dependent ones are
+inlined where they are used and kept in ``model.dependent_parameters``.
 
 Every problem is reported as a :class:`contin.scene.parse.SceneError` naming the
 dotted key (``model.forces[2].clearance``), with the YAML line where known.
@@ -34,46 +29,20 @@ from __future__ import annotations
 
 import keyword
 import math
-from typing import Any, Callable, Iterable
+from typing import Any
 
 import numpy as np
 
 from contin.model import expressions as ex
-from contin.model.elements.expression import ExpressionCoefficient, ExpressionExcitation, ExpressionForce, state_names
-from contin.model.elements.gap import GapForce, RadialGapForce
-from contin.model.elements.harmonic import HarmonicExcitation
 from contin.model.base import Model, Monomial, ParametricMatrix
-from contin.util.naming import is_finite_real, is_real, suggest
+from contin.model.elements.expression import ExpressionCoefficient, state_names
+from contin.model.elements.registry import Joined, SceneContext, scene_forms, shorten
+from contin.scene.custom_parameters import (RESERVED, check_continuation_parameter, check_size,
+                                            resolve_parameters)
 from contin.scene.parse import Scene, SceneError
+from contin.util.naming import is_finite_real, suggest
 
-__all__ = ["build_custom_model", "check_continuation_parameter", "resolve_parameters", "FORCE_KEYS",
-           "EXCITATION_KEYS", "MAX_RESOLVED_DEPTH", "MAX_RESOLVED_SIZE"]
-
-#: deepest expression accepted after dependent parameters are inlined
-MAX_RESOLVED_DEPTH = 2 * ex.MAX_DEPTH
-#: largest expression (tree nodes, shared parts counted at each use) after inlining
-MAX_RESOLVED_SIZE = 20_000
-
-FORCE_KEYS = {
-    "expr": {"type": False, "dof": True, "expr": True},
-    "gap": {"type": True, "dof": True, "clearance": True, "stiffness": True, "damping": False, "sides": False,
-            "clip": False},
-    "radial_gap": {"type": True, "dofs": True, "clearance": True, "stiffness": True, "damping": False,
-                   "clip": False},
-}
-EXCITATION_KEYS = {
-    "expr": {"dof": True, "expr": True},
-    "amplitude": {"dof": True, "amplitude": True, "order": False, "phase": False},
-    "constant": {"dof": True, "constant": True},
-}
-RESERVED = {"tau", "pi"} | set(ex.FUNCTIONS)
-
-
-def _short(v: Any, limit: int = 80):
-    if isinstance(v, str):
-        return v if len(v) <= limit else v[: limit - 3] + "..."
-    text = repr(v)
-    return v if len(text) <= limit else text[: limit - 3] + "..."
+__all__ = ["build_custom_model", "check_continuation_parameter", "resolve_parameters"]
 
 
 def _parent(key: str) -> str | None:
@@ -84,144 +53,9 @@ def _parent(key: str) -> str | None:
     return None
 
 
-def check_continuation_parameter(model: Model, name: str, key: str = "analysis.parameter",
-                                 lines: dict | None = None) -> None:
-    """Refuse continuation in a dependent parameter of a custom model.
+class _Builder(SceneContext):
+    """Builds the model of a custom ``model:`` section; elements build themselves through it (:class:`SceneContext`)."""
 
-    Parameters
-    ----------
-    model : Model
-        A model from :func:`build_custom_model` (other models pass).
-    name : str
-        The parameter the analysis would vary.
-    key : str
-        Scene key named in the error.
-    lines : dict, optional
-        ``scene.lines``, for the line number.
-
-    Raises
-    ------
-    SceneError
-        If ``name`` is a dependent parameter (an expression of others).
-    """
-    dep = getattr(model, "dependent_parameters", None) or {}
-    if name in dep:
-        raise SceneError(key, f"an independent parameter (one of {list(model.parameters)})", name,
-                         (lines or {}).get(key),
-                         hint=f"; '{name}' is defined as {dep[name].text!r} and follows the parameters it uses: "
-                              f"continue in one of those, or give '{name}' a number")
-
-
-def resolve_parameters(params: dict, error: Callable[..., SceneError], reserved: Iterable[str] = ()):
-    """Split parameters into independent values and resolved dependent expressions.
-
-    Parameters
-    ----------
-    params : dict
-        ``model.parameters``: name to a number or an expression text.
-    error : callable
-        ``error(key, expected, found, hint) -> SceneError``.
-    reserved : iterable of str
-        Names that parameters may not use (dofs, velocities).
-
-    Returns
-    -------
-    independent : dict
-        Name to float, in the scene's order.
-    dependent : dict
-        Name to :class:`contin.model.expressions.Node` in the independent names
-        only, in dependency order.
-    """
-    reserved = set(reserved)
-    names = list(params)
-    for q in names:
-        key = f"model.parameters.{q}"
-        if not isinstance(q, str) or not q.isidentifier() or keyword.iskeyword(q):
-            raise error(key, "a parameter name that is a valid identifier", q)
-        if q.startswith("__"):
-            raise error(key, "a parameter name not starting with '__'", q)
-        if q in RESERVED - {"pi"}:
-            raise error(key, "a parameter name that is not reserved", q,
-                        hint=f"; '{q}' is {'the excitation phase' if q == 'tau' else 'a function'}")
-        if q in reserved:
-            raise error(key, "a parameter name different from the dofs and their velocities", q)
-    independent: dict = {}
-    pending: dict = {}
-    for q in names:
-        key = f"model.parameters.{q}"
-        v = params[q]
-        if is_real(v):
-            if not is_finite_real(v):
-                raise error(key, "a finite number or an expression of other parameters", v)
-            independent[q] = float(v)
-            continue
-        if not isinstance(v, str):
-            raise error(key, "a number or an expression of other parameters", _short(v))
-
-        def explain(name, _q=q):
-            if name in reserved or name == "tau":
-                return f"a parameter cannot depend on '{name}' (only on other parameters)"
-            if name == _q:
-                return f"parameter '{_q}' is defined in terms of itself"
-            return None
-
-        try:
-            node = ex.parse(v, key)
-            ex.check_names(node, names, key, explain)
-        except ex.ExpressionError as exc:
-            raise error(key, "a number or an expression of other parameters", _short(v), "; " + exc.reason) from None
-        constants = set() if "pi" in params else {"pi"}
-        if not ex.free_names(node) - constants:
-            val = float(ex.evaluate(node, {}))
-            if not math.isfinite(val):
-                raise error(key, "a finite value", _short(v), f"; it evaluates to {val}")
-            independent[q] = val
-            continue
-        pending[q] = node
-    # dependency order (Kahn): what remains is on or behind a cycle
-    deps = {q: {d for d in ex.free_names(n) if d in pending} for q, n in pending.items()}
-    order, ready = [], [q for q in pending if not deps[q]]
-    users: dict = {q: [] for q in pending}
-    for q, ds in deps.items():
-        for d in ds:
-            users[d].append(q)
-    left = {q: len(ds) for q, ds in deps.items()}
-    while ready:
-        q = ready.pop(0)
-        order.append(q)
-        for u in users[q]:
-            left[u] -= 1
-            if left[u] == 0:
-                ready.append(u)
-    if len(order) < len(pending):
-        stuck = [q for q in pending if q not in order]
-        start = stuck[0]
-        path, seen, q = [], {}, start
-        while q not in seen:  # follow unresolved dependencies until one repeats: a cycle
-            seen[q] = len(path)
-            path.append(q)
-            q = sorted(d for d in deps[q] if d in stuck)[0]
-        cycle = path[seen[q]:] + [q]
-        raise error(f"model.parameters.{cycle[0]}", "parameter definitions without a cycle", None,
-                    "; the parameters " + " -> ".join(cycle) + " depend on each other")
-    dependent: dict = {}
-    for q in order:
-        key = f"model.parameters.{q}"
-        node = ex.substitute(pending[q], dependent)
-        _check_size(node, key, error)
-        dependent[q] = node
-    return independent, dependent
-
-
-def _check_size(node, key, error):
-    d, s = ex.measure(node)
-    if d > MAX_RESOLVED_DEPTH or s > MAX_RESOLVED_SIZE:
-        raise error(key, "an expression of moderate size", None,
-                    f"; with the dependent parameters inlined it has depth {d} and {s} nodes "
-                    f"(limits {MAX_RESOLVED_DEPTH} and {MAX_RESOLVED_SIZE})")
-
-
-class _Builder:
     def __init__(self, scene: Scene):
         self.scene = scene
         self.m = scene.model
@@ -255,6 +89,7 @@ class _Builder:
         params = self.m["parameters"]
         self.independent, self.dependent = resolve_parameters(params, self.error, self.state)
         self.pnames = list(self.independent)
+        self.param_names = tuple(self.pnames)
         self.all_params = list(params)
 
     def explain(self, allow_state: bool, allow_tau: bool):
@@ -290,15 +125,15 @@ class _Builder:
             node = ex.parse(value, key)
             ex.check_names(node, names, key, self.explain(allow_state, allow_tau))
         except ex.ExpressionError as exc:
-            raise self.error(key, what, _short(value), "; " + exc.reason) from None
+            raise self.error(key, what, shorten(value), "; " + exc.reason) from None
         node = ex.substitute(node, self.dependent)
-        _check_size(node, key, self.error)
+        check_size(node, key, self.error)
         return node
 
     def coefficient(self, value, key: str, what="a number or an expression of parameters"):
         """A Monomial when the expression is a product of parameter powers, else an ExpressionCoefficient."""
         if value is None or isinstance(value, bool) or not isinstance(value, (int, float, str)):
-            raise self.error(key, what, _short(value))
+            raise self.error(key, what, shorten(value))
         return self.coefficient_of(self.expression(value, key, what=what), key, value)
 
     def coefficient_of(self, node, key: str, original):
@@ -308,7 +143,7 @@ class _Builder:
         with np.errstate(all="ignore"):
             v = float(coef.value(self.p0))
         if not math.isfinite(v):
-            raise self.error(key, "a finite value at the default parameters", _short(original),
+            raise self.error(key, "a finite value at the default parameters", shorten(original),
                              f"; it evaluates to {v}")
         return coef
 
@@ -325,21 +160,21 @@ class _Builder:
         if n == 1 and (isinstance(value, (int, float, str)) and not isinstance(value, bool)):
             value = [[value]]
         if not isinstance(value, list):
-            raise self.error(key, self.shape_text() + " as a list of rows", _short(value))
+            raise self.error(key, self.shape_text() + " as a list of rows", shorten(value))
         if len(value) != n:
             raise self.error(key, self.shape_text(), None, f", found {len(value)} row{'s' if len(value) != 1 else ''}")
         terms, used = [], set()
         for i, row in enumerate(value):
             rkey = f"{key}[{i}]"
             if not isinstance(row, list):
-                raise self.error(rkey, f"a row of {n} entries (numbers or expressions of parameters)", _short(row))
+                raise self.error(rkey, f"a row of {n} entries (numbers or expressions of parameters)", shorten(row))
             if len(row) != n:
                 raise self.error(rkey, f"a row of {n} entries ({n} dofs: {', '.join(self.dofs)})", None,
                                  f", found {len(row)} entr{'ies' if len(row) != 1 else 'y'}")
             for j, e in enumerate(row):
                 ekey = f"{rkey}[{j}]"
                 if e is None or isinstance(e, bool) or not isinstance(e, (int, float, str)):
-                    raise self.error(ekey, "a number or an expression of parameters", _short(e))
+                    raise self.error(ekey, "a number or an expression of parameters", shorten(e))
                 node = self.expression(e, ekey)
                 if factor is not None:
                     node = ex.mul(factor, node)
@@ -366,7 +201,7 @@ class _Builder:
     def dof(self, value, key):
         if not isinstance(value, str) or value not in self.dofs:
             hint = suggest(value, self.dofs) if isinstance(value, str) else ""
-            raise self.error(key, f"the name of a dof (one of {', '.join(self.dofs)})", _short(value), hint)
+            raise self.error(key, f"the name of a dof (one of {', '.join(self.dofs)})", shorten(value), hint)
         return self.dofs.index(value)
 
     def number(self, value, key, default, minimum=None):
@@ -374,131 +209,65 @@ class _Builder:
             return default
         if not is_finite_real(value) or (minimum is not None and value < minimum):
             exp = "a finite number" if minimum is None else f"a number >= {minimum}"
-            raise self.error(key, exp, _short(value))
+            raise self.error(key, exp, shorten(value))
         return float(value)
 
     def boolean(self, value, key, default=False):
         if value is None:
             return default
         if not isinstance(value, bool):
-            raise self.error(key, "true or false", _short(value))
+            raise self.error(key, "true or false", shorten(value))
         return value
 
-    def contact_values(self, item, key):
-        """Clearance, stiffness and damping of a contact element; none of them may be negative.
+    # -- items: each element kind checks and builds its own (contin.model.elements.registry) ----------
+    def items(self, section: str, kind_of):
+        """The elements of ``model.<section>``, built by the registered kinds.
 
-        A negative clearance would put the stop inside the free play, a
-        negative stiffness or damping would pull the body into the stop. Zero
-        is allowed: a stop touching at rest, a stop without elastic or viscous
-        force (a limiting case, e.g. in a sweep of the stiffness).
+        ``kind_of(item, key, forms)`` names the form of an item. Items whose
+        kind joins its parts into one element (expressions) give that element
+        once, before the others; the rest keep the scene's order.
         """
-        clearance = self.coefficient(item["clearance"], f"{key}.clearance")
-        if clearance.value(self.p0) < 0:
-            raise self.error(f"{key}.clearance", "a clearance >= 0 at the default parameters",
-                             _short(item["clearance"]))
-        stiffness = self.coefficient(item["stiffness"], f"{key}.stiffness")
-        if stiffness.value(self.p0) < 0:
-            raise self.error(f"{key}.stiffness", "a contact stiffness >= 0 at the default parameters (a negative "
-                             "one would pull the body into the stop)", _short(item["stiffness"]),
-                             f"; it is {stiffness.value(self.p0):g}")
-        damping = item.get("damping")
-        damping = self.coefficient(0.0 if damping is None else damping, f"{key}.damping")
-        if damping.value(self.p0) < 0:
-            raise self.error(f"{key}.damping", "a contact damping >= 0 at the default parameters (a negative one "
-                             "would feed energy in at every impact)", _short(item["damping"]),
-                             f"; it is {damping.value(self.p0):g}")
-        return clearance, stiffness, damping
+        forms = scene_forms(section)
+        examples = [keys.example for _, keys in forms.values()]
+        mapping = ", ".join(examples[:-1]) + " or " + examples[-1] if len(examples) > 1 else "".join(examples)
+        elements, joined = [], {}
+        for i, item in enumerate(self.m[section]):
+            key = f"model.{section}[{i}]"
+            if not isinstance(item, dict):
+                raise self.error(key, "a mapping such as " + mapping, shorten(item))
+            form = kind_of(item, key, forms)
+            cls, keys = forms[form]
+            self.keys_of(item, key, keys.keys, f"'{form}' {'force' if section == 'forces' else 'excitation'}")
+            made = cls.from_scene(item, key, self)
+            if isinstance(made, Joined):
+                joined.setdefault(made.cls, []).append(made.part)
+            else:
+                elements.append(made)
+        return [cls.join(parts, f"model.{section}", self) for cls, parts in joined.items()] + elements
+
+    def force_type(self, item, key, forms):
+        kind = item.get("type")
+        if kind is None:
+            kind = next(name for name, (_, keys) in forms.items() if keys.default)
+        if not isinstance(kind, str) or kind not in forms:
+            raise self.error(f"{key}.type", "one of " + ", ".join(repr(k) for k in forms), shorten(kind),
+                             suggest(kind, forms) if isinstance(kind, str) else "")
+        return kind
+
+    def excitation_marker(self, item, key, forms):
+        present = [k for k in forms if k in item]
+        if len(present) != 1:
+            raise self.error(key, f"exactly one of the keys {', '.join(forms)}", None,
+                             f"; found {', '.join(present) if present else 'none'} "
+                             f"(keys: {', '.join(map(str, item))})")
+        return present[0]
 
     def forces(self):
-        items = self.m["forces"]
-        expr_items, elements, kinds = [], [], []
-        for i, item in enumerate(items):
-            key = f"model.forces[{i}]"
-            if not isinstance(item, dict):
-                raise self.error(key, "a mapping such as {dof: x, expr: \"g*x**3\"} or {type: gap, dof: x, "
-                                      "clearance: 0.1, stiffness: 1000}", _short(item))
-            kind = item.get("type", "expr")
-            if kind is None:
-                kind = "expr"
-            if not isinstance(kind, str) or kind not in FORCE_KEYS:
-                raise self.error(f"{key}.type", "one of " + ", ".join(repr(k) for k in FORCE_KEYS), _short(kind),
-                                 suggest(kind, FORCE_KEYS) if isinstance(kind, str) else "")
-            self.keys_of(item, key, FORCE_KEYS[kind], f"'{kind}' force")
-            if kind == "expr":
-                d = self.dof(item["dof"], f"{key}.dof")
-                node = self.expression(item["expr"], f"{key}.expr", allow_state=True, allow_tau=True,
-                                       what="an expression of the dofs, their velocities NAME_dot, tau and parameters")
-                expr_items.append((d, node, key))
-                continue
-            clearance, stiffness, damping = self.contact_values(item, key)
-            clip = self.boolean(item.get("clip"), f"{key}.clip")
-            label = f"forces[{i}] {kind}"
-            if kind == "gap":
-                d = self.dof(item["dof"], f"{key}.dof")
-                sides = item.get("sides", "both")
-                sides = "both" if sides is None else sides
-                if sides not in ("+", "-", "both"):
-                    raise self.error(f"{key}.sides", "one of '+', '-', 'both' (quote the signs in YAML: \"-\")",
-                                     _short(sides))
-                elements.append(GapForce(d, clearance, stiffness, damping, sides=sides, clip=clip, label=label))
-            else:
-                dofs = item["dofs"]
-                if not isinstance(dofs, list) or len(dofs) != 2:
-                    raise self.error(f"{key}.dofs", "a list of two dof names [X, Y]", _short(dofs))
-                ix = self.dof(dofs[0], f"{key}.dofs[0]")
-                iy = self.dof(dofs[1], f"{key}.dofs[1]")
-                if ix == iy:
-                    raise self.error(f"{key}.dofs", "two different dofs", dofs)
-                elements.append(RadialGapForce((ix, iy), clearance, stiffness, damping, clip=clip, label=label))
-            kinds.append(kind)
-        if expr_items:
-            try:
-                force = ExpressionForce(self.dofs, self.pnames, [(d, node) for d, node, _ in expr_items],
-                                        label="forces (expr)")
-            except (RecursionError, SyntaxError, MemoryError) as exc:
-                raise self.error("model.forces", "expressions that can be compiled", None,
-                                 f"; code generation failed: {type(exc).__name__}: {exc}") from None
-            elements.insert(0, force)
-            kinds.insert(0, "expr")
-        return elements, kinds
+        elements = self.items("forces", self.force_type)
+        return elements, [el.kind for el in elements]
 
     def excitations(self):
-        items = self.m["excitation"]
-        exprs, elements = [], []
-        for i, item in enumerate(items):
-            key = f"model.excitation[{i}]"
-            if not isinstance(item, dict):
-                raise self.error(key, "a mapping such as {dof: x, expr: \"F*cos(tau)\"}, "
-                                      "{dof: x, amplitude: F, order: 1, phase: 0} or {dof: x, constant: f0}",
-                                 _short(item))
-            present = [k for k in ("expr", "amplitude", "constant") if k in item]
-            if len(present) != 1:
-                raise self.error(key, "exactly one of the keys expr, amplitude, constant", None,
-                                 f"; found {', '.join(present) if present else 'none'} "
-                                 f"(keys: {', '.join(map(str, item))})")
-            kind = present[0]
-            self.keys_of(item, key, EXCITATION_KEYS[kind], f"'{kind}' excitation")
-            d = self.dof(item["dof"], f"{key}.dof")
-            if kind == "expr":
-                node = self.expression(item["expr"], f"{key}.expr", allow_tau=True,
-                                       what="an expression of tau and parameters")
-                exprs.append((d, node))
-                continue
-            if kind == "amplitude":
-                coef = self.coefficient(item["amplitude"], f"{key}.amplitude")
-                order = self.number(item.get("order"), f"{key}.order", 1.0, minimum=0)
-                phase = self.number(item.get("phase"), f"{key}.phase", 0.0)
-            else:
-                coef = self.coefficient(item["constant"], f"{key}.constant")
-                order, phase = 0.0, 0.0
-            if isinstance(coef, Monomial):
-                elements.append(HarmonicExcitation(d, coef, order, phase, label=f"excitation[{i}]"))
-            else:
-                shape = ex.call("cos", ex.add(ex.mul(ex.Num(order), ex.Var("tau")), ex.Num(phase)))
-                exprs.append((d, ex.mul(coef.node, shape)))
-        if exprs:
-            elements.insert(0, ExpressionExcitation(self.dofs, self.pnames, exprs, label="excitation (expr)"))
-        return elements
+        return self.items("excitation", self.excitation_marker)
 
     def check_mass(self, Mv: np.ndarray) -> None:
         """A mass matrix is symmetric positive definite: refuse one that is not (at the default parameters)."""
@@ -507,7 +276,7 @@ class _Builder:
             if not Mv[i, i] > 0:
                 key = f"model.mass[{i}][{i}]" if given_as_rows else "model.mass"
                 raise self.error(key, f"a positive mass on the diagonal (the inertia of dof {self.dofs[i]}: a mass "
-                                 "matrix is positive definite)", _short(self.m["mass"][i][i] if given_as_rows
+                                 "matrix is positive definite)", shorten(self.m["mass"][i][i] if given_as_rows
                                                                        else self.m["mass"]),
                                  f"; it is {Mv[i, i]:g} at the default parameters")
         scale = np.abs(Mv).max()
@@ -518,12 +287,12 @@ class _Builder:
                              f"; at the default parameters entry [{i}][{j}] is {Mv[i, j]:g} and entry [{j}][{i}] "
                              f"is {Mv[j, i]:g}")
         if _singular(Mv):
-            raise self.error("model.mass", "a nonsingular matrix at the default parameters", _short(Mv.tolist()))
+            raise self.error("model.mass", "a nonsingular matrix at the default parameters", shorten(Mv.tolist()))
         s = 1.0 / np.sqrt(np.diag(Mv))  # scaled, so masses of 1e-8 and 1e8 side by side are fine
         lowest = float(np.linalg.eigvalsh(Mv * s[:, None] * s[None, :]).min())
         if not lowest > 0:
             raise self.error("model.mass", "a positive definite matrix (a mass matrix: every motion has kinetic "
-                             "energy > 0)", _short(Mv.tolist()),
+                             "energy > 0)", shorten(Mv.tolist()),
                              f"; scaled to a unit diagonal its lowest eigenvalue is {lowest:.3g} at the default "
                              "parameters")
 
@@ -558,7 +327,7 @@ class _Builder:
             s = gyro["speed"]
             if isinstance(s, bool) or not isinstance(s, (int, float, str)):
                 raise self.error("model.gyroscopic.speed", "the name of a parameter (or an expression of parameters)",
-                                 _short(s))
+                                 shorten(s))
             speed = self.expression(s, "model.gyroscopic.speed")
             G, g_used = self.matrix("model.gyroscopic.matrix", gyro["matrix"], required=True, factor=speed)
             C = C + G

@@ -13,7 +13,7 @@ sense in a built-in model (:attr:`contin.model.catalog.ModelSpec.constraints`), 
 for values an analysis gives a parameter against the same rules, a negative
 excitation frequency included (:func:`check_parameter_values`). The checks
 that need the built model are each analysis's ``check``
-(:func:`contin.analyses.check_scene`). docs/scenes.md lists them all.
+(:func:`contin.scene.registry.check_scene`). docs/reference/scene-checks.md lists them all.
 """
 
 from __future__ import annotations
@@ -246,8 +246,7 @@ def parameter_rule(model: dict, name: str, analysis: dict | None = None):
     """``(rule, meaning)`` that the values of parameter ``name`` must obey, or None.
 
     Built-in models give theirs (:attr:`contin.model.catalog.ModelSpec.constraints`);
-    the excitation frequency (``analysis.frequency``, else the model's) is
-    never negative.
+    the excitation frequency (:func:`model_frequency`) is never negative.
 
     Parameters
     ----------
@@ -257,7 +256,7 @@ def parameter_rule(model: dict, name: str, analysis: dict | None = None):
     analysis : dict, optional
         The checked ``analysis`` section (for ``frequency``).
     """
-    rules, freq = {}, model.get("frequency")
+    rules = {}
     if "builtin" in model:
         from contin.model.catalog import get_spec
 
@@ -266,9 +265,8 @@ def parameter_rule(model: dict, name: str, analysis: dict | None = None):
         except (TypeError, ValueError):
             return None  # the model's build names it
         options = model.get("options") if isinstance(model.get("options"), dict) else {}
-        rules, freq = spec.parameter_constraints(options), spec.frequency
-    if analysis is not None and isinstance(analysis.get("frequency"), str):
-        freq = analysis["frequency"]
+        rules = spec.parameter_constraints(options)
+    freq = model_frequency(model, analysis)
     if name in rules:
         return rules[name]
     if name == freq:
@@ -318,8 +316,29 @@ def _check_builtin_parameters(model: dict, lines: dict) -> None:
             raise SceneError(key, bad, v, lines.get(key))
 
 
-def model_frequency(model: dict) -> str | None:
-    """The excitation-frequency parameter of a checked ``model`` section (None for an unknown built-in)."""
+def model_frequency(model: dict, analysis: dict | None = None) -> str | None:
+    """The excitation-frequency parameter ``w`` of a scene (``tau = w t``).
+
+    The one place a scene's frequency is named: ``analysis.frequency`` where
+    the analysis gives one, else the model's own (``model.frequency`` of a
+    custom model, the built-in model's declared frequency). The analyses pass
+    it to the problems they make (the ``frequency`` argument of
+    :class:`contin.hb.problem.HarmonicBalance`); no model is changed.
+
+    Parameters
+    ----------
+    model : dict
+        The checked ``model`` section.
+    analysis : dict, optional
+        The checked ``analysis`` section.
+
+    Returns
+    -------
+    str or None
+        None for an unknown built-in model (its build names it).
+    """
+    if analysis is not None and isinstance(analysis.get("frequency"), str):
+        return analysis["frequency"]
     if "builtin" not in model:
         return model.get("frequency")
     from contin.model.catalog import get_spec
@@ -332,7 +351,7 @@ def model_frequency(model: dict) -> str | None:
 
 def _check_frequency_response(model: dict, analysis: dict, lines: dict) -> None:
     """Values of the continued parameter: ``range``, ``start`` and the starts' ``start``."""
-    name = analysis["parameter"] or analysis["frequency"] or model_frequency(model)
+    name = analysis["parameter"] or model_frequency(model, analysis)
     items = [("analysis.range", analysis["range"]), ("analysis.start", analysis["start"])]
     items += [(f"analysis.starts[{i}].start", extra.get("start")) for i, extra in enumerate(analysis["starts"])]
     check_parameter_values(model, analysis, name, [(k, v) for k, v in items if v is not None], lines)

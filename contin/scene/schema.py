@@ -8,7 +8,6 @@ helpers; :func:`check_section` reports the first violation as a
 from __future__ import annotations
 
 import copy
-import math
 from dataclasses import dataclass
 from typing import Any, Callable
 

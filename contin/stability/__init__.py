@@ -3,29 +3,24 @@
 - :mod:`contin.stability.hill`: Hill's method on the harmonic-balance matrices;
 - :mod:`contin.stability.monodromy`: monodromy matrix by time integration,
   built on :mod:`contin.stability.rk4` (the compiled fixed-step variational
-  kernels) and :mod:`contin.stability.saltation` (switches of contact laws and
-  their saltation matrices); :mod:`contin.stability.monodromy_reference`
+  kernels), :mod:`contin.stability.rk4_step_limit` (RK4's stability limit
+  along the orbit) and :mod:`contin.stability.saltation` (switches of contact
+  laws and their saltation matrices); :mod:`contin.stability.monodromy_reference`
   holds the adaptive ``solve_ivp`` references;
-- :mod:`contin.stability.floquet`: options, results, the verdict, and the
-  monitor and events used by the continuation engine.
+- :mod:`contin.stability.options`: the method and its options;
+- :mod:`contin.stability.verdict`: the multipliers of one solution, their
+  counts and the verdict;
+- :mod:`contin.stability.floquet`: the multipliers of one solution by the
+  chosen method, with the cross-checks of Hill against the monodromy;
+- :mod:`contin.stability.multiplier_pairing`: two sets of multipliers
+  compared, and the step limit that predicts the next crossing;
+- :mod:`contin.stability.monitor`: the monitor of the continuation engine;
+- :mod:`contin.stability.point_verdicts` and :mod:`contin.stability.events`:
+  the stability events (fold, bp, pd, ns), located and classified.
 """
 
-from contin.stability.floquet import (
-    FloquetResult,
-    MultiplierCrossingEvent,
-    StabilityChangeEvent,
-    StabilityMethod,
-    StabilityMonitor,
-    StabilityOptions,
-    classify_multipliers,
-    describe_crossing,
-    floquet_multipliers,
-    monodromy_result,
-    multiplier_distance,
-    multiplier_step_limit,
-    stability_events,
-    unevaluated_data,
-)
+from contin.stability.events import MultiplierCrossingEvent, StabilityChangeEvent, describe_crossing, stability_events
+from contin.stability.floquet import floquet_multipliers
 from contin.stability.hill import HillSpectrum, hill_spectrum
 from contin.stability.monodromy import (
     Monodromy,
@@ -37,6 +32,10 @@ from contin.stability.monodromy import (
     orbit_state,
     switching_events,
 )
+from contin.stability.monitor import StabilityMonitor
+from contin.stability.multiplier_pairing import multiplier_distance, multiplier_step_limit
+from contin.stability.options import StabilityMethod, StabilityOptions
+from contin.stability.verdict import FloquetResult, classify_multipliers, monodromy_result, unevaluated_data
 
 __all__ = [
     "FloquetResult",

@@ -278,11 +278,12 @@ def hill_spectrum(
     if getattr(hb, "full", None) is not None:  # a condensed problem: Hill's method needs every dof
         u, hb = hb.expand(u, lam), hb.full
     D0, D1, D2 = hb.hill_matrices(u, lam) if matrices is None else matrices
-    Omega = float(hb.params_at(lam)[hb.kw]) / hb.nu
+    p = hb.params_at(lam)
+    Omega = hb.base_frequency(p)
     if not Omega > 0:
         raise ValueError(f"Hill's method needs a positive excitation frequency, got w/nu = {Omega}")
-    period = 2.0 * np.pi / Omega
-    mass = hb.model.linear(hb.params_at(lam))[0]
+    period = hb.period(p)
+    mass = hb.model.linear(p)[0]
     s, Q = companion_eigen(D0, D1, D2, vectors=True, mass=mass)
     c = harmonic_centroids(Q, hb.n)
     # a massless dof has no dynamics of its own: 2 rank(M) exponents per class set

@@ -16,7 +16,7 @@ Two paths are provided:
   ``Phi`` is propagated by a numba-compiled fixed-step classical Runge-Kutta
   scheme. For smooth forces the error is ``O(h^4)``, ``h = T/S``; a step
   beyond RK4's stability limit for the stiffest eigenvalue of ``A`` along the
-  orbit is refused (:class:`~contin.stability.rk4.RK4StepError`, an
+  orbit is refused (:class:`~contin.stability.rk4_step_limit.RK4StepError`, an
   ``ArithmeticError`` naming the step count needed), or, with ``max_steps``,
   the integration is done again with that count. Where
   the orbit crosses a switching surface of a force element, the variational
@@ -31,8 +31,8 @@ This module holds :func:`monodromy_rk4` (with its piecewise path) and
 :func:`state_matrices`, and re-exports the names of its ``__all__`` that live in
 the others:
 
-- :mod:`contin.stability.rk4`: the compiled fixed-step kernels and RK4's
-  stability check;
+- :mod:`contin.stability.rk4`: the compiled fixed-step kernels;
+- :mod:`contin.stability.rk4_step_limit`: RK4's stability check of the step;
 - :mod:`contin.stability.saltation`: the HB orbit at any time
   (:func:`orbit_state`), switching events and saltation matrices;
 - :mod:`contin.stability.monodromy_reference`: the :class:`Monodromy` result
@@ -47,18 +47,18 @@ from contin.hb import aft
 from contin.hb.harmonics import coefficient_blocks
 from contin.stability.monodromy_reference import Monodromy, monodromy_orbit_ivp, monodromy_reference
 from contin.stability.rk4 import (
-    RK4StepError,
-    _check_rk4_step,
     _force_jacobians,
     _full_state_matrices,
     _lower_blocks,
     _variational_rk4,
     rk4_propagate,
 )
+from contin.stability.rk4_step_limit import RK4StepError, _check_rk4_step
 from contin.stability.saltation import (
     _SWITCH_MODES,
     SwitchEvent,
     _frequency,
+    _period,
     _switch_values,
     _switching_elements,
     _switching_events,
@@ -116,7 +116,7 @@ def _orbit_samples(hb, u, lam, samples):
     x, xp = aft.synthesize(U, samples)
     xd = Omega * xp
     theta = 2.0 * np.pi * np.arange(samples) / samples
-    return x, xd, hb.nu * theta, 2.0 * np.pi / Omega
+    return x, xd, hb.nu * theta, hb.period(hb.params_at(lam))
 
 
 def _lower_blocks_at(hb, p, x, xd, tau):
@@ -185,7 +185,7 @@ def monodromy_rk4(hb, u: np.ndarray, lam: float, steps: int = 512, switches: str
     max_steps : int, optional
         Where ``steps`` is too large a step for the stiffest mode along the
         orbit, take the step count that mode needs
-        (:attr:`~contin.stability.rk4.RK4StepError.needed`, measured at
+        (:attr:`~contin.stability.rk4_step_limit.RK4StepError.needed`, measured at
         every node) and integrate again, as long as it is at most
         ``max_steps``. None (default): no refinement.
 
@@ -253,7 +253,7 @@ def _modes(hb, u, lam, p, t, z=None, sw_elements=None):
         z = orbit_state(hb, u, lam, np.asarray(t, dtype=float))
     if sw_elements is None:
         sw_elements = _switching_elements(hb.model)
-    tau = float(p[hb.kw]) * np.asarray(t, dtype=float)
+    tau = hb.excitation_frequency(p) * np.asarray(t, dtype=float)
     cols = [_switch_values(el, z[:, :n], z[:, n:], tau, p) > 0.0 for _, el, _ in sw_elements]
     return np.concatenate(cols, axis=1) if cols else np.zeros((len(t), 0), dtype=bool)
 
@@ -341,10 +341,11 @@ def _piecewise_nodes(hb, u, lam, p, events, T, steps):
 def _piecewise_rk4(hb, u, lam, steps, events, saltation):
     n = hb.n
     p = hb.params_at(lam)
-    T = 2.0 * np.pi / _frequency(hb, lam)
+    T = _period(hb, lam)
     t, z, starts, nsteps, h = _piecewise_nodes(hb, u, lam, p, events, T, steps)
     jumps = np.array([ev.saltation for ev in events])
-    Phi = _integrate(hb, p, np.ascontiguousarray(z[:, :n]), np.ascontiguousarray(z[:, n:]), float(p[hb.kw]) * t,
+    tau = hb.excitation_frequency(p) * t
+    Phi = _integrate(hb, p, np.ascontiguousarray(z[:, :n]), np.ascontiguousarray(z[:, n:]), tau,
                      starts, nsteps, h, jumps, T, lam, steps)
     return Monodromy(Phi, T, "rk4", steps=int(nsteps.sum()), evaluations=len(t), switches=tuple(events),
                      saltation=bool(saltation))

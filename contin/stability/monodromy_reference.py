@@ -26,7 +26,7 @@ from scipy.integrate import solve_ivp
 
 from contin.stability.saltation import (
     _check_switch_mode,
-    _frequency,
+    _period,
     _saltation,
     _segments,
     _switching_elements,
@@ -82,7 +82,7 @@ def _pointwise(hb, p):
     n = hb.n
     M, C, K = hb.model.linear(p)
     Minv = np.linalg.inv(M)
-    w = float(p[hb.kw])
+    w = hb.excitation_frequency(p)
     f = np.zeros((1, n))
     dfdx = np.zeros((1, n, n))
     dfdxd = np.zeros((1, n, n))
@@ -169,8 +169,7 @@ def monodromy_orbit_ivp(hb, u: np.ndarray, lam: float, rtol: float = 1e-11, atol
     _check_switch_mode(switches)
     n = hb.n
     p = hb.params_at(lam)
-    Omega = _frequency(hb, lam)
-    T = 2.0 * np.pi / Omega
+    T = _period(hb, lam)
     _, C, K, Minv, forces, _ = _pointwise(hb, p)
     events = [] if switches == "ignore" else switching_events(hb, u, lam, samples, saltation=switches == "saltation")
     pieces = [(a, b, lambda t: orbit_state(hb, u, lam, t)) for a, b in _segments(events, T)]
@@ -214,8 +213,7 @@ def monodromy_reference(hb, u: np.ndarray, lam: float, rtol: float = 1e-11, atol
     _check_switch_mode(switches)
     n = hb.n
     p = hb.params_at(lam)
-    Omega = _frequency(hb, lam)
-    T = 2.0 * np.pi / Omega
+    T = _period(hb, lam)
     _, C, K, Minv, forces, excitation = _pointwise(hb, p)
     d = 2 * n
     z0 = orbit_state(hb, u, lam, 0.0)
@@ -247,7 +245,7 @@ def monodromy_reference(hb, u: np.ndarray, lam: float, rtol: float = 1e-11, atol
 def _reference_with_switches(hb, p, T, z0, sw, rtol, atol, saltation, max_switches):
     """:func:`monodromy_reference` for a model with switching functions (see there)."""
     n = hb.n
-    w = float(p[hb.kw])
+    w = hb.excitation_frequency(p)
     _, C, K, Minv, forces, excitation = _pointwise(hb, p)
     funcs = [(e, el, i) for e, el, m in sw for i in range(m)]
 

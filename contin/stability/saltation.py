@@ -40,22 +40,12 @@ uses the same switches; :func:`monodromy_reference` finds its own on the
 nonlinear trajectory (terminal events of ``solve_ivp``, each contact law
 frozen between them) and applies the same saltation matrices.
 
-Checks (``tests/stability/test_saltation.py``): against central finite
-differences of the flow map of the independent simulator
-(:func:`contin.timedomain.simulation.simulate`), the reference monodromy of a
-clearance oscillator with contact damping agrees to 1e-8 with saltation and
-is off by 0.5 without, clipped and unclipped; on the rotor with ``c2 = 5``
-(impacts) 9e-9 against 1.6e-5 without (the bearing damping wipes the kick
-out within a period). Along the HB orbit the agreement is limited by the HB
-truncation, algebraic in ``H`` for impacting orbits (2e-2 in ``Phi`` for the
-rotor at ``H = 40``). Limits: a contact shorter than ``T/(2S)`` is not seen;
-a switch where the force jumps while the orbit does not cross transversally
-(grazing with a jump, sliding) raises ``ArithmeticError``; switching inside
-expression forces (``abs``, ``min``, ...) is not located. Hill's method uses
-the sampled Jacobian, which misses the jump (its derivative is a delta at
-the surface): on impacting orbits its selection of exponents fails (flagged
-ambiguous), though its spectrum holds the critical multipliers
-(``tests/models/test_rotor_floquet.py``).
+Limits: a contact shorter than ``T/(2S)`` is not seen; a switch where the
+force jumps while the orbit does not cross transversally (grazing with a
+jump, sliding) raises ``ArithmeticError``; switching inside expression forces
+(``abs``, ``min``, ...) is not located. Hill's method uses the sampled
+Jacobian, which misses the jump. The measured agreement with the independent
+simulator and along the HB orbit is in ``docs/validation/monodromy.md``.
 """
 
 from __future__ import annotations
@@ -82,10 +72,17 @@ def _check_switch_mode(switches):
 
 
 def _frequency(hb, lam: float) -> float:
-    Omega = float(hb.params_at(lam)[hb.kw]) / hb.nu
+    """The base frequency ``Omega = w/nu`` at ``lam``, checked positive."""
+    Omega = hb.base_frequency(hb.params_at(lam))
     if not Omega > 0:
         raise ValueError(f"the monodromy needs a positive excitation frequency, got w/nu = {Omega}")
     return Omega
+
+
+def _period(hb, lam: float) -> float:
+    """The solution period ``2 pi nu / w`` at ``lam``, its frequency checked positive."""
+    _frequency(hb, lam)
+    return hb.period(hb.params_at(lam))
 
 
 def orbit_state(hb, u: np.ndarray, lam: float, t) -> np.ndarray:
@@ -245,7 +242,7 @@ def _saltation(hb, p, el, e, i, direction, t, z, force_before, saltation=True) -
     in force just before the switch. ``f^+ - f^- = (0, -M^-1 direction * jump)``.
     """
     n = hb.n
-    w = float(p[hb.kw])
+    w = hb.excitation_frequency(p)
     x, xd = z[:n], z[n:]
     sw = el.switching_functions(x[None], xd[None], np.array([w * t]), p)
     normal = np.concatenate([sw.grad_x[0, i], sw.grad_xd[0, i]])
@@ -327,8 +324,8 @@ def _switching_events(hb, u, lam, samples, saltation, sw_elements, orbit=None):
     n = hb.n
     p = hb.params_at(lam)
     Omega = _frequency(hb, lam)
-    T = 2.0 * np.pi / Omega
-    w = float(p[hb.kw])
+    T = hb.period(p)
+    w = hb.excitation_frequency(p)
     if orbit is None:
         U = np.ascontiguousarray(coefficient_blocks(u, n))
         x, xp = aft.synthesize(U, samples)
@@ -374,7 +371,7 @@ class _SwitchValues:
 
     def __init__(self, hb, u, lam, p, sw_elements, elem, fun):
         self.hb, self.u, self.lam, self.p = hb, u, lam, p
-        self.w = float(p[hb.kw])
+        self.w = hb.excitation_frequency(p)
         self.elements = [el for _, el, _ in sw_elements]
         self.elem, self.fun = elem, fun
 
@@ -492,7 +489,7 @@ def _switch_events_at(hb, u, lam, p, sw_elements, tc, elem, fun, direction, salt
     law is a matter of rounding.
     """
     n = hb.n
-    w = float(p[hb.kw])
+    w = hb.excitation_frequency(p)
     z = orbit_state(hb, u, lam, tc)
     x, xd = np.ascontiguousarray(z[:, :n]), np.ascontiguousarray(z[:, n:])
     tau = w * tc

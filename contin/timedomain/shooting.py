@@ -50,7 +50,8 @@ import numpy as np
 from scipy.optimize import brentq, minimize_scalar
 
 from contin.timedomain.simulation import SimulationError, simulate
-from contin.stability.floquet import FloquetResult, StabilityOptions, monodromy_result
+from contin.stability.options import StabilityOptions
+from contin.stability.verdict import FloquetResult, monodromy_result
 
 __all__ = ["ShootingOptions", "ShootingOrbit", "PeriodDoublingScan", "ShootingProblem", "ShootingStability",
            "flow_map", "periodic_orbit", "period_doubling_scan", "period_doubling_start"]
@@ -398,17 +399,24 @@ class ShootingProblem:
         self.model, self.parameter, self.options = model, parameter, options
         self.base = dict(params or {})
         self.size = 2 * model.n_dof
+        # the flow map integrates the model's excitation at its declared frequency
+        self.frequency = model.frequency
+        self._kw = model.parameter_index(self.frequency)
 
     def frequency_at(self, lam: float) -> float:
         """The forcing frequency at ``lam`` (the parameter itself, or fixed by the overrides)."""
         params = {**self.base, self.parameter: float(lam)}
-        return float(self.model.parameter_vector(params)[self.model.parameter_index(self.model.frequency)])
+        return float(self.model.parameter_vector(params)[self._kw])
+
+    def period_at(self, lam: float) -> float:
+        """The orbit's period, ``subharmonic`` forcing periods ``2 pi / w``, at ``lam``."""
+        return self.options.subharmonic * 2.0 * math.pi / self.frequency_at(lam)
 
     def params_at(self, lam: float) -> dict:
         """Parameter overrides at ``lam``; a Newton iterate with no positive forcing period fails the evaluation."""
         w = self.frequency_at(lam)
         if not w > 0.0:
-            raise ArithmeticError(f"the iterate has {self.model.frequency} = {w:g}: no positive forcing period")
+            raise ArithmeticError(f"the iterate has {self.frequency} = {w:g}: no positive forcing period")
         return {**self.base, self.parameter: float(lam)}
 
     def _flow(self, z, lam):
@@ -470,7 +478,7 @@ class ShootingStability:
         """The verdict at ``(u, lam)``, from ``Ju = Phi - I`` when given (else one linearisation)."""
         if Ju is None:
             _, Ju, _ = self.problem.linearize(u, lam)
-        period = self.problem.options.subharmonic * 2.0 * math.pi / self.problem.frequency_at(lam)
+        period = self.problem.period_at(lam)
         return monodromy_result(np.linalg.eigvals(Ju + np.eye(Ju.shape[0])), period, self.options)
 
     def __call__(self, u, lam, Ju=None, Jlam=None) -> dict:

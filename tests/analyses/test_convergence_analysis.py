@@ -9,7 +9,7 @@ import pytest
 import yaml
 from scipy.optimize import brentq, minimize_scalar
 
-from contin.analyses.convergence import recommend
+from contin.analyses.convergence_errors import recommend
 from contin.app.cli import main
 from contin.output.results import read_csv
 from contin.scene.parse import SceneError, parse_scene

@@ -80,7 +80,7 @@ def test_absorber_exercise_peak_and_closed_form(tmp_path):
     height = math.sqrt((2 + beta) / beta)
     top = max(q["amplitude"] for q in pk) / (F / k1)
     assert height < top < 1.002 * height  # the true peak, slightly above the fixed points
-    from contin.modal.absorber import design_absorber
+    from contin.modal.absorber_design import design_absorber
 
     assert top == pytest.approx(design_absorber(m1, k1, m2).true_peak.amplification, rel=1e-10)
 
@@ -141,3 +141,31 @@ def test_range_must_be_increasing_and_the_model_linear(tmp_path):
         run("model: {builtin: duffing}\nanalysis: {type: frf, range: [0.5, 2]}\n", tmp_path)
     with pytest.raises(SceneError, match="^analysis.force: .*the model has no excitation"):
         run(SEED002.replace("effects: [forcing]", "effects: []"), tmp_path)
+
+
+def test_the_frequency_named_by_the_analysis_is_used_and_the_model_keeps_its_own(tmp_path):
+    """analysis.frequency: W forces at W (tau = W t) over the range of W; the model's frequency stays w."""
+    from contin.analyses.frf import check
+    from contin.scene.build import build_model
+
+    text = """
+model:
+  dofs: [x]
+  parameters: {m: 1.0, c: 0.1, k: 2.0, F: 0.5, w: 3.0, W: 1.0}
+  mass: [[m]]
+  damping: [[c]]
+  stiffness: [[k]]
+  excitation: [{dof: x, expr: "F*cos(tau)"}]
+analysis:
+  type: frf
+  frequency: W
+  range: [0.2, 3.0]
+  points: 30
+"""
+    scene = parse_scene(text)
+    model = build_model(scene)
+    plan = check(scene, model)
+    assert plan["wname"] == "W" and model.frequency == "w"
+    _, rows = run(text, tmp_path)
+    W = rows["W"]
+    np.testing.assert_allclose(rows["re_x"] + 1j * rows["im_x"], 0.5 / (2.0 - W**2 + 0.1j * W), rtol=1e-12)

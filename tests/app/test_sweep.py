@@ -20,7 +20,9 @@ from conftest import no_hang
 from contin.app.cli import main
 from contin.output.results import read_csv
 from contin.scene.parse import SceneError
-from contin.app.sweep import GridAxis, SweepOptions, grid_points, parse_grid, run_sweep, summarize_point
+from contin.app.sweep import SweepOptions, run_sweep
+from contin.app.sweep_grid import GridAxis, grid_points, parse_grid
+from contin.app.sweep_index import summarize_point
 from contin.analyses.intervals import stable_intervals
 
 ROOT = Path(__file__).resolve().parents[2]

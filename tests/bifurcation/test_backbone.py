@@ -7,10 +7,10 @@ import pytest
 from scipy.special import ellipk
 
 from conftest import fd_jacobian
-from contin.bifurcation.backbone import (BackboneError, BackboneProblem, autonomous_model, linear_modes, static_equilibrium,
-                             trace_backbone)
+from contin.bifurcation.backbone import BackboneError, BackboneProblem, trace_backbone
 from contin.model.catalog import build_model
 from contin.engine.continuation import ContinuationOptions
+from contin.modal.equilibrium import ModalError
 
 
 def duffing_frequency(k, g, A):
@@ -103,18 +103,6 @@ def test_backbone_orbit_is_periodic_under_time_integration():
     assert np.abs(run.final_state[: prob.n] - x0).max() < 1e-8 * scale
 
 
-def test_static_equilibrium_and_modes_about_it():
-    model = build_model("timing_belt", {"p_s": 5.0}, ["rotor_mass", "stretching", "magnet", "static_load",
-                                                       "periodic_load"])
-    x0 = static_equilibrium(model)
-    auto = autonomous_model(model)
-    assert len(auto.excitations) < len(model.excitations)  # the periodic load is gone, the constant loads stay
-    omega, phi, _ = linear_modes(model, None, x0)
-    M = model.linear(model.parameter_vector())[0]
-    np.testing.assert_allclose(phi.T @ M @ phi, np.eye(5), atol=1e-12)
-    assert np.all(np.diff(omega) > 0) and omega[0] > 0
-
-
 def test_failure_paths_name_the_problem():
     damped = build_model("timing_belt", {"zeta": 0.01}, ["rotor_mass", "stretching", "damping"])
     with pytest.raises(BackboneError, match="has a damping matrix"):
@@ -128,13 +116,8 @@ def test_failure_paths_name_the_problem():
         BackboneProblem(bare, 1, "v")
     with pytest.raises(BackboneError, match="amplitude must be 'peak' or 'rms'"):
         BackboneProblem(bare, 1, amplitude="max")
-    mathieu = build_model("mathieu", {})
-    with pytest.raises(BackboneError, match="varies explicitly in time"):
-        autonomous_model(mathieu)
-    # a magnet pulling harder than the belt can resist, with no stretching to stop it: no equilibrium
-    runaway = build_model("timing_belt", {"gamma0": 500.0, "gamma3": 0.0}, ["magnet"])
-    with pytest.raises(BackboneError, match="no static equilibrium of 'timing_belt' found"):
-        static_equilibrium(runaway)
+    with pytest.raises(ModalError, match="varies explicitly in time"):  # no free problem: its static one is refused
+        BackboneProblem(build_model("mathieu", {}))
     with pytest.raises(BackboneError, match="positive"):
         trace_backbone(bare, 1, (0.0, 1.0))
     opts = ContinuationOptions(max_points=3)

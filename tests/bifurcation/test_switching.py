@@ -23,9 +23,9 @@ from contin.stability import (
     multiplier_distance,
     orbit_state,
 )
+from contin.bifurcation.diagram import follow
 from contin.bifurcation.switching import (
     doubled_problem,
-    follow,
     hill_vector_to_doubled,
     odd_indices,
     period_doubling_direction,

@@ -7,8 +7,9 @@ from scipy.optimize import brentq
 from scipy.special import mathieu_a, mathieu_b
 
 from conftest import fd_jacobian
-from contin.bifurcation.two_parameter import (BifurcationCurve, CurveOptions, FlipTestEvent, SingularityProblem,
-                                       continue_curve, curve_from_point)
+from contin.bifurcation.curve import BifurcationCurve
+from contin.bifurcation.curve_system import FlipTestEvent, SingularityProblem
+from contin.bifurcation.two_parameter import CurveOptions, continue_curve, curve_from_point
 from contin.engine.branch import BranchStatus
 from contin.model.catalog import build_model
 from contin.engine.continuation import ContinuationOptions, continuation

@@ -1,6 +1,5 @@
 """Tests of the continuation engine on problems with closed-form solutions."""
 
-import dataclasses
 import math
 
 import numpy as np
@@ -383,42 +382,11 @@ def test_invalid_arguments():
         continuation(Cubic(), [0.0], 0.0, (-1.0, 1.0), tangent=[1.0])
 
 
-# --------------------------------------------------------------------------
-# options
-# --------------------------------------------------------------------------
-def test_options_validation_names_the_field():
-    with pytest.raises(ValueError, match="ds_min"):
-        ContinuationOptions(ds_min=-1)
-    with pytest.raises(ValueError, match="ContinuationOptions.shrink"):
-        ContinuationOptions(shrink=1.5)
-    with pytest.raises(ValueError, match="direction"):
-        ContinuationOptions(direction=0)
-    with pytest.raises(ValueError, match="max_points"):
-        ContinuationOptions(max_points=2.5)
-    with pytest.raises(ValueError, match="scaling"):
-        ContinuationOptions(scaling="sometimes")
-    with pytest.raises(ValueError, match="unknown_scale"):
-        ContinuationOptions(unknown_scale=[1.0, -1.0])
-    with pytest.raises(ValueError, match="ds_max"):
-        ContinuationOptions(ds=0.5)
-
-
-def test_options_from_dict_and_replace():
-    with pytest.raises(ValueError, match="ds_max") as info:
-        ContinuationOptions.from_dict({"ds_mx": 0.1})
-    assert "ds_mx" in str(info.value)
-    opts = ContinuationOptions.from_dict({"ds": 0.01, "scaling": "none", "unknown_scale": [1.0, 2.0]})
-    assert opts.scaling is Scaling.NONE
-    assert opts.unknown_scale == (1.0, 2.0)
-    assert dataclasses.replace(opts, ds=0.05).ds == 0.05
-    assert opts.replace(max_points=7).max_points == 7
-    with pytest.raises(ValueError, match="newton_tol"):
-        opts.replace(newton_tl=1e-8)
-    with pytest.raises(ValueError, match="ds_min"):
-        dataclasses.replace(opts, ds_min=1.0)
-    assert ContinuationOptions.from_dict(opts.to_dict()) == opts
+def test_options_may_be_a_mapping():
     br = continuation(Cubic(), [-1.3], -1.0, (-1.0, 1.0), {"max_points": 5})
     assert len(br) == 5
+    with pytest.raises(TypeError, match="options must be ContinuationOptions or a mapping"):
+        continuation(Cubic(), [-1.3], -1.0, (-1.0, 1.0), 5)
 
 
 # --------------------------------------------------------------------------

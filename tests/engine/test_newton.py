@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from contin.engine.newton import (
+    LUFactor,
     NewtonResult,
     SingularMatrixError,
     factorize,
@@ -224,3 +225,14 @@ def test_a_given_factorisation_saves_the_first_one_and_a_poor_one_costs_no_conve
     res = newton(f, np.zeros(6), tol=1e-12, factor_final=True, lu0=bad)
     assert res.converged and res.iterations == full.iterations
     np.testing.assert_allclose(res.x, full.x, atol=1e-12)
+
+
+def test_a_given_factorisation_whose_update_is_not_finite_is_dropped():
+    """A caller's factorisation giving a non-finite update costs nothing: the first update factorises here."""
+    zero = LUFactor(lu=np.zeros((1, 1), order="F"), piv=np.array([1], dtype=np.int32), row_scale=np.ones(1),
+                    anorm=1.0)
+    plain = newton(sqrt2, [1.0], tol=1e-14, max_iter=20)
+    given = newton(sqrt2, [1.0], tol=1e-14, max_iter=20, lu0=zero)
+    assert given.converged and given.iterations == plain.iterations
+    assert given.factorizations == plain.factorizations
+    np.testing.assert_array_equal(given.x, plain.x)

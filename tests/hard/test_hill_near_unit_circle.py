@@ -21,8 +21,8 @@ from contin.app.cli import main
 from contin.engine.continuation import continuation
 from contin.hb.problem import HarmonicBalance, HBOptions
 from contin.stability import StabilityMethod, StabilityOptions, floquet_multipliers
-from contin.stability.floquet import multiplier_distance
-from contin.bifurcation.switching import follow
+from contin.stability.multiplier_pairing import multiplier_distance
+from contin.bifurcation.diagram import follow
 
 pytestmark = pytest.mark.hard
 HILL = StabilityOptions(method="hill")

@@ -19,7 +19,7 @@ from contin.engine.branch import BranchStatus, SpecialKind
 from contin.model.catalog import build_model
 from contin.engine.continuation import connection_report, continuation
 from contin.hb.problem import HarmonicBalance, HBOptions
-from contin.bifurcation.switching import follow
+from contin.bifurcation.diagram import follow
 
 pytestmark = pytest.mark.hard
 DELTA, EPS = 1.0, 0.3

@@ -22,7 +22,7 @@ from contin.model.base import ForceElement
 from contin.models.polynomial import polynomial_model
 from contin.engine.newton import solve_at_parameter
 from contin.stability import StabilityOptions, hill_spectrum
-from contin.stability.floquet import StabilityMonitor
+from contin.stability.monitor import StabilityMonitor
 
 TIGHT = ContinuationOptions(newton_tol=1e-12, newton_max_iter=30)
 
@@ -319,7 +319,8 @@ def mathieu_with_absorber():
 
 
 def test_period_doubling_switch_through_the_condensed_problem():
-    from contin.bifurcation.switching import follow, switch_at
+    from contin.bifurcation.diagram import follow
+    from contin.bifurcation.switching import switch_at
 
     model = mathieu_with_absorber()
     hb = HarmonicBalance(model, "delta", HBOptions(harmonics=5))

@@ -142,3 +142,31 @@ def test_blockwise_linear_part_equals_the_dense_operator(param, rng):
     np.testing.assert_allclose(Ju, A, rtol=0, atol=1e-13 * np.abs(A).max())
     fext, _ = hb.excitation(p)
     np.testing.assert_allclose(R, A @ u - fext, rtol=0, atol=1e-13 * np.abs(fext).max())
+
+
+def test_the_frequency_is_chosen_once_and_the_model_is_left_alone(rng):
+    """A problem whose frequency is another parameter W: Omega = W/nu and the period come from the problem,
+    equal to those of a model that declares W itself; the model keeps its own frequency."""
+    params = {"m": 1.0, "c": 0.1, "k": 1.0, "g": 0.5, "F": 0.3, "w": 1.0, "W": 1.7}
+    common = dict(mass=[["m"]], damping=[["c"]], stiffness=[["k"]],
+                  nonlinear=[{"dof": "x", "coef": "g", "x": {"x": 3}}],
+                  forcing=[{"dof": "x", "amplitude": "F", "order": 1}])
+    model = polynomial_model(["x"], params, **common)
+    declared = polynomial_model(["x"], params, frequency="W", **common)
+    opts = HBOptions(harmonics=3, subharmonic=2)
+    hb = HarmonicBalance(model, "W", opts, frequency="W")
+    ref = HarmonicBalance(declared, "W", opts)
+    assert model.frequency == "w" and hb.frequency == "W" and hb.frequency_moves
+    p = hb.params_at(2.2)
+    assert hb.excitation_frequency(p) == 2.2 and hb.base_frequency(p) == 1.1
+    assert hb.period(p) == pytest.approx(2 * np.pi * 2 / 2.2, rel=1e-15)
+    u = rng.normal(size=hb.size)
+    for a, b in zip(hb.linearize(u, 2.2), ref.linearize(u, 2.2)):
+        np.testing.assert_array_equal(a, b)
+    # continued in another parameter, the frequency stays W at its value
+    hk = hb.with_options(harmonics=2)
+    assert hk.frequency == "W"
+    hF = HarmonicBalance(model, "F", opts, frequency="W")
+    assert not hF.frequency_moves and hF.base_frequency(hF.params_at(0.5)) == 1.7 / 2
+    with pytest.raises(ValueError, match="unknown parameter 'V'"):
+        HarmonicBalance(model, "F", opts, frequency="V")

@@ -1,11 +1,14 @@
-"""Static equilibria (harmonic balance with H = 0) and the linearisation about them, against closed forms."""
+"""Static equilibria (harmonic balance with H = 0), the static load and the linearisation about them, against closed
+forms."""
 
 import numpy as np
 import pytest
 
 from conftest import fd_jacobian
 from contin.model.catalog import build_model
-from contin.modal.equilibrium import EquilibriumFailed, equilibrium_path, solve_equilibrium, static_model, static_problem
+from contin.modal.equilibrium import (EquilibriumFailed, ModalError, solve_equilibrium, static_equilibrium,
+                                      static_model, static_problem)
+from contin.modal.static_path import equilibrium_path, linear_modes
 from contin.models.polynomial import polynomial_model
 
 
@@ -60,6 +63,29 @@ analysis: {type: modes}
     assert res.converged and res.x[0] == pytest.approx(cubic_root(2.0, 1.0, 3.0), rel=1e-12)
 
 
+def test_the_static_load_of_each_kind_of_excitation():
+    """A constant is its own mean (exactly), a harmonic forcing has none, any other form enters by its mean."""
+    from contin.scene.custom_model import build_custom_model
+    from contin.scene.parse import parse_scene
+
+    scene = parse_scene("""
+model:
+  dofs: [x, y]
+  parameters: {P: 0.3, F: 5.0, w: 1.0}
+  mass: [[1, 0], [0, 1]]
+  stiffness: [[1, 0], [0, 1]]
+  excitation: [{dof: x, expr: "P"}, {dof: y, expr: "F*cos(tau)**2"}]
+analysis: {type: modes}
+""")
+    hb = static_problem(build_custom_model(scene))
+    f0, _ = hb.excitation(hb.p0)
+    assert f0[0] == 0.3 and f0[1] == pytest.approx(2.5, rel=1e-14)
+    duffing = preloaded_duffing(P=0.3)
+    hb = static_problem(duffing)
+    assert [el.order for el in hb.model.excitations] == [0.0]  # the forcing F cos(tau) is dropped
+    assert hb.excitation(hb.p0)[0][0] == 0.3
+
+
 def test_tangent_stiffness_matches_finite_differences(rng):
     model = polynomial_model(["x", "y"], {"k": 2.0, "kc": 0.5, "g": 0.7, "P": 0.3, "w": 1.0},
                              mass=[[1, 0], [0, 1]], stiffness=[["k", "-kc"], ["-kc", "k"]],
@@ -91,3 +117,24 @@ def test_time_varying_forces_have_no_static_equilibrium():
     with pytest.raises(ValueError, match="forces that vary in time have no static equilibrium"):
         static_model(model)
     assert static_model(build_model("mathieu", effects=["cubic"])).excitations == []
+    with pytest.raises(ModalError, match="varies explicitly in time"):
+        static_model(build_model("mathieu", {}))
+
+
+def test_static_equilibrium_and_modes_about_it():
+    model = build_model("timing_belt", {"p_s": 5.0}, ["rotor_mass", "stretching", "magnet", "static_load",
+                                                       "periodic_load"])
+    x0 = static_equilibrium(model)
+    auto = static_model(model)
+    assert len(auto.excitations) < len(model.excitations)  # the periodic load is gone, the constant loads stay
+    omega, phi, _ = linear_modes(model, None, x0)
+    M = model.linear(model.parameter_vector())[0]
+    np.testing.assert_allclose(phi.T @ M @ phi, np.eye(5), atol=1e-12)
+    assert np.all(np.diff(omega) > 0) and omega[0] > 0
+
+
+def test_no_static_equilibrium_names_the_model():
+    # a magnet pulling harder than the belt can resist, with no stretching to stop it: no equilibrium
+    runaway = build_model("timing_belt", {"gamma0": 500.0, "gamma3": 0.0}, ["magnet"])
+    with pytest.raises(EquilibriumFailed, match="no static equilibrium of 'timing_belt' found"):
+        static_equilibrium(runaway)

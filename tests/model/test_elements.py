@@ -99,3 +99,44 @@ def test_radial_gap_force_and_jacobian(clip, rng):
     np.testing.assert_allclose(f[:, 1], np.where(on, Fn * np.cos(th), 0.0), atol=1e-10)
     np.testing.assert_allclose(f[:, 2], np.where(on, Fn * np.sin(th), 0.0), atol=1e-10)
     assert not f[:, 0].any()
+
+
+@pytest.mark.parametrize("text,const,powers", [
+    ("g/2", 0.5, ((0, 1),)),
+    ("-0.5*k*w**2", -0.5, ((1, 1), (2, 2))),
+    ("k/w", 1.0, ((1, 1), (2, -1))),
+    ("2*pi*k", 2 * np.pi, ((1, 1),)),
+    (3, 3.0, ()),
+])
+def test_monomials_are_read_by_the_expression_parser(text, const, powers):
+    """Coefficients are written as in a scene: quotients and pi too."""
+    mono = Monomial.parse(text, ["g", "k", "w"])
+    assert mono.powers == powers and mono.const == pytest.approx(const, rel=1e-15)
+
+
+@pytest.mark.parametrize("text,message", [
+    ("kk", r"unknown parameter 'kk'.*did you mean 'k'"),
+    ("k + w", "found a sum"),
+    ("k^2", r"'\^' is not allowed"),
+])
+def test_monomial_parse_names_what_is_wrong(text, message):
+    with pytest.raises(ValueError, match=rf"^where: .*{message}"):
+        Monomial.parse(text, ["g", "k", "w"], "where")
+
+
+def test_every_built_in_element_has_a_compiled_form_and_its_scene_forms():
+    """The core finds all of an element through the registry: its compiled form and its scene keys."""
+    import contin.model.elements as elements
+    from contin.model.base import ExcitationElement, ForceElement
+    from contin.model.elements.registry import kinds_with_compiled_form, scene_forms
+
+    classes = [getattr(elements, name) for name in elements.__all__]
+    assert {cls.kind for cls in classes} <= set(kinds_with_compiled_form())
+    forces = [k for k, (cls, _) in scene_forms("forces").items() if cls in classes]
+    assert forces == ["expr", "gap", "radial_gap"]
+    assert [k for k, (cls, _) in scene_forms("excitation").items() if cls in classes] == ["expr", "amplitude",
+                                                                                            "constant"]
+    assert [k for k, (_, keys) in scene_forms("forces").items() if keys.default] == ["expr"]
+    for cls in classes:
+        base = ForceElement if issubclass(cls, ForceElement) else ExcitationElement
+        assert (cls.from_scene.__func__ is not base.from_scene.__func__) == bool(cls.scene_keys), cls

@@ -10,7 +10,7 @@ from contin.models.timing_belt import observe, shape_values
 from contin.engine.newton import solve_at_parameter
 from contin.timedomain.simulation import simulate
 from contin.stability import StabilityOptions
-from contin.bifurcation.switching import follow
+from contin.bifurcation.diagram import follow
 
 C_OBS = shape_values(5, 0.6)
 

@@ -1,7 +1,7 @@
 """Bearing rotor: the period-doubling curve in (w, f0) against one-parameter runs and the monodromy.
 
 H = 40 harmonics and 1024 samples, as in scenes/rotor_harmonic.yaml: with fewer harmonics the
-truncated orbit dips out of the clearance and the harmonic branch itself is wrong (README), so
+truncated orbit dips out of the clearance and the harmonic branch itself is wrong (docs/tutorials/rotor.md), so
 the discretisation is not reduced here; the cost is kept down by a short stretch of the curve
 (f0 from 0.3 to 0.5, one side of the region) and short one-parameter runs.
 """
@@ -9,7 +9,8 @@ the discretisation is not reduced here; the cost is kept down by a short stretch
 import numpy as np
 import pytest
 
-from contin.bifurcation.two_parameter import FlipTestEvent, curve_from_point
+from contin.bifurcation.curve_system import FlipTestEvent
+from contin.bifurcation.two_parameter import curve_from_point
 from contin.model.catalog import build_model
 from contin.engine.continuation import ContinuationOptions, continuation
 from contin.hb.problem import HarmonicBalance, HBOptions
@@ -52,7 +53,7 @@ def test_one_parameter_period_doublings_lie_on_the_curve(rotor, f0):
     hb = HarmonicBalance(model, "w", OPTIONS, {"f0": f0})
     (w_curve, u_curve), = curve.crossings(f0)
     # (1) independent: the multiplier count of the monodromy (RK4 along the HB orbit) changes at -1;
-    # located to the event tolerance, biased by tolerance / |d|mu|/dw| (see contin.stability.floquet)
+    # located to the event tolerance, biased by tolerance / |d|mu|/dw| (see contin.stability.events)
     mon = StabilityMonitor(hb, StabilityOptions(method="floquet", steps_per_period=4096))
     br = continuation(hb, starts[f0], 2.1, (2.1, w_curve + 0.02), ContinuationOptions(ds=0.02, ds_max=0.05),
                       events=stability_events(mon), monitors=[mon])

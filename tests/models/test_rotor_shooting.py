@@ -92,7 +92,7 @@ def test_branch_switched_at_F_is_the_converged_harmonic_balance_branch(model):
 
 @pytest.mark.slow
 def test_fig4_script_follows_the_branch_from_F_to_D_through_E_and_C(tmp_path):
-    """scripts/rotor_subharmonic_shooting.py: the paper's F-E-C-B-D as one branch of the flow (about 8 minutes).
+    """scripts/figures/rotor/rotor_subharmonic_shooting.py: the paper's F-E-C-B-D as one branch of the flow (about 8 minutes).
 
     From its result files: the branch leaves the harmonic orbit at F, passes the folds E and
     C, where the bearing bounces on its casing in between, and returns to the harmonic orbit
@@ -100,7 +100,7 @@ def test_fig4_script_follows_the_branch_from_F_to_D_through_E_and_C(tmp_path):
     w = 2.16 lies on it, and each stretch's verdict holds over 400 revolutions of a time
     simulation.
     """
-    out = subprocess.run([sys.executable, str(ROOT / "scripts" / "rotor_subharmonic_shooting.py"), "-o",
+    out = subprocess.run([sys.executable, str(ROOT / "scripts" / "figures" / "rotor" / "rotor_subharmonic_shooting.py"), "-o",
                           str(tmp_path)], capture_output=True, text=True, timeout=3000)
     assert out.returncode == 0, out.stderr[-2000:]
     rows, special = read_csv(tmp_path / "branch.csv"), read_csv(tmp_path / "special_points.csv")

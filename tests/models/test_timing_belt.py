@@ -7,7 +7,8 @@ import pytest
 from numpy.polynomial.legendre import leggauss
 
 from conftest import fd_jacobian
-from contin.bifurcation.backbone import linear_modes, static_equilibrium
+from contin.modal.equilibrium import static_equilibrium
+from contin.modal.static_path import linear_modes
 from contin.model.catalog import build_model
 from contin.hb.problem import HarmonicBalance, HBOptions
 from contin.models.timing_belt import (PAPER_MAGNET, deflection, galerkin_tensors, load_shape, magnet_coefficients,

@@ -14,7 +14,8 @@ from conftest import fd_jacobian
 from contin.model import codegen
 from contin.model.catalog import build_model as build_builtin
 from contin.scene.custom_model import build_custom_model, check_continuation_parameter
-from contin.model.elements.expression import ExpressionCoefficient, ExpressionExcitation, ExpressionForce
+from contin.model.elements.expression import ExpressionCoefficient, ExpressionForce
+from contin.model.elements.expression_excitation import ExpressionExcitation
 from contin.model.elements.gap import GapForce
 from contin.hb.problem import HarmonicBalance, HBOptions
 from contin.model.base import FORCE_ELEMENTS, EXCITATION_ELEMENTS, Monomial

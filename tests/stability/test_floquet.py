@@ -8,6 +8,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
 import contin.stability.floquet as floquet_module
+import contin.stability.verdict as verdict_module
 from contin.model.catalog import build_model
 from contin.engine.continuation import ContinuationOptions, continuation
 from contin.model.elements import GapForce
@@ -377,7 +378,7 @@ class _ClosedFormMonitor:
 
     def analyze(self, u, lam):
         self.calls += 1
-        return floquet_module.monodromy_result(self.multipliers(lam), 1.0, self.options)
+        return verdict_module.monodromy_result(self.multipliers(lam), 1.0, self.options)
 
     def __call__(self, u, lam, Ju=None, Jlam=None):
         return self.analyze(u, lam).monitor_data()

@@ -18,18 +18,8 @@ from contin.model.base import Monomial
 from contin.models.polynomial import polynomial_model
 from contin.stability import monodromy_rk4, orbit_state, switching_events
 from contin.stability.monodromy import state_matrices
-from contin.stability.rk4 import (
-    RK4_STABILITY,
-    RK4StepError,
-    _full_state_matrices,
-    _lower_blocks,
-    _perron_bound,
-    _row_bound,
-    _row_bounds,
-    _variational_rk4,
-    rk4_propagate,
-    rk4_segments,
-)
+from contin.stability.rk4 import _full_state_matrices, _lower_blocks, _variational_rk4, rk4_propagate, rk4_segments
+from contin.stability.rk4_step_limit import RK4_STABILITY, RK4StepError, _perron_bound, _row_bound, _row_bounds
 from contin.stability.saltation import _brentq_all, _switching_elements, _synthesize_at
 
 

@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 
 import contin.stability.floquet as floquet_module
-import contin.stability.rk4 as rk4_module
+import contin.stability.rk4_step_limit as rk4_step_limit_module
+import contin.stability.verdict as verdict_module
 from contin.engine.branch import BranchStatus
 from contin.engine.continuation import ContinuationOptions, continuation
 from contin.model.elements import GapForce
@@ -35,7 +36,7 @@ from contin.stability import (
     multiplier_distance,
     stability_events,
 )
-from contin.stability.floquet import MultiplierCrossingEvent, StabilityChangeEvent
+from contin.stability.events import MultiplierCrossingEvent, StabilityChangeEvent
 from contin.bifurcation.start import simulation_start
 
 KEYS = set(FloquetResult(np.ones(2, complex), np.zeros(2, complex), True, 0, 0, 0, 0, 1.0, "hill", 1.0).monitor_data())
@@ -96,7 +97,7 @@ def test_a_stiff_orbit_takes_the_steps_its_stiffest_mode_needs(stiff_duffing):
         data = mon(u, w)
         assert data["evaluated"] is True and set(data) == KEYS and not mon.unevaluated
         assert (data["n_plus"], data["n_minus"], data["n_complex"]) == counts
-        with pytest.raises(rk4_module.RK4StepError, match="too large for the stiffest mode"):
+        with pytest.raises(rk4_step_limit_module.RK4StepError, match="too large for the stiffest mode"):
             monodromy_rk4(hb, u, w, 16)
         mono = monodromy_rk4(hb, u, w, 16, max_steps=opts.max_steps_per_period)
         assert 227 / w < mono.steps <= 1.07 * 1.05 * 105.6 * 2 * np.pi / 2.78 / w + 1, mono.steps
@@ -194,10 +195,10 @@ def test_the_step_count_asked_for_holds_on_a_contact_orbit():
     u = simulation_start(hb, w, transient=60, steps_per_period=1024)
     asked = set()
     for start in (41, 47, 53):
-        with pytest.raises(rk4_module.RK4StepError, match="use steps_per_period >= ") as info:
+        with pytest.raises(rk4_step_limit_module.RK4StepError, match="use steps_per_period >= ") as info:
             monodromy_rk4(hb, u, w, start)
         asked.add(info.value.needed)
-        assert rk4_module.fast_steps(info.value.needed) == info.value.needed
+        assert rk4_step_limit_module.fast_steps(info.value.needed) == info.value.needed
         refined = monodromy_rk4(hb, u, w, start, max_steps=10 ** 4)
         assert len(refined.switches) == 4 and refined.steps >= info.value.needed
     assert len(asked) == 1  # the same orbit asks for the same count whatever the count refused
@@ -241,7 +242,7 @@ class _WindowMonitor(StabilityMonitor):
     def analyze(self, u, lam):
         if self.lo < lam < self.hi:
             raise ArithmeticError("nothing to evaluate here")
-        return floquet_module.monodromy_result(self.multipliers(lam), 1.0, self.options)
+        return verdict_module.monodromy_result(self.multipliers(lam), 1.0, self.options)
 
 
 def _crossing_at(lam_c):
@@ -321,4 +322,4 @@ def test_step_limits_ignore_points_without_a_verdict():
             assert ev.step_limit(pts[1], pts[2], 0.2) == np.inf
     # from 0.3 to 0.7: |mu| - threshold goes from -0.35 to -0.15, zero 0.3 further
     assert ev.step_limit(pts[2], pts[3], 0.2) == pytest.approx(1.25 * (0.3 + 2e-6), rel=1e-9)
-    assert floquet_module.unevaluated_data(4)["multipliers"].shape == (4,)
+    assert verdict_module.unevaluated_data(4)["multipliers"].shape == (4,)

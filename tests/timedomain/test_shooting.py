@@ -16,7 +16,7 @@ from scipy.linalg import expm
 from scipy.optimize import brentq
 from scipy.special import mathieu_a, mathieu_b
 
-from contin.bifurcation.two_parameter import FlipTestEvent
+from contin.bifurcation.curve_system import FlipTestEvent
 from contin.model.catalog import build_model
 from contin.engine.continuation import ContinuationOptions, continuation
 from contin.hb.problem import HarmonicBalance, HBOptions

@@ -1,4 +1,4 @@
-"""Forces, excitations and coefficients written as expressions (custom scene models).
+"""Forces and coefficients written as expressions (custom scene models).
 
 :class:`ExpressionForce` (force kind ``expr``) compiles all expression
 forces of a model into one generated numba module: a kernel filling ``f``,
@@ -6,11 +6,9 @@ forces of a model into one generated numba module: a kernel filling ``f``,
 (branching on ``k``). The derivatives are symbolic
 (:func:`contin.model.expressions.diff`), so the Jacobians are analytic. The module
 is cached on disk by :mod:`contin.model.codegen`, so numba's own cache works across
-processes.
-
-:class:`ExpressionExcitation` (excitation kind ``expr``) evaluates a
-right-hand side in ``tau`` and parameters with numpy; the harmonic balance
-evaluates it once per parameter value.
+processes. Its scene items are ``{dof: x, expr: "g*x**3"}`` (no ``type``
+needed); all of them join into one element. Its compiled time-domain form
+(:class:`ExpressionForceForm`) emits the expressions as code (value only).
 
 :class:`ExpressionCoefficient` is a parameter-dependent coefficient with the
 interface of :class:`contin.model.base.Monomial` (``value``, ``derivative``,
@@ -20,18 +18,17 @@ the contact elements.
 
 from __future__ import annotations
 
-import math
 from typing import Sequence
 
 import numpy as np
 
-from contin.model.codegen import array_names
-
 from contin.model import codegen
 from contin.model import expressions as ex
-from contin.model.base import ExcitationElement, ForceElement, register_excitation, register_force
+from contin.model.base import ForceElement, register_force
+from contin.model.codegen import array_names
+from contin.model.elements.registry import CompiledForm, Joined, SceneKeys
 
-__all__ = ["ExpressionForce", "ExpressionExcitation", "ExpressionCoefficient", "state_names"]
+__all__ = ["ExpressionForce", "ExpressionForceForm", "ExpressionCoefficient", "state_names", "as_node"]
 
 
 def state_names(dof_names: Sequence[str]) -> tuple:
@@ -39,7 +36,8 @@ def state_names(dof_names: Sequence[str]) -> tuple:
     return tuple(dof_names) + tuple(f"{d}_dot" for d in dof_names)
 
 
-def _as_node(e, where: str, names) -> ex.Node:
+def as_node(e, where: str, names) -> ex.Node:
+    """``e`` as an expression tree: a :class:`~contin.model.expressions.Node` as it is, a text parsed in ``names``."""
     return e if isinstance(e, ex.Node) else ex.parse(e, where, names)
 
 
@@ -56,7 +54,7 @@ class ExpressionCoefficient:
 
     def __init__(self, expr, param_names: Sequence[str], where: str = "coefficient"):
         self.param_names = tuple(param_names)
-        self.node = _as_node(expr, where, self.param_names)
+        self.node = as_node(expr, where, self.param_names)
         self._uses = {q: self.param_names.index(q) for q in ex.free_names(self.node) if q in self.param_names}
         self._indices = frozenset(self._uses.values())
         self._dnodes: dict = {}
@@ -125,7 +123,7 @@ class ExpressionForce(ForceElement):
             dof = int(dof)
             if not 0 <= dof < n:
                 raise ValueError(f"expression force {i}: dof index {dof} out of range for {n} dofs")
-            self.exprs.append((dof, _as_node(e, f"expression force {i}", names)))
+            self.exprs.append((dof, as_node(e, f"expression force {i}", names)))
         totals = [ex.ZERO] * n
         for dof, node in self.exprs:
             totals[dof] = ex.add(totals[dof], node)
@@ -249,62 +247,58 @@ class ExpressionForce(ForceElement):
         parts = [f"{dof_names[d]}: +{ex.to_text(node)}" for d, node in self.exprs]
         return f"{self.label} (expressions, {deg}): " + "; ".join(parts)
 
+    # -- scene -----------------------------------------------------------------
+    scene_keys = (SceneKeys({"type": False, "dof": True, "expr": True}, example='{dof: x, expr: "g*x**3"}',
+                            default=True),)
 
-@register_excitation("expr")
-class ExpressionExcitation(ExcitationElement):
-    """External forces given by expressions in ``tau`` and parameters.
+    @classmethod
+    def from_scene(cls, item, key, scene):
+        d = scene.dof(item["dof"], f"{key}.dof")
+        node = scene.expression(item["expr"], f"{key}.expr", allow_state=True, allow_tau=True,
+                                what="an expression of the dofs, their velocities NAME_dot, tau and parameters")
+        return Joined(cls, (d, node))
 
-    Parameters
-    ----------
-    dof_names, param_names : sequence of str
-    exprs : sequence of (int, Node or str)
-        Target dof index and expression (no dofs or velocities).
-    label : str
-    """
+    @classmethod
+    def join(cls, parts, key, scene):
+        try:
+            return cls(scene.dofs, scene.param_names, parts, label="forces (expr)")
+        except (RecursionError, SyntaxError, MemoryError) as exc:
+            raise scene.error(key, "expressions that can be compiled", None,
+                              f"; code generation failed: {type(exc).__name__}: {exc}") from None
 
-    def __init__(self, dof_names: Sequence[str], param_names: Sequence[str], exprs, label: str = "excitation"):
-        self.dof_names = tuple(dof_names)
-        self.param_names = tuple(param_names)
-        self.label = label
-        names = set(self.param_names) | {"tau"}
-        self.exprs = [(int(d), _as_node(e, f"excitation {i}", names)) for i, (d, e) in enumerate(exprs)]
-        used = set().union(*(ex.free_names(node) for _, node in self.exprs)) if self.exprs else set()
-        self._uses = {q: self.param_names.index(q) for q in used if q in self.param_names}
-        self._params = frozenset(self._uses.values())
-        self._dnodes: dict = {}
-        bounds = [ex.harmonic_bound(node) for _, node in self.exprs]
-        # unknown content (e.g. exp(cos(tau))) is simply projected on the retained harmonics
-        self._max_order = max([b for b in bounds if b is not None] + [0.0])
+    # -- time simulation ---------------------------------------------------------
+    def compiled_form(self):
+        return ExpressionForceForm(self)
 
-    def _env(self, tau, p):
-        env = {q: float(p[i]) for q, i in self._uses.items()}
-        env["tau"] = tau
-        return env
 
-    def evaluate(self, tau, p, f):
-        env = self._env(tau, p)
-        for dof, node in self.exprs:
-            f[:, dof] += np.broadcast_to(ex.evaluate(node, env), tau.shape)
+class ExpressionForceForm(CompiledForm):
+    """Expression forces in the generated simulation module: their totals as code, value only."""
 
-    def evaluate_dp(self, tau, p, k, dfdp):
-        if k not in self._params:
-            return
-        env = self._env(tau, p)
-        name = self.param_names[k]
-        for i, (dof, node) in enumerate(self.exprs):
-            key = (i, k)
-            if key not in self._dnodes:
-                self._dnodes[key] = ex.diff(node, name)
-            d = self._dnodes[key]
-            if d != ex.ZERO:
-                dfdp[:, dof] += np.broadcast_to(ex.evaluate(d, env), tau.shape)
+    def _name_of(self, name):
+        e = self.element
+        return array_names(e.param_names, e.dof_names, x="X[0, {}]", xd="V[0, {}]", tau="tau",
+                           error=ValueError)(name)
 
-    def depends_on(self, k):
-        return k in self._params
+    def force_lines(self, tag, c, m):
+        w = ex.CodeWriter(self._name_of, f"{tag}t")
+        targets = [(i, t) for i, t in enumerate(self.element.totals) if t != ex.ZERO]
+        for _, t in targets:
+            w.count(t)
+        stmts = [f"F[0, {i}] += {w.emit(t)}" for i, t in targets]
+        return list(w.lines) + stmts
 
-    def max_order(self):
-        return float(self._max_order) if math.isfinite(self._max_order) else 0.0
+    def notes(self):
+        if any(_nonsmooth(t) for t in self.element.totals):
+            return ["an expression force uses abs/sign/min/max/a condition: its switching is not located "
+                    "(fixed-step error there is first order in h)"]
+        return []
 
-    def describe(self, dof_names=None, param_names=None):
-        dof_names = self.dof_names if dof_names is None else dof_names
-        return f"{self.label}: " + "; ".join(f"{dof_names[d]} += {ex.to_text(node)}" for d, node in self.exprs)
+
+def _nonsmooth(node) -> bool:
+    stack = [node]
+    while stack:
+        n = stack.pop()
+        if isinstance(n, ex.Select) or (isinstance(n, ex.Call) and n.fn in ("abs", "sign", "min", "max")):
+            return True
+        stack.extend(n.children())
+    return False

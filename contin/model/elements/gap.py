@@ -1,13 +1,26 @@
-"""Piecewise-linear contact forces: a gap on one dof and a radial clearance in a plane."""
+"""A gap on one dof: a contact spring and dashpot beyond a clearance, on one side or both.
+
+Everything the package needs of the element is here: its law for the
+harmonic balance (:func:`_gap_kernel`) and switching functions for the
+crossings and the saltation matrices (:func:`_gap_switching_kernel`), its
+compiled time-domain form (:class:`GapForm`, with the frozen-mode kernels
+:func:`_gap_force` and :func:`_gap_switch`) and its scene keys
+(``{type: gap, dof: x, clearance: g, stiffness: k, damping: c, sides: both, clip: false}``).
+"""
 
 from __future__ import annotations
 
 import numba as nb
 import numpy as np
 
-from contin.model.base import ForceElement, Monomial, Switching, register_force
+from contin.model.base import Monomial, register_force
+from contin.model.elements.contact import ContactForce, contact_values
+from contin.model.elements.registry import CompiledForm, SceneKeys, item_label, shorten
 
-__all__ = ["GapForce", "RadialGapForce"]
+__all__ = ["GapForce", "GapForm"]
+
+#: the scene's spelling of the sides, and the kernels' code for each
+SIDES = {"+": 1, "-": -1, "both": 0}
 
 
 @nb.njit(cache=True)
@@ -85,68 +98,8 @@ def _gap_switching_kernel(x, xd, d, g, k, c, side, clip, val, gx, gxd, diff, jum
             jump[j, i, d] = F - s * k * val[j, i]
 
 
-class _ContactForce(ForceElement):
-    """Shared parameter handling of the contact elements (clearance, stiffness, damping)."""
-
-    degree = None
-
-    def _values(self, p):
-        return self.clearance.value(p), self.stiffness.value(p), self.damping.value(p)
-
-    def _kernel(self, x, xd, values, f, dfdx, dfdxd, which):
-        raise NotImplementedError
-
-    #: number of switching functions
-    n_switch = 1
-
-    def _switch_kernel(self, x, xd, values, val, gx, gxd, diff, jump, dx, dxd, which):
-        raise NotImplementedError
-
-    def _switching(self, x, xd, values, which):
-        N, n = x.shape
-        m = self.n_switch
-        out = Switching(np.zeros((N, m)), np.zeros((N, m, n)), np.zeros((N, m, n)), np.zeros((N, m, n)),
-                        np.zeros((N, m, n)), np.zeros((N, m, n, n)), np.zeros((N, m, n, n)))
-        self._switch_kernel(np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(xd, dtype=float),
-                            values, out.value, out.grad_x, out.grad_xd, out.difference, out.jump,
-                            out.difference_x, out.difference_xd, which)
-        return out
-
-    def switching_functions(self, x, xd, tau, p):
-        """The contact surfaces (see :class:`contin.model.base.Switching`); jumps of the damping term included."""
-        return self._switching(x, xd, self._values(p), 0)
-
-    def switching_dp(self, x, xd, tau, p, k):
-        N, n = x.shape
-        hp = np.zeros((N, self.n_switch))
-        Lp = np.zeros((N, self.n_switch, n))
-        values = self._values(p)
-        for which, mono in ((1, self.clearance), (2, self.stiffness), (3, self.damping)):
-            dm = mono.derivative(p, k)
-            if dm != 0.0:
-                sw = self._switching(x, xd, values, which)
-                hp += dm * sw.value
-                Lp += dm * sw.difference
-        return hp, Lp
-
-    def evaluate(self, x, xd, tau, p, f, dfdx, dfdxd):
-        self._kernel(x, xd, self._values(p), f, dfdx, dfdxd, 0)
-
-    def evaluate_dp(self, x, xd, tau, p, k, dfdp):
-        values = self._values(p)
-        for which, mono in ((1, self.clearance), (2, self.stiffness), (3, self.damping)):
-            dm = mono.derivative(p, k)
-            if dm != 0.0:
-                tmp = np.zeros_like(dfdp)
-                self._kernel(x, xd, values, tmp, self._dummy, self._dummy, which)
-                dfdp += dm * tmp
-
-    def depends_on(self, k):
-        return any(m.depends_on(k) for m in (self.clearance, self.stiffness, self.damping))
-
-
 @register_force("gap")
-class GapForce(_ContactForce):
+class GapForce(ContactForce):
     """Contact spring (and dashpot) beyond a clearance on one dof.
 
     ``f = k (x - g) + c x'`` while ``x > g`` (side ``+``), ``f = k (x + g) + c x'``
@@ -164,11 +117,11 @@ class GapForce(_ContactForce):
 
     def __init__(self, dof: int, clearance: Monomial, stiffness: Monomial, damping: Monomial = Monomial(0.0),
                  sides: str = "both", clip: bool = False, label: str = "gap"):
-        if sides not in ("+", "-", "both"):
+        if not isinstance(sides, str) or sides not in SIDES:
             raise ValueError(f"gap sides must be '+', '-' or 'both', got {sides!r}")
         self.dof = dof
         self.clearance, self.stiffness, self.damping = clearance, stiffness, damping
-        self.side = {"+": 1, "-": -1, "both": 0}[sides]
+        self.side = SIDES[sides]
         self.sides = sides
         self.clip = bool(clip)
         self.label = label
@@ -192,163 +145,83 @@ class GapForce(_ContactForce):
         return (f"{self.label}: contact on {dof_names[self.dof]} beyond clearance (sides {self.sides}), "
                 f"k*(penetration) + c*velocity{', clipped at zero' if self.clip else ''}")
 
+    # -- scene -----------------------------------------------------------------
+    scene_keys = (SceneKeys({"type": True, "dof": True, "clearance": True, "stiffness": True, "damping": False,
+                             "sides": False, "clip": False},
+                            example="{type: gap, dof: x, clearance: 0.1, stiffness: 1000}"),)
 
+    @classmethod
+    def from_scene(cls, item, key, scene):
+        clearance, stiffness, damping = contact_values(item, key, scene)
+        clip = scene.boolean(item.get("clip"), f"{key}.clip")
+        d = scene.dof(item["dof"], f"{key}.dof")
+        sides = item.get("sides", "both")
+        sides = "both" if sides is None else sides
+        if not isinstance(sides, str) or sides not in SIDES:
+            raise scene.error(f"{key}.sides", "one of '+', '-', 'both' (quote the signs in YAML: \"-\")",
+                              shorten(sides))
+        return cls(d, clearance, stiffness, damping, sides=sides, clip=clip, label=f"{item_label(key)} gap")
+
+    # -- time simulation ---------------------------------------------------------
+    def compiled_form(self):
+        return GapForm(self)
+
+
+# ---------------------------------------------------------------- time simulation
 @nb.njit(cache=True)
-def _radial_kernel(x, xd, ix, iy, delta, k, c, clip, f, dfdx, dfdxd, dp):
-    # dp: 0 = forces/Jacobian; 1, 2, 3 = d/ddelta, d/dk, d/dc into f
-    N = x.shape[0]
-    for j in range(N):
-        X = x[j, ix]
-        Y = x[j, iy]
-        r = np.sqrt(X * X + Y * Y)
-        if r <= delta or r == 0.0:
-            continue  # the law applies where r - delta > 0 (its switching function)
-        ex = X / r
-        ey = Y / r
-        vx = xd[j, ix]
-        vy = xd[j, iy]
-        vn = vx * ex + vy * ey
-        Fn = k * (r - delta) + c * vn
-        if clip and Fn <= 0.0:
-            continue
-        if dp == 1:
-            f[j, ix] += -k * ex
-            f[j, iy] += -k * ey
-            continue
-        if dp == 2:
-            f[j, ix] += (r - delta) * ex
-            f[j, iy] += (r - delta) * ey
-            continue
-        if dp == 3:
-            f[j, ix] += vn * ex
-            f[j, iy] += vn * ey
-            continue
-        f[j, ix] += Fn * ex
-        f[j, iy] += Fn * ey
-        # d(e)/dx etc.: the radial direction turns with the position
-        dexdx = ey * ey / r
-        dexdy = -ex * ey / r
-        deydx = dexdy
-        deydy = ex * ex / r
-        dvndx = vx * dexdx + vy * deydx
-        dvndy = vx * dexdy + vy * deydy
-        dFndx = k * ex + c * dvndx
-        dFndy = k * ey + c * dvndy
-        dfdx[j, ix, ix] += dFndx * ex + Fn * dexdx
-        dfdx[j, ix, iy] += dFndy * ex + Fn * dexdy
-        dfdx[j, iy, ix] += dFndx * ey + Fn * deydx
-        dfdx[j, iy, iy] += dFndy * ey + Fn * deydy
-        dfdxd[j, ix, ix] += c * ex * ex
-        dfdxd[j, ix, iy] += c * ex * ey
-        dfdxd[j, iy, ix] += c * ey * ex
-        dfdxd[j, iy, iy] += c * ey * ey
+def _gap_force(X, V, d, g, k, c, side, active_plus, active_minus, F):
+    """Gap force of the frozen mode on a 1-sample view (law of :class:`GapForce`)."""
+    x = X[0, d]
+    v = V[0, d]
+    if side >= 0 and active_plus != 0:
+        F[0, d] += k * (x - g) + c * v
+    if side <= 0 and active_minus != 0:
+        F[0, d] += k * (x + g) + c * v
 
 
 @nb.njit(cache=True)
-def _radial_switching_kernel(x, xd, ix, iy, delta, k, c, clip, val, gx, gxd, diff, jump, dx, dxd, which):
-    # h = r - delta; with clip: min(r - delta, Fn/k), the law being active iff both are positive.
-    # which: 0 = values and derivatives; 1, 2, 3 = d/ddelta, d/dk, d/dc of h into val and of the law into diff
-    N = x.shape[0]
+def _gap_switch(X, V, d, g, k, c, side, clip, S, off):
+    """Switching functions of a gap: ``x - g`` (side +) and ``-x - g`` (side -); -1 for an absent side."""
+    x = X[0, d]
+    v = V[0, d]
     kref = k if k > 0.0 else 1.0
-    for j in range(N):
-        X = x[j, ix]
-        Y = x[j, iy]
-        r = np.sqrt(X * X + Y * Y)
-        if r == 0.0:
-            val[j, 0] = -delta if which == 0 else 0.0  # at the centre, away from the surface
-            continue
-        ex = X / r
-        ey = Y / r
-        vx = xd[j, ix]
-        vy = xd[j, iy]
-        vn = vx * ex + vy * ey
-        Fn = k * (r - delta) + c * vn
-        clipped = clip and Fn / kref < r - delta
-        if which != 0:
-            if which == 1:
-                hp = -k / kref if clipped else -1.0
-                Lp = -k
-            elif which == 2:
-                hp = ((r - delta) / kref - (Fn / (k * k) if k > 0.0 else 0.0)) if clipped else 0.0
-                Lp = r - delta
-            else:
-                hp = vn / kref if clipped else 0.0
-                Lp = vn
-            val[j, 0] = hp
-            diff[j, 0, ix] = Lp * ex
-            diff[j, 0, iy] = Lp * ey
-            continue
-        # d vn / d(X, Y): the radial direction turns with the position
-        dexdx = ey * ey / r
-        dexdy = -ex * ey / r
-        deydy = ex * ex / r
-        dvndx = vx * dexdx + vy * dexdy
-        dvndy = vx * dexdy + vy * deydy
-        val[j, 0] = r - delta
-        gx[j, 0, ix] = ex
-        gx[j, 0, iy] = ey
-        if clipped:
-            val[j, 0] = Fn / kref
-            gx[j, 0, ix] = (k * ex + c * dvndx) / kref
-            gx[j, 0, iy] = (k * ey + c * dvndy) / kref
-            gxd[j, 0, ix] = c * ex / kref
-            gxd[j, 0, iy] = c * ey / kref
-        diff[j, 0, ix] = Fn * ex
-        diff[j, 0, iy] = Fn * ey
-        dFndx = k * ex + c * dvndx
-        dFndy = k * ey + c * dvndy
-        dx[j, 0, ix, ix] = dFndx * ex + Fn * dexdx
-        dx[j, 0, ix, iy] = dFndy * ex + Fn * dexdy
-        dx[j, 0, iy, ix] = dFndx * ey + Fn * dexdy
-        dx[j, 0, iy, iy] = dFndy * ey + Fn * deydy
-        dxd[j, 0, ix, ix] = c * ex * ex
-        dxd[j, 0, ix, iy] = c * ex * ey
-        dxd[j, 0, iy, ix] = c * ey * ex
-        dxd[j, 0, iy, iy] = c * ey * ey
-        # on the surface: c vn e where r = delta, zero where the clipped Fn vanishes
-        Fs = Fn - k * val[j, 0]
-        jump[j, 0, ix] = Fs * ex
-        jump[j, 0, iy] = Fs * ey
+    if side >= 0:
+        pen = x - g
+        val = pen
+        if clip:
+            val = min(pen, (k * pen + c * v) / kref)
+        S[off] = val
+    else:
+        S[off] = -1.0
+    if side <= 0:
+        pen = -x - g
+        val = pen
+        if clip:
+            val = min(pen, (k * pen - c * v) / kref)
+        S[off + 1] = val
+    else:
+        S[off + 1] = -1.0
 
 
-@register_force("radial_gap")
-class RadialGapForce(_ContactForce):
-    """Radial contact in the plane of two dofs (a bearing in a clearance).
+class GapForm(CompiledForm):
+    """The gap in the generated simulation module: the frozen mode's law and the two switching functions."""
 
-    ``F = Fn (x/r, y/r)`` with ``r = sqrt(x^2 + y^2)`` and, for ``r >= delta``,
-    ``Fn = k (r - delta) + c (x' cos th + y' sin th)`` (Inagaki, Ishida &
-    Hayashi, Trans. JSME C 71 (2005), eq. 3); zero inside the clearance. With
-    ``clip``, ``Fn`` is set to zero when it would pull.
+    n_switch = 2
+    imports = ("from contin.model.elements.gap import _gap_force, _gap_switch",)
+    kernels = (_gap_force, _gap_switch)
 
-    Parameters
-    ----------
-    dofs : (int, int)
-    clearance, stiffness, damping : Monomial
-    clip : bool
-    """
+    def constants(self, p):
+        return list(self.element._values(p)) + [1.0 if self.element.clip else 0.0]
 
-    def __init__(self, dofs, clearance: Monomial, stiffness: Monomial, damping: Monomial = Monomial(0.0),
-                 clip: bool = False, label: str = "radial_gap"):
-        self.ix, self.iy = int(dofs[0]), int(dofs[1])
-        if self.ix == self.iy:
-            raise ValueError("radial_gap needs two different dofs")
-        self.clearance, self.stiffness, self.damping = clearance, stiffness, damping
-        self.clip = bool(clip)
-        self.label = label
-        self._dummy = np.zeros((1, 1, 1))
+    def force_lines(self, tag, c, m):
+        e = self.element
+        return [f"_gap_force(X, V, {e.dof}, cst[{c}], cst[{c + 1}], cst[{c + 2}], {e.side}, mode[{m}], "
+                f"mode[{m + 1}], F)"]
 
-    def _kernel(self, x, xd, values, f, dfdx, dfdxd, which):
-        d, k, c = values
-        _radial_kernel(x, xd, self.ix, self.iy, d, k, c, self.clip, f, dfdx, dfdxd, which)
+    def contact_matrices(self, p, n):
+        return self.element._contact_matrices(p, n, (self.element.dof,))
 
-    def _switch_kernel(self, x, xd, values, val, gx, gxd, diff, jump, dx, dxd, which):
-        d, k, c = values
-        _radial_switching_kernel(x, xd, self.ix, self.iy, d, k, c, self.clip, val, gx, gxd, diff, jump, dx, dxd,
-                                 which)
-
-    def active_dofs(self):
-        return tuple(sorted((self.ix, self.iy)))
-
-    def describe(self, dof_names, param_names):
-        return (f"{self.label}: radial contact of ({dof_names[self.ix]}, {dof_names[self.iy]}) beyond a clearance, "
-                f"Fn = k*(r - delta) + c*radial velocity{', clipped at zero' if self.clip else ''}")
+    def switch_lines(self, tag, c, m):
+        e = self.element
+        return [f"_gap_switch(X, V, {e.dof}, cst[{c}], cst[{c + 1}], cst[{c + 2}], {e.side}, "
+                f"cst[{c + 3}] != 0.0, S, {m})"]

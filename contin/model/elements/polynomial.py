@@ -1,4 +1,11 @@
-"""Polynomial internal forces: sums of monomials in displacements and velocities."""
+"""Polynomial internal forces: sums of monomials in displacements and velocities.
+
+The element's law (:func:`_poly_kernel`, with its Jacobians) serves the
+harmonic balance, and the same kernel on one-sample views is its compiled
+time-domain form (:class:`PolynomialForm`). Built-in models build it in Python
+(:mod:`contin.models.polynomial`); custom scene models write polynomials as
+expression forces (:mod:`contin.model.elements.expression`).
+"""
 
 from __future__ import annotations
 
@@ -7,9 +14,10 @@ from typing import Sequence
 import numba as nb
 import numpy as np
 
-from contin.model.base import ForceElement, Monomial, register_force
+from contin.model.base import ForceElement, register_force
+from contin.model.elements.registry import CompiledForm, float_array, int_array
 
-__all__ = ["PolynomialForce"]
+__all__ = ["PolynomialForce", "PolynomialForm"]
 
 
 @nb.njit(cache=True)
@@ -114,7 +122,7 @@ class PolynomialForce(ForceElement):
     def describe(self, dof_names, param_names):
         parts = []
         for t, c in enumerate(self.coefs):
-            mono = _format_monomial(c, param_names)
+            mono = c.text(param_names)
             for i, name in enumerate(dof_names):
                 for e, suffix in ((self.ex[t, i], ""), (self.ev[t, i], "_dot")):
                     if e:
@@ -124,9 +132,29 @@ class PolynomialForce(ForceElement):
             parts.append(f"{dof_names[self.target[t]]}: +{mono}")
         return f"{self.label} (polynomial, degree {self.degree}): " + "; ".join(parts)
 
+    def compiled_form(self):
+        return PolynomialForm(self)
 
-def _format_monomial(c: Monomial, names) -> str:
-    s = f"{c.const:g}"
-    for j, e in c.powers:
-        s += f"*{names[j]}" + (f"**{e}" if e != 1 else "")
-    return s
+
+class PolynomialForm(CompiledForm):
+    """The polynomial in the generated simulation module: its kernel on the one-sample views, no Jacobian."""
+
+    imports = ("from contin.model.elements.polynomial import _poly_kernel",)
+    kernels = (_poly_kernel,)
+
+    def constants(self, p):
+        return list(self.element._coef(p))
+
+    def globals(self, tag):
+        e = self.element
+        return [f"{tag}target = {int_array(e.target)}",
+                f"{tag}ex = {int_array(e.ex)}",
+                f"{tag}ev = {int_array(e.ev)}",
+                f"{tag}torder = {float_array(e.torder)}",
+                f"{tag}tphase = {float_array(e.tphase)}"]
+
+    def force_lines(self, tag, c, m):
+        T = len(self.element.coefs)
+        return [f"_poly_kernel(X, V, TAU, {tag}target, cst[{c}:{c + T}], {tag}ex, {tag}ev, {tag}torder, "
+                f"{tag}tphase, F, DUM, DUM, False)"]
+

@@ -9,7 +9,8 @@ import pytest
 from contin.scene.registry import shortfalls
 from contin.app.cli import main
 from contin.output.results import read_csv
-from contin.app.sweep import SweepOptions, parse_grid, run_sweep
+from contin.app.sweep import SweepOptions, run_sweep
+from contin.app.sweep_grid import parse_grid
 
 ROOT = Path(__file__).resolve().parents[3]
 CUSTOM = str(ROOT / "scenes/custom_duffing.yaml")

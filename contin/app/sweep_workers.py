@@ -1,0 +1,212 @@
+"""Running the points of a parameter sweep: in this process, or on the workers of a Dask cluster, warmed up once.
+
+:func:`_run_dask` submits every point (:func:`~contin.app.sweep_point.run_point`)
+to a ``distributed`` cluster, an embedded ``LocalCluster`` or an existing
+scheduler (:func:`_client`), and records the results as they complete;
+:func:`_run_serial` runs them one after another in this process. Each worker
+loads the kernels and the plotting stack once, when it starts
+(:class:`WarmUp`, :func:`warm_up`), not in every task.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import threading
+import time
+import uuid
+
+from contin.app.sweep_index import _progress_line
+from contin.app.sweep_point import _now, _prepare_process, run_point
+from contin.scene.schema import SceneError
+
+__all__ = ["WarmUp", "warm_up"]
+
+
+def warm_up(scene_text: str, scene_source: str, overrides=()) -> dict:
+    """Load (or, on a cold cache, compile) what a run of this scene needs, once per process.
+
+    Imports contin and the plotting stack, builds the scene's model (its
+    generated kernels) and, for a ``frequency_response``, evaluates the
+    harmonic-balance residual and Jacobian and Hill's stability once, so that
+    numba loads its cached machine code here instead of inside the first task.
+    On a cold cache (the first sweep after installing contin, or the first
+    with a new custom model) each worker compiles here, all at once, which
+    costs the wall time of one compilation when there are no more workers
+    than cores; later sweeps load the cached code. Failures are ignored: the
+    tasks report them.
+
+    Returns
+    -------
+    dict
+        ``seconds`` and ``status`` (``ok`` or the exception text).
+    """
+    t0 = time.perf_counter()
+    _prepare_process()
+    status = "ok"
+    try:
+        import io
+
+        import matplotlib.pyplot as plt
+
+        import contin.output.plotting  # noqa: F401
+        from contin.scene.build import build_model
+        from contin.scene.parse import parse_scene
+
+        fig = plt.figure(figsize=(1, 1))
+        fig.gca().plot([0, 1], [0, 1], "--")
+        fig.savefig(io.BytesIO(), format="png")
+        plt.close(fig)
+        scene = parse_scene(scene_text, scene_source, overrides)
+        model = build_model(scene)
+        if scene.analysis["type"] == "frequency_response":
+            from contin.analyses.frequency_response import build_problem
+
+            hb = build_problem(scene, model)
+            lam = float(scene.analysis["range"][0])
+            u = hb.linear_solution(lam)
+            hb.linearize(u, lam)
+            if scene.analysis["stability"] != "none":
+                from contin.analyses.stability_hooks import stability_options
+                from contin.stability import StabilityMonitor
+
+                StabilityMonitor(hb, stability_options(scene.analysis)).analyze(u, lam)
+    except Exception as exc:  # noqa: BLE001  (a warm-up never fails a worker)
+        status = f"{type(exc).__name__}: {exc}"
+    return {"seconds": time.perf_counter() - t0, "status": status}
+
+
+try:  # the plugin base class, when distributed is installed
+    from distributed.diagnostics.plugin import WorkerPlugin as _WorkerPlugin
+except ImportError:  # pragma: no cover
+    _WorkerPlugin = object
+
+
+class WarmUp(_WorkerPlugin):
+    """Dask worker plugin: prepares each worker (Agg, one BLAS thread) and runs :func:`warm_up`.
+
+    Registered by the sweep on every worker of the cluster, including workers
+    that join later or are restarted after a crash. The warm-up runs in a
+    thread, so the worker keeps answering the scheduler meanwhile.
+
+    Parameters
+    ----------
+    scene_text, scene_source, overrides
+        The scene of a grid point, for :func:`warm_up`.
+    ignore_interrupt : bool
+        Make the worker ignore SIGINT: for the embedded cluster, whose
+        workers share the terminal of the command, so that Ctrl-C stops the
+        command (which then closes the cluster) instead of killing every
+        worker with a traceback.
+    """
+
+    name = "contin-sweep-warm-up"
+
+    def __init__(self, scene_text: str, scene_source: str, overrides=(), ignore_interrupt: bool = False):
+        self.scene_text, self.scene_source, self.overrides = scene_text, scene_source, tuple(overrides)
+        self.ignore_interrupt = ignore_interrupt
+        self.result = None
+
+    async def setup(self, worker):
+        import asyncio
+        import signal
+
+        if self.ignore_interrupt and threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+        loop = asyncio.get_running_loop()
+        self.result = await loop.run_in_executor(None, warm_up, self.scene_text, self.scene_source, self.overrides)
+
+
+
+def _run_serial(options, todo, tasks, index, echo, total, done, timings, warm):
+    """The points one after another in this process (no Dask): the baseline and a debugging aid."""
+    for p in todo:
+        rec = run_point(tasks[p.index])
+        rec["reused"] = False
+        index.set(p, rec)
+        done += 1
+        echo(_progress_line(done, total, p, rec))
+        if rec["status"] == "interrupted":  # Ctrl-C inside the run: it stopped after its current point
+            raise KeyboardInterrupt
+
+
+def _worker_env() -> dict:
+    return {"MPLBACKEND": "Agg", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+
+
+@contextlib.contextmanager
+def _client(options, timings):
+    """A ``distributed.Client`` on the given scheduler, or on an embedded ``LocalCluster`` it starts and stops."""
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise SceneError("contin sweep", "the dask.distributed package (pip install \"dask[distributed]\"); "
+                         "--serial runs without it", None) from None
+
+    t0 = time.perf_counter()
+    if options.scheduler is not None:
+        try:
+            client = Client(options.scheduler, timeout="20s")
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise SceneError("--scheduler", "the address of a running Dask scheduler, such as tcp://10.0.0.5:8786",
+                             options.scheduler, hint=f" ({type(exc).__name__}: {exc})") from None
+        timings["connect"] = time.perf_counter() - t0
+        try:
+            yield client
+        finally:
+            client.close()
+        return
+    n = options.workers or os.cpu_count() or 1
+    import logging
+
+    # distributed's own warnings (a worker restarted, one slow to stop) are not shown: the sweep reports
+    # every point's outcome itself
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+                           env=_worker_env(), silence_logs=logging.ERROR)
+    try:
+        client = Client(cluster)
+        timings["cluster_start"] = time.perf_counter() - t0
+        try:
+            yield client
+        finally:
+            client.close()
+    finally:
+        cluster.close()
+
+
+def _run_dask(options, todo, tasks, index, echo, total, done, timings, warm):
+    from distributed import as_completed
+
+    t_end = None
+    with _client(options, timings) as client:
+        t0 = time.perf_counter()
+        client.register_plugin(WarmUp(*warm, ignore_interrupt=options.scheduler is None), name=WarmUp.name)
+        timings["warm_up"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        token = uuid.uuid4().hex[:8]
+        point_of = {}
+        futures = []
+        for p in todo:
+            fut = client.submit(run_point, tasks[p.index], key=f"contin-point-{p.name}-{token}", pure=False,
+                                retries=options.retries)
+            point_of[fut.key] = p
+            futures.append(fut)
+        for fut, result in as_completed(futures, with_results=True, raise_errors=False):
+            p = point_of[fut.key]
+            if isinstance(result, BaseException):
+                rec = {"status": "failed", "error": type(result).__name__, "worker": "",
+                       "message": f"the task failed (after up to {options.retries} retries): "
+                                  f"{type(result).__name__}: {result}", "finished_at": _now()}
+            else:
+                rec = result
+            rec["reused"] = False
+            index.set(p, rec)
+            done += 1
+            echo(_progress_line(done, total, p, rec))
+            fut.release()
+        timings["tasks"] = time.perf_counter() - t0
+        if options.scheduler is not None:  # leave an existing cluster as it was
+            with contextlib.suppress(Exception):
+                client.unregister_worker_plugin(WarmUp.name)
+        t_end = time.perf_counter()
+    timings["shutdown"] = time.perf_counter() - t_end

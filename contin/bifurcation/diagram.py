@@ -1,0 +1,366 @@
+"""Automatic bifurcation diagrams: a branch traced with stability, new branches switched onto at its bifurcations.
+
+:func:`follow` traces a first branch with stability, switches automatically
+at the requested special points (:func:`contin.bifurcation.switching.switch_at`),
+traces the new branches the same way up to a depth, and returns every
+branch with its parentage (:class:`BifurcationDiagram`); an interrupted
+diagram is taken up from the engine states of its branches.
+:func:`switch_branch` switches at one special point and traces the new
+branches.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+from contin.bifurcation.switching import BranchStart, _scales, switch_at
+from contin.engine.branch import Branch, BranchStatus, SpecialKind, SpecialPoint
+from contin.engine.continuation import ContinuationOptions, continuation
+from contin.hb.grazing import grazing_events
+from contin.stability.events import stability_events
+from contin.stability.monitor import StabilityMonitor
+from contin.stability.options import StabilityMethod, StabilityOptions
+
+__all__ = ["BifurcationDiagram", "follow", "switch_branch"]
+
+
+def _run(start: BranchStart, lam_range, options: ContinuationOptions, stability: StabilityOptions,
+         parameter_name: str, su: float, sl: float, callback=None, checkpoint=None, previous: Branch | None = None):
+    """Trace the branch from ``start`` (or take up ``previous``, the same branch of an interrupted run)."""
+    opts = options.replace(unknown_scale=su, parameter_scale=sl)
+    monitor, events, monitors = _stability(start.problem, stability, opts)
+    if previous is not None:
+        return _resume(previous, start.problem, lam_range, opts, parameter_name, events, monitors, callback,
+                       checkpoint), monitor
+    tangent = np.concatenate([start.tangent[:-1] / su, [start.tangent[-1] / sl]])
+    br = continuation(start.problem, start.u, start.lam, lam_range, opts, parameter_name=parameter_name,
+                      events=events, monitors=monitors, tangent=tangent, solve_start=False, callback=callback,
+                      checkpoint=checkpoint)
+    return br, monitor
+
+
+def _stability(problem, stability: StabilityOptions, options: ContinuationOptions):
+    """The stability monitor, the events and the monitors of a branch of ``problem``.
+
+    The events are the classified stability changes (with a monitor) and
+    the grazing of contact laws (for a harmonic balance with switching force
+    elements).
+    """
+    monitor, events, monitors = None, [], []
+    if stability.method is not StabilityMethod.NONE:
+        monitor = StabilityMonitor(problem, stability)
+        events = stability_events(monitor, folds=not options.detect_folds)
+        monitors = [monitor]
+    return monitor, events + grazing_events(problem), monitors
+
+
+def _resume(prev: Branch, problem, lam_range, options: ContinuationOptions, name: str, events, monitors, callback,
+            checkpoint=None):
+    """Take up a branch of an interrupted run (:func:`contin.output.checkpoint.rebuild_branches`).
+
+    An unfinished branch goes on from the engine state of its last point, as
+    it would have without the interruption (same options, events and
+    monitors as when it was started); a finished one is returned as it is,
+    its monitors given back their final states.
+    """
+    if prev.status is not BranchStatus.INTERRUPTED:
+        for mon, st in zip(monitors, prev.info.get("monitor_states") or ()):
+            if st is not None and hasattr(mon, "restore"):
+                mon.restore(st)
+        return prev
+    state = prev.info.pop("restart", None)
+    if state is None or not len(prev):
+        raise ValueError("resume: a branch without the engine state of its last point")
+    return continuation(problem, prev.unknowns[0], float(prev.parameter[0]), lam_range, options, parameter_name=name,
+                        events=events, monitors=monitors, callback=callback, checkpoint=checkpoint,
+                        restart=(prev, state))
+
+
+def switch_branch(problem, branch: Branch, point: SpecialPoint, lam_range=None, options=None, *,
+                  stability: StabilityOptions | None = None, eps: float | None = None,
+                  sides: Sequence[int] | None = None, problem_factory: Callable | None = None,
+                  pd_direction: str = "svd") -> list[tuple[Branch, Any]]:
+    """Switch at one special point and trace the new branch(es).
+
+    Returns
+    -------
+    list of (Branch, problem)
+        ``branch.info["origin"]`` describes the special point. Sides whose
+        first point falls outside ``lam_range`` are left out.
+    """
+    options = ContinuationOptions() if options is None else options
+    stability = StabilityOptions() if stability is None else stability
+    lam_range = branch.info.get("lam_range", (-math.inf, math.inf)) if lam_range is None else lam_range
+    out = []
+    su, sl = _scales(branch, options, np.asarray(point.unknowns))
+    for st in switch_at(problem, branch, point, options=options, eps=eps, sides=sides,
+                        problem_factory=problem_factory, pd_direction=pd_direction):
+        if not lam_range[0] <= st.lam <= lam_range[1]:
+            continue  # the new branch leaves the range at once
+        br, mon = _run(st, lam_range, options, stability, branch.parameter_name, su, sl)
+        br.info["origin"] = _origin(point, None, st)
+        if mon is not None:
+            _record_stability(br, mon)
+        _annotate_problem(br, st.problem)
+        out.append((br, st.problem))
+    return out
+
+
+def _record_stability(br: Branch, mon) -> None:
+    """Store the monitor's statistics; say in the branch message where the monodromy replaced Hill."""
+    st = mon.statistics()
+    br.info["stability"] = st
+    where = sorted(st.get("fallbacks", []) + st.get("disagreements", []))
+    if where:
+        br.message = (f"{br.message}; stability: Hill's multipliers disagreed with the monodromy's at "
+                      f"{len(where)} point(s) (first at {br.parameter_name}={where[0]:.10g}), "
+                      "the monodromy's were used there")
+    if st.get("unevaluated"):
+        lam, why = st["unevaluated"][0]
+        br.message = (f"{br.message}; no stability verdict at {len(st['unevaluated'])} point(s) (first at "
+                      f"{br.parameter_name}={lam:.10g}: {why})")
+
+
+def _origin(point: SpecialPoint, parent: int | None, st: BranchStart) -> dict:
+    return {
+        "kind": SpecialKind(st.kind).value,
+        "parameter": float(point.parameter),
+        "parent": parent,
+        "special_point_index": point.index,
+        "event": point.event,
+        "side": st.side,
+        "eps": st.eps,
+        "first_point_parameter": st.lam,
+    }
+
+
+def _annotate_problem(br: Branch, problem) -> None:
+    for attr, key in (("nu", "subharmonic"), ("H", "harmonics"), ("N", "samples")):
+        if hasattr(problem, attr):
+            br.info[key] = int(getattr(problem, attr))
+
+
+@dataclasses.dataclass
+class BifurcationDiagram:
+    """Branches traced by :func:`follow`, with their parentage.
+
+    Attributes
+    ----------
+    branches : list of Branch
+        ``branches[0]`` is the first branch.
+    problems : list
+        The problem of each branch (its ``nu`` and ``H`` interpret the
+        unknowns).
+    parents : list of int or None
+        Index of the parent branch (None for the first).
+    origins : list of SpecialPoint or None
+        The parent's special point each branch starts from.
+    monitors : list of StabilityMonitor or None
+    failed_switches : list of dict
+        Sides of a switch whose first point could not be found: ``parent``,
+        ``kind``, ``parameter``, ``side`` and ``message``.
+    """
+
+    branches: list = dataclasses.field(default_factory=list)
+    problems: list = dataclasses.field(default_factory=list)
+    parents: list = dataclasses.field(default_factory=list)
+    origins: list = dataclasses.field(default_factory=list)
+    monitors: list = dataclasses.field(default_factory=list)
+    failed_switches: list = dataclasses.field(default_factory=list)
+
+    def __len__(self) -> int:
+        return len(self.branches)
+
+    def __iter__(self):
+        return iter(self.branches)
+
+    def __getitem__(self, i) -> Branch:
+        return self.branches[i]
+
+    def children(self, i: int) -> list[int]:
+        """Indices of the branches switched from branch ``i``."""
+        return [j for j, p in enumerate(self.parents) if p == i]
+
+    def summary(self) -> str:
+        lines = []
+        for i, br in enumerate(self.branches):
+            org = br.info.get("origin")
+            head = f"[{i}] nu={br.info.get('subharmonic', '?')} H={br.info.get('harmonics', '?')}"
+            if org:
+                head += f" from {org['kind']} of [{org['parent']}] at {br.parameter_name}={org['parameter']:.10g}"
+            lines.append(head)
+            lines.extend("    " + line for line in br.summary().splitlines())
+        return "\n".join(lines)
+
+
+def _switch_candidates(br: Branch, kinds: set, origin_lam: float | None, tol: float) -> list[SpecialPoint]:
+    """Special points to switch at, one per bifurcation.
+
+    The engine's determinant test and the ``+1`` multiplier event report the
+    same branch point; they are merged by kind and bracketing interval,
+    keeping the determinant one: it is located exactly, whereas the
+    multiplier count is biased by ``tolerance / |d|mu|/dlam|``.
+    """
+    chosen: dict[tuple, SpecialPoint] = {}
+    for sp in br.special_points:
+        kind = sp.kind
+        if kind is SpecialKind.STABILITY:
+            kind = SpecialKind(sp.data.get("classification", "stability"))
+        if kind.value not in kinds or not sp.located:
+            continue
+        scale = tol * max(1.0, abs(sp.parameter))
+        if origin_lam is not None and abs(sp.parameter - origin_lam) <= 1e3 * scale and sp.index <= 1:
+            continue  # the bifurcation the branch starts from
+        key = (kind, sp.index)
+        if key not in chosen or (kind is SpecialKind.BP and not sp.event.startswith("stability")):
+            chosen[key] = sp
+    return sorted(chosen.values(), key=lambda p: (p.s, p.index))
+
+
+def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | dict | None = None, *,
+           stability: StabilityOptions | dict | None = None, switch: Sequence[str] = ("pd", "bp"),
+           max_depth: int = 1, parameter_name: str | None = None, problem_factory: Callable | None = None,
+           eps: float | None = None, max_branches: int = 16, pd_direction: str = "svd",
+           callback: Callable | None = None, callback_factory: Callable | None = None,
+           checkpoint_factory: Callable | None = None, previous: dict | None = None) -> BifurcationDiagram:
+    """Trace a branch with stability, then switch automatically at its bifurcations.
+
+    Parameters
+    ----------
+    problem : HarmonicBalance
+        Problem of the first branch (any engine problem if ``switch``
+        contains only ``"bp"``).
+    u0 : ndarray, shape (m,)
+        Start guess.
+    lam0 : float
+    lam_range : (float, float)
+        Range of every branch.
+    options : ContinuationOptions or dict, optional
+    stability : StabilityOptions or dict, optional
+        Method ``none`` disables stability (then only the engine's ``bp``
+        points can be switched at).
+    switch : sequence of {'pd', 'bp'}
+        Kinds of special points to switch at.
+    max_depth : int
+        Switching generations (1: the first branch's bifurcations only).
+    parameter_name : str, optional
+        Default: the problem's ``parameter`` attribute.
+    problem_factory : callable, optional
+        ``problem_factory(problem, factor)`` -> problem of order ``factor*nu``.
+    eps : float, optional
+        Offset of first points (see :func:`switch_at`).
+    max_branches : int
+        Stop after this many branches.
+    pd_direction : {'svd', 'hill'}
+    callback : callable, optional
+        Passed to the engine for every branch.
+    callback_factory : callable, optional
+        ``callback_factory(index, problem) -> callback`` gives each branch its
+        own engine callback (for example to record rows with the branch id
+        and its order nu); it overrides ``callback``.
+    checkpoint_factory : callable, optional
+        ``checkpoint_factory(index, problem) -> checkpoint``: each branch's
+        engine ``checkpoint`` (see :func:`contin.engine.continuation.continuation`),
+        what ``previous`` is rebuilt from.
+    previous : dict of int to Branch, optional
+        Branches of an earlier, interrupted run of the same diagram, by index
+        (see :mod:`contin.output.checkpoint`). A finished one is reused as it is; an
+        unfinished one is continued from its last point with its own scales,
+        and its callback is not called again for that point.
+
+    Returns
+    -------
+    BifurcationDiagram
+        Each branch's ``info`` holds ``parent`` (index or None), ``origin``
+        (dict: kind, parameter, parent, event, side, eps), ``depth``,
+        ``subharmonic``, ``harmonics``, and ``stability`` (monitor
+        statistics).
+    """
+    if options is None:
+        options = ContinuationOptions()
+    elif isinstance(options, dict):
+        options = ContinuationOptions.from_dict(options)
+    if stability is None:
+        stability = StabilityOptions()
+    elif isinstance(stability, dict):
+        stability = StabilityOptions.from_dict(stability)
+    kinds = set()
+    for k in switch:
+        k = SpecialKind(k).value
+        if k not in ("pd", "bp"):
+            raise ValueError(f"follow: can switch at 'pd' and 'bp' points, not {k!r}")
+        kinds.add(k)
+    if isinstance(max_depth, bool) or not isinstance(max_depth, int) or max_depth < 0:
+        raise ValueError(f"follow: max_depth must be an integer >= 0, got {max_depth!r}")
+    name = parameter_name or getattr(problem, "parameter", "lambda")
+    lam_range = tuple(float(v) for v in lam_range)
+    diagram = BifurcationDiagram()
+
+    # the first branch
+    monitor, events, monitors = _stability(problem, stability, options)
+
+    def cb_for(index, prob):
+        return callback_factory(index, prob) if callback_factory is not None else callback
+
+    def ck_for(index, prob):
+        return None if checkpoint_factory is None else checkpoint_factory(index, prob)
+
+    previous = previous or {}
+    if 0 in previous:
+        root = _resume(previous[0], problem, lam_range, options, name, events, monitors, cb_for(0, problem),
+                       ck_for(0, problem))
+    else:
+        root = continuation(problem, u0, lam0, lam_range, options, parameter_name=name, events=events,
+                            monitors=monitors, callback=cb_for(0, problem), checkpoint=ck_for(0, problem))
+    root.info.update(parent=None, origin=None, depth=0)
+    if monitor is not None:
+        _record_stability(root, monitor)
+    _annotate_problem(root, problem)
+    diagram.branches.append(root)
+    diagram.problems.append(problem)
+    diagram.parents.append(None)
+    diagram.origins.append(None)
+    diagram.monitors.append(monitor)
+
+    queue = [0]
+    while queue:
+        i = queue.pop(0)
+        br, prob = diagram.branches[i], diagram.problems[i]
+        if br.status is BranchStatus.INTERRUPTED:
+            return diagram  # the user asked to stop: no new branches
+        depth = br.info.get("depth", 0)
+        if depth >= max_depth or not len(br):
+            continue
+        org = br.info.get("origin")
+        origin_lam = org["first_point_parameter"] if org else None
+        su, sl = _scales(br, options, br.unknowns[0])
+        for sp in _switch_candidates(br, kinds, origin_lam, options.locate_tol):
+            if sp.kind is SpecialKind.PD and not hasattr(prob, "with_options") and problem_factory is None:
+                continue
+            failed: list = []
+            found = switch_at(prob, br, sp, options=options, eps=eps, problem_factory=problem_factory,
+                              pd_direction=pd_direction, failures=failed)
+            diagram.failed_switches.extend({"parent": i, **f} for f in failed)
+            for st in found:
+                if len(diagram) >= max_branches:
+                    return diagram
+                if not lam_range[0] <= st.lam <= lam_range[1]:
+                    continue  # the new branch leaves the range at once
+                j = len(diagram)
+                child, mon = _run(st, lam_range, options, stability, name, su, sl, cb_for(j, st.problem),
+                                  ck_for(j, st.problem), previous.get(j))
+                child.info.update(parent=i, origin=_origin(sp, i, st), depth=depth + 1)
+                if mon is not None:
+                    _record_stability(child, mon)
+                _annotate_problem(child, st.problem)
+                diagram.branches.append(child)
+                diagram.problems.append(st.problem)
+                diagram.parents.append(i)
+                diagram.origins.append(sp)
+                diagram.monitors.append(mon)
+                queue.append(j)
+    return diagram

@@ -1,0 +1,215 @@
+"""Events in a step: their detection between two stored points and the location of special points.
+
+What an event is (its test, when a change counts, how its zero is narrowed)
+lives in :mod:`contin.engine.events`; this module applies the events to the
+engine's steps:
+
+- :func:`test_values`: every event's test at a point;
+- :meth:`EventLocation.on_step`: after a stored step, the events whose test
+  changed from the previous point, each located on the arc between them
+  (solves on the hyperplanes ``ta . (x - xa) = sigma`` normal to the earlier
+  tangent, started on the cubic Hermite arc through both points) and
+  recorded as a special point of the branch;
+- :meth:`EventLocation.step_cap`: the longest next step the events allow.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from contin.engine.barriers import Barriers
+from contin.engine.branch import BranchBuilder, SpecialPoint
+from contin.engine.corrector import Candidate, Corrector
+from contin.engine.events import (
+    BranchPointEvent,
+    Event,
+    FoldEvent,
+    Location,
+    PointInfo,
+    changed_components,
+    evaluate_test,
+)
+from contin.engine.newton import NUMERICAL_ERRORS
+from contin.engine.predictor import HermiteArc, unit_tangent
+from contin.engine.problem import LazyData, evaluate_monitors, point_info
+
+__all__ = ["EventLocation", "location_point", "test_values"]
+
+#: Hyperplanes from the earlier point to the one asked when the Hermite guess is outside Newton's basin.
+ARC_SUBSTEPS = 4
+#: Smallest ``t . ta`` the substeps' predictor divides by (a tangent turned far from ``ta``).
+MIN_ALIGNMENT = 0.1
+
+
+def test_values(events: list, info: PointInfo) -> list[np.ndarray]:
+    """Test values of all events at ``info``, 1-D arrays; a numerical failure gives NaN (ignored)."""
+    out = []
+    for ev in events:
+        try:
+            out.append(evaluate_test(ev, info))
+        except NUMERICAL_ERRORS:
+            out.append(np.full(1, np.nan))
+    return out
+
+
+def location_point(ev: Event, loc: Location, ga: float, gb: float, comp: int, vector: bool, lam_a: float,
+                   lam_b: float, index: int) -> SpecialPoint:
+    """The special point of ``ev`` located (``loc``) on the step from stored point ``index``.
+
+    ``ga``, ``gb``: the test component ``comp`` at both ends (``vector``: the
+    test has several components, stored as ``data["component"]``);
+    ``lam_a``, ``lam_b``: the parameter at both ends.
+    """
+    p = loc.point
+    try:
+        data = dict(ev.describe(p))
+    except NUMERICAL_ERRORS as exc:
+        data = {"describe_error": f"{type(exc).__name__}: {exc}"}
+    if vector:
+        data.setdefault("component", comp)
+    return SpecialPoint(
+        kind=ev.kind, parameter=float(p.lam), unknowns=p.u.copy(), interval=(lam_a, lam_b),
+        index=index, s=float(p.s), test_values=(float(ga), float(gb)), located=loc.located,
+        data=data, message=f"{ev.name}: {loc.message}", event=ev.name, tangent=p.tangent.copy(),
+        point_data={k: np.array(v) for k, v in p.data.items()},
+    )
+
+
+class EventLocation:
+    """Detects and locates the events on each stored step.
+
+    Parameters
+    ----------
+    events : list of Event
+    monitors : list of Monitor
+        Evaluated at the located points.
+    corrector : Corrector
+    barriers : Barriers
+        Told of each located barrier point; a change on the step from a
+        barrier's near-side point is the barrier already recorded.
+    builder : BranchBuilder
+        The located special points are added to its branch.
+    options : ContinuationOptions
+    """
+
+    def __init__(self, events: list, monitors: list, corrector: Corrector, barriers: Barriers,
+                 builder: BranchBuilder, options):
+        self.events = events
+        self.monitors = monitors
+        self.corrector = corrector
+        self.barriers = barriers
+        self.builder = builder
+        self.opt = options
+
+    def on_step(self, xa: np.ndarray, ta: np.ndarray, info_a: PointInfo, ga_all: list, cand: Candidate,
+                info_b: PointInfo, gb_all: list, index: int, ds_free: float) -> set:
+        """Locate every event whose test changed on the step from ``info_a`` to the stored point ``index``.
+
+        ``xa``, ``ta``: the earlier point and its tangent (scaled, (m+1,));
+        ``ga_all``, ``gb_all``: the events' tests at both ends; ``ds_free``:
+        the step the step control wanted (a located barrier is judged
+        against it). Returns the events that changed.
+        """
+        changed = set()
+        for ev, ga, gb in zip(self.events, ga_all, gb_all):
+            if cand.kink is not None and isinstance(ev, (FoldEvent, BranchPointEvent)):
+                continue  # the tangent's jump at a corner is neither a fold nor a branch point
+            if self.barriers.skips(ev, index):
+                continue  # the step from the barrier's point passes the barrier recorded there
+            for comp in changed_components(ev, ga, gb, info_a, info_b):
+                changed.add(ev)
+                self._locate(ev, comp, xa, ta, info_a, cand, info_b, ga, gb, index - 1, ds_free)
+        return changed
+
+    def step_cap(self, changed: set, barrier: Event | None, info_a: PointInfo, info_b: PointInfo, h: float) -> float:
+        """The longest next step from ``info_b`` the events allow (``inf``: none).
+
+        Events that ``changed`` on the step (of length ``h``, from ``info_a``)
+        and the ``barrier`` the new point was located on are skipped: located at
+        or just behind the new point, there is nothing ahead to predict yet.
+        """
+        cap = math.inf
+        for ev in self.events:
+            if ev in changed or ev is barrier:
+                continue  # located at or just behind the new point: nothing ahead to predict yet
+            try:
+                limit = float(ev.step_limit(info_a, info_b, h))
+            except NUMERICAL_ERRORS:
+                continue
+            if limit > 0:
+                cap = min(cap, limit)
+        return cap
+
+    def _solve_on_arc(self, arc: HermiteArc, xa: np.ndarray, ta: np.ndarray, sigma: float):
+        """The solution on the hyperplane ``ta . (x - xa) = sigma``: ``(NewtonResult, "")`` or ``(None, why)``.
+
+        The cubic Hermite guess on the arc first (``O(h^4)`` off the curve,
+        where the chord is ``O(h^2)`` off); where Newton's basin is smaller
+        still (stiff contact), march from the earlier point in substeps
+        along the family of hyperplanes normal to its tangent.
+        """
+        corrector = self.corrector
+        try:
+            res = corrector.bordered_solve(arc.at(sigma), xa, ta, sigma)
+            if res.converged and res.lu is not None:
+                return res, ""
+            x, t, ok = xa, ta, True
+            n_sub = ARC_SUBSTEPS
+            for k in range(1, n_sub + 1):
+                sk = sigma * k / n_sub
+                res = corrector.bordered_solve(x + (sigma / n_sub) * t / max(float(t @ ta), MIN_ALIGNMENT), xa, ta,
+                                               sk)
+                if not res.converged or res.lu is None:
+                    ok = False
+                    break
+                x = res.x
+                z = res.lu.solve(corrector.e_last)
+                t = z / np.linalg.norm(z)
+                if float(t @ ta) < 0:
+                    t = -t
+            if ok:
+                return res, ""
+        except NUMERICAL_ERRORS as exc:
+            return None, f"evaluation failed ({type(exc).__name__}: {exc})"
+        if res.converged:
+            return None, "singular bordered Jacobian"
+        return None, f"Newton did not converge ({res.message})"
+
+    def _locate(self, ev: Event, comp: int, xa: np.ndarray, ta: np.ndarray, info_a: PointInfo, cand: Candidate,
+                info_b: PointInfo, ga: np.ndarray, gb: np.ndarray, index: int, ds_free: float) -> None:
+        """Locate component ``comp`` of ``ev`` between stored points ``index`` and ``index + 1``; record it."""
+        sp = self.corrector.sp
+        h = cand.h
+        arc = HermiteArc(xa, ta, cand.x, cand.tangent, h)
+        monitors = self.monitors
+
+        def point_at(sigma: float):
+            res, why = self._solve_on_arc(arc, xa, ta, sigma)
+            if res is None:
+                return None, why
+            t = unit_tangent(res.lu, self.corrector.e_last)
+            if t is None:
+                return None, "non-finite tangent"
+            u, lam, R, Ju, Jlam = sp.last
+            # the monitors run when an event's test first reads the point's data: a fold's test
+            # (the tangent) needs none, a stability event's the multipliers
+            data = LazyData(lambda u=u, lam=lam, Ju=Ju, Jlam=Jlam: evaluate_monitors(monitors, u, lam, Ju, Jlam))
+            return point_info(u, lam, t, res.lu, Ju, Jlam, info_a.s + sigma, data), ""
+
+        locations = ev.locate(comp, point_at, h, info_a, info_b, float(ga[comp]), float(gb[comp]),
+                              tol=self.opt.locate_tol, max_iter=self.opt.locate_max_iter)
+        for loc in locations:
+            p = loc.point
+            if isinstance(p.data, LazyData):
+                try:
+                    p.data = dict(p.data)
+                except NUMERICAL_ERRORS as exc:
+                    p.data = {}
+                    loc.message += f"; a monitor failed there ({type(exc).__name__}: {exc})"
+            self.builder.add_special(location_point(ev, loc, ga[comp], gb[comp], comp, ga.size > 1, info_a.lam,
+                                                    info_b.lam, index))
+            if ev.barrier and loc.located:
+                # the steps after it must show that the branch passes it (see Barriers.after_store)
+                self.barriers.reached(ev, float(loc.point.lam), h, index + 1, ds_free)

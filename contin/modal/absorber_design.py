@@ -1,0 +1,330 @@
+"""Den Hartog's optimal absorber for a main system: the design problem, its solution and its figure.
+
+:class:`AbsorberProblem` states the main system ``m1, k1`` and either the
+absorber mass ``m2`` or the largest allowed amplification (then ``m2``
+follows from a sizing rule); :func:`design_absorber` gives the optimal
+tuning and damping (seed 000, sec. 7.4-7.5; seed 002, sec. 6.3.3) as an
+:class:`AbsorberDesign`, from the closed forms of
+:mod:`contin.modal.absorber`; :func:`plot_design` draws its response.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from contin.modal.absorber import (amplification, fixed_point_height, fixed_points, mass_ratio_for_height,
+                                   optimal_damping, optimal_tuning, peaks, true_peak, undamped_resonances)
+
+__all__ = ["AbsorberProblem", "AbsorberDesign", "FixedPoint", "Peak", "design_absorber", "plot_design", "SIZINGS"]
+
+#: how ``design_absorber`` sizes ``m2`` from a maximum allowed amplification
+SIZINGS = ("fixed_points", "peak")
+
+
+def _positive(name: str, v, where: str) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) or not math.isfinite(v) or v <= 0:
+        raise ValueError(f"{where}.{name} must be a positive finite number, got {v!r}")
+    return float(v)
+
+
+@dataclass(frozen=True)
+class AbsorberProblem:
+    """What the absorber must do: the main system and either ``m2`` or a maximum amplification.
+
+    Parameters
+    ----------
+    m1, k1 : float
+        Main mass and spring (positive).
+    m2 : float, optional
+        Absorber mass.
+    max_amplification : float, optional
+        Instead of ``m2``: the largest allowed ``|X1|/delta_st`` (> 1). ``m2``
+        then follows from ``sizing``.
+    sizing : str
+        ``"fixed_points"`` (seed 002, sec. 6.3.3: the fixed points at the
+        allowed height, ``beta = 2/(A^2 - 1)``; the true peak is then slightly
+        above it) or ``"peak"`` (the smallest ``m2`` whose optimal design's true
+        peak equals the allowed height).
+
+    Raises
+    ------
+    ValueError
+        Naming the field.
+    """
+
+    m1: float
+    k1: float
+    m2: float | None = None
+    max_amplification: float | None = None
+    sizing: str = "fixed_points"
+
+    def __post_init__(self):
+        where = "AbsorberProblem"
+        object.__setattr__(self, "m1", _positive("m1", self.m1, where))
+        object.__setattr__(self, "k1", _positive("k1", self.k1, where))
+        if (self.m2 is None) == (self.max_amplification is None):
+            raise ValueError(f"{where}: give exactly one of m2 (the absorber mass) and max_amplification "
+                             f"(the largest allowed |X1|/delta_st), got m2={self.m2!r}, "
+                             f"max_amplification={self.max_amplification!r}")
+        if self.m2 is not None:
+            object.__setattr__(self, "m2", _positive("m2", self.m2, where))
+        else:
+            A = _positive("max_amplification", self.max_amplification, where)
+            if A <= 1.0:
+                raise ValueError(f"{where}.max_amplification must exceed 1 (the static response), got {A!r}")
+            object.__setattr__(self, "max_amplification", A)
+        if self.sizing not in SIZINGS:
+            raise ValueError(f"{where}.sizing must be one of {SIZINGS}, got {self.sizing!r}")
+
+
+@dataclass(frozen=True)
+class FixedPoint:
+    """A fixed point of the response curves: ``Omega = w/p``, ``w`` [rad/s], ``height = |X1|/delta_st``."""
+
+    name: str
+    Omega: float
+    w: float
+    height: float
+
+
+@dataclass(frozen=True)
+class Peak:
+    """A maximum of ``|X1|/delta_st``: at ``Omega = w/p``, ``w`` [rad/s]."""
+
+    Omega: float
+    w: float
+    amplification: float
+
+
+@dataclass(frozen=True)
+class AbsorberDesign:
+    """Den Hartog's optimal absorber for a main system (seed 000, sec. 7.4-7.5).
+
+    Attributes
+    ----------
+    m1, k1, m2, k2, c : float
+        Masses, springs and the damper between main mass and absorber.
+    beta : float
+        ``m2/m1``.
+    p, p_a : float
+        ``sqrt(k1/m1)``, ``sqrt(k2/m2)`` [rad/s].
+    mu : float
+        ``p_a/p = 1/(1 + beta)``.
+    zeta : float
+        ``c/(2 m2 p)``, referred to the MAIN system: ``sqrt(3 beta/(8 (1+beta)^3))``.
+    zeta_a : float
+        ``c/(2 sqrt(m2 k2))``, the absorber's OWN ratio: ``zeta/mu = sqrt(3 beta/(8 (1+beta)))``.
+    P, Q : FixedPoint
+    fixed_point_height : float
+        ``sqrt((2 + beta)/beta)``.
+    peaks : tuple of Peak
+        Local maxima of the optimal curve (near P and near Q).
+    true_peak : Peak
+        The highest of them (slightly above the fixed points).
+    resonances : tuple of float
+        Resonances of the same absorber without its damper (``c = 0``) [rad/s].
+    anti_resonance : float
+        ``p_a`` [rad/s]: the undamped absorber holds the main mass still there.
+    rigid_resonance : float
+        ``p/sqrt(1 + beta)`` [rad/s]: the resonance with a rigid damper (``zeta -> inf``).
+    problem : AbsorberProblem
+    """
+
+    m1: float
+    k1: float
+    m2: float
+    k2: float
+    c: float
+    beta: float
+    p: float
+    p_a: float
+    mu: float
+    zeta: float
+    zeta_a: float
+    P: FixedPoint
+    Q: FixedPoint
+    fixed_point_height: float
+    peaks: tuple
+    true_peak: Peak
+    resonances: tuple
+    anti_resonance: float
+    rigid_resonance: float
+    problem: AbsorberProblem
+
+    def matrices(self):
+        """``M, C, K`` of the two-mass system (seed 000, sec. 7.3), each (2, 2)."""
+        M = np.diag([self.m1, self.m2])
+        C = np.array([[self.c, -self.c], [-self.c, self.c]])
+        K = np.array([[self.k1 + self.k2, -self.k2], [-self.k2, self.k2]])
+        return M, C, K
+
+    def amplification(self, w, zeta: float | None = None):
+        """``|X1|/delta_st`` at ``w`` [rad/s], shape of ``w``; another ``zeta`` (main convention) if given."""
+        return amplification(np.asarray(w, dtype=float) / self.p, self.beta, self.mu,
+                             self.zeta if zeta is None else zeta)
+
+    def frf(self, w, F: float = 1.0):
+        """Complex amplitudes ``(X1, X2)`` for ``F cos(w t)`` on the main mass, shape (len(w), 2).
+
+        Solved from the impedance matrix (:func:`contin.modal.modes.frf`).
+        """
+        from contin.modal.modes import frf
+
+        M, C, K = self.matrices()
+        return frf(M, C, K, w, [F, 0.0])
+
+    def as_dict(self) -> dict:
+        """Plain numbers for JSON output."""
+        d = {k: getattr(self, k) for k in ("m1", "k1", "m2", "k2", "c", "beta", "p", "p_a", "mu", "zeta", "zeta_a",
+                                           "fixed_point_height", "anti_resonance", "rigid_resonance")}
+        d["P"] = vars(self.P).copy()
+        d["Q"] = vars(self.Q).copy()
+        d["peaks"] = [vars(pk).copy() for pk in self.peaks]
+        d["true_peak"] = vars(self.true_peak).copy()
+        d["resonances"] = list(self.resonances)
+        d["max_amplification"] = self.problem.max_amplification
+        d["sizing"] = self.problem.sizing if self.problem.max_amplification is not None else None
+        return d
+
+    def report(self) -> str:
+        """A readable account of the design (used by ``contin absorber``)."""
+        P, Q, tp = self.P, self.Q, self.true_peak
+        above = 100.0 * (tp.amplification / self.fixed_point_height - 1.0)
+        lines = [
+            f"main system      m1 = {self.m1:.6g}, k1 = {self.k1:.6g}, p = sqrt(k1/m1) = {self.p:.6g} rad/s",
+        ]
+        if self.problem.max_amplification is not None:
+            how = ("fixed points at the allowed height, beta = 2/(A^2 - 1)" if self.problem.sizing == "fixed_points"
+                   else "true peak at the allowed height")
+            lines.append(f"allowed          |X1|/delta_st <= A = {self.problem.max_amplification:.6g} ({how})")
+        lines += [
+            f"absorber mass    m2 = {self.m2:.6g}  (beta = m2/m1 = {self.beta:.6g})",
+            f"optimal tuning   mu = p_a/p = 1/(1+beta) = {self.mu:.6g}, p_a = {self.p_a:.6g} rad/s",
+            f"                 k2 = k1 beta/(1+beta)^2 = {self.k2:.6g}",
+            f"optimal damping  c = {self.c:.6g}",
+            f"                 zeta   = c/(2 m2 p)        = sqrt(3 beta/(8 (1+beta)^3)) = {self.zeta:.6g}"
+            "  (referred to the main system)",
+            f"                 zeta_a = c/(2 sqrt(m2 k2)) = sqrt(3 beta/(8 (1+beta)))   = {self.zeta_a:.6g}"
+            "  (the absorber's own ratio; zeta_a = zeta/mu)",
+            f"fixed points     P: Omega = {P.Omega:.6g} (w = {P.w:.6g} rad/s), Q: Omega = {Q.Omega:.6g} "
+            f"(w = {Q.w:.6g} rad/s)",
+            f"                 height |X1|/delta_st = sqrt((2+beta)/beta) = {self.fixed_point_height:.6g}",
+            f"true peak        |X1|/delta_st = {tp.amplification:.6g} at Omega = {tp.Omega:.6g} "
+            f"(w = {tp.w:.6g} rad/s), {above:.3g} % above the fixed points",
+        ]
+        if len(self.peaks) == 2:
+            a, b = self.peaks
+            lines.append(f"                 local maxima {a.amplification:.6g} (Omega = {a.Omega:.6g}) and "
+                         f"{b.amplification:.6g} (Omega = {b.Omega:.6g})")
+        r1, r2 = self.resonances
+        lines += [
+            f"without damper   anti-resonance at w = p_a = {self.anti_resonance:.6g} rad/s; resonances at "
+            f"w = {r1:.6g} and {r2:.6g} rad/s (Omega = {r1 / self.p:.6g}, {r2 / self.p:.6g})",
+            f"rigid damper     resonance at w = p/sqrt(1+beta) = {self.rigid_resonance:.6g} rad/s",
+        ]
+        if self.problem.max_amplification is not None and tp.amplification > self.problem.max_amplification * (1 + 1e-9):
+            lines.append(f"note             the true peak exceeds the allowed {self.problem.max_amplification:.6g}; "
+                         "size by the true peak (sizing 'peak') to meet it")
+        return "\n".join(lines)
+
+
+def _design(m1: float, k1: float, m2: float, problem: AbsorberProblem) -> AbsorberDesign:
+    beta = m2 / m1
+    p = math.sqrt(k1 / m1)
+    mu = optimal_tuning(beta)
+    k2 = k1 * beta / (1.0 + beta) ** 2
+    zeta = optimal_damping(beta)
+    c = 2.0 * m2 * p * zeta
+    (OP, OQ), (hP, hQ) = fixed_points(beta, mu)
+    pk = tuple(Peak(O, O * p, a) for O, a in peaks(beta, mu, zeta))
+    top = max(pk, key=lambda t: t.amplification)
+    R1, R2 = undamped_resonances(beta, mu)
+    return AbsorberDesign(
+        m1=m1, k1=k1, m2=m2, k2=k2, c=c, beta=beta, p=p, p_a=mu * p, mu=mu, zeta=zeta, zeta_a=zeta / mu,
+        P=FixedPoint("P", OP, OP * p, hP), Q=FixedPoint("Q", OQ, OQ * p, hQ),
+        fixed_point_height=fixed_point_height(beta), peaks=pk, true_peak=top, resonances=(R1 * p, R2 * p),
+        anti_resonance=mu * p, rigid_resonance=p / math.sqrt(1.0 + beta), problem=problem,
+    )
+
+
+def _peak_height(beta: float) -> float:
+    return true_peak(beta, optimal_tuning(beta), optimal_damping(beta))[1]
+
+
+def design_absorber(m1: float, k1: float, m2: float | None = None, *, max_amplification: float | None = None,
+                    sizing: str = "fixed_points") -> AbsorberDesign:
+    """Den Hartog's optimal absorber for the main system ``m1, k1``.
+
+    Parameters
+    ----------
+    m1, k1 : float
+    m2 : float, optional
+        The absorber mass; or instead
+    max_amplification : float, optional
+        The largest allowed ``|X1|/delta_st``; ``m2`` follows from ``sizing``
+        (see :class:`AbsorberProblem`).
+    sizing : {"fixed_points", "peak"}
+
+    Returns
+    -------
+    AbsorberDesign
+
+    Examples
+    --------
+    Seed 000's exercise: ``design_absorber(100, 5e5, 10)`` gives ``k2 = 41322.3``
+    and ``c = 237.379``.
+    """
+    prob = AbsorberProblem(m1, k1, m2, max_amplification, sizing)
+    if prob.m2 is not None:
+        return _design(prob.m1, prob.k1, prob.m2, prob)
+    A = prob.max_amplification
+    beta = mass_ratio_for_height(A)
+    if sizing == "peak":
+        from scipy.optimize import brentq
+
+        # the true peak exceeds the fixed points, so more mass is needed; it falls as beta grows
+        hi = beta
+        for _ in range(200):
+            hi *= 1.5
+            if _peak_height(hi) < A:
+                break
+        else:  # pragma: no cover - the peak tends to 1 as beta grows
+            raise ValueError(f"no absorber mass reaches the amplification {A!r}")
+        beta = brentq(lambda b: _peak_height(b) - A, beta, hi, xtol=1e-14 * beta, rtol=1e-13)
+    return _design(prob.m1, prob.k1, beta * prob.m1, prob)
+
+
+def plot_design(design: AbsorberDesign, path, points: int = 1200):
+    """Save the response of a design: ``|X1|/delta_st`` against ``w`` with ``c = 0``, the optimum and ``c -> inf``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    d = design
+    w = np.linspace(0.5 * d.p, 1.5 * d.p, points)
+    fig, ax = plt.subplots(figsize=(7.2, 4.6), constrained_layout=True)
+    for z, style, lab in ((0.0, ":", "without damper (c = 0)"), (math.inf, "--", "rigid damper (c -> inf)"),
+                          (d.zeta, "-", f"optimal: c = {d.c:.4g} (zeta = {d.zeta:.4g}, zeta_a = {d.zeta_a:.4g})")):
+        y = d.amplification(w, z)
+        y = np.where(y < 5 * d.fixed_point_height, y, np.nan)  # clip the undamped resonances
+        ax.plot(w, y, style, lw=1.8 if z == d.zeta else 1.0, label=lab)
+    ax.plot([d.P.w, d.Q.w], [d.P.height, d.Q.height], "ko", mfc="none", ms=8, label="fixed points P, Q")
+    for f in (d.P, d.Q):
+        ax.annotate(f.name, (f.w, f.height), textcoords="offset points", xytext=(5, 6))
+    tp = d.true_peak
+    ax.plot([tp.w], [tp.amplification], "r^", label=f"true peak {tp.amplification:.5g} (fixed points "
+                                                    f"{d.fixed_point_height:.5g})")
+    ax.axvline(d.anti_resonance, color="0.6", lw=0.8)
+    ax.set_xlabel("forcing frequency w [rad/s]")
+    ax.set_ylabel("|X1| / delta_st")
+    ax.set_ylim(0, 2.2 * d.fixed_point_height)
+    ax.set_title(f"absorber m2 = {d.m2:.4g}, k2 = {d.k2:.5g}, c = {d.c:.4g} on m1 = {d.m1:.4g}, k1 = {d.k1:.4g}")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
