@@ -51,10 +51,14 @@ def isolated(tmp_path, monkeypatch):
         sys.modules["matplotlib.pyplot"].close("all")
 
 
-# the benchmarks (bench_*.py) in the slow tier: they time, the others reproduce the papers' figures
-@pytest.mark.parametrize("script", [pytest.param(s, marks=pytest.mark.slow) if Path(s).name.startswith("bench_")
-                                    else s for s in SCRIPTS])
-def test_script_runs_quick(script, isolated, capsys):
+def _scripts(folder):
+    """The scripts of one folder; the benchmarks (bench_*.py) in the slow tier: they time, the others
+    reproduce the papers' figures."""
+    out = [s for s in SCRIPTS if s.rsplit("/", 1)[0] == folder]
+    return [pytest.param(s, marks=pytest.mark.slow) if Path(s).name.startswith("bench_") else s for s in out]
+
+
+def run_quick(script, isolated, capsys):
     path = SCRIPTS_DIR / script
     isolated.syspath_prepend(str(path.parent))  # its sibling imports, as when run from a shell
     isolated.setattr(sys, "argv", [str(path), "--quick"])
@@ -63,3 +67,44 @@ def test_script_runs_quick(script, isolated, capsys):
     except SystemExit as exc:
         assert exc.code in (0, None), f"{script} --quick exited with {exc.code!r}"
     assert capsys.readouterr().out.strip(), "a script prints what it measured"
+
+
+# one class per folder: the test workers (pytest-xdist, --dist loadscope) take the folders apart
+class _Folder:
+    folder = ""
+
+    def test_script_runs_quick(self, script, isolated, capsys):
+        run_quick(script, isolated, capsys)
+
+
+def pytest_generate_tests(metafunc):
+    if metafunc.cls is not None and issubclass(metafunc.cls, _Folder) and "script" in metafunc.fixturenames:
+        metafunc.parametrize("script", _scripts(metafunc.cls.folder))
+
+
+class TestBench(_Folder):
+    folder = "bench"
+
+
+class TestRotorFigures(_Folder):
+    folder = "figures/rotor"
+
+
+class TestBeltFigures(_Folder):
+    folder = "figures/belt"
+
+
+class TestAbsorberFigures(_Folder):
+    folder = "figures/absorber"
+
+
+class TestTwoDofFigures(_Folder):
+    folder = "figures/two_dof"
+
+
+class TestDocsGenerators(_Folder):
+    folder = "docs"
+
+
+def test_every_folder_has_its_class():
+    assert {c.folder for c in _Folder.__subclasses__()} == {s.rsplit("/", 1)[0] for s in SCRIPTS}
