@@ -268,9 +268,52 @@ def workdir(tmp_path, monkeypatch):
     plt.close("all")
 
 
-@pytest.mark.parametrize("page", WITH_SNIPPETS, ids=_name)
-def test_page_snippets_run(page, workdir):
-    run_page(page, run_slow=False)
+def _section(page: Path) -> str:
+    """``docs/<section>`` of a page, or ``""`` for the README and the pages at the top of docs/."""
+    parts = page.relative_to(ROOT).parts
+    return "/".join(parts[:2]) if len(parts) > 2 else ""
+
+
+# one class per section: the test workers (pytest-xdist, --dist loadscope) take the sections apart
+class _Section:
+    section = ""
+
+    def test_page_snippets_run(self, page, workdir):
+        run_page(page, run_slow=False)
+
+
+def pytest_generate_tests(metafunc):
+    if metafunc.cls is not None and issubclass(metafunc.cls, _Section):
+        pages = [p for p in WITH_SNIPPETS if _section(p) == metafunc.cls.section]
+        metafunc.parametrize("page", pages, ids=_name)
+
+
+class TestFrontPages(_Section):
+    section = ""
+
+
+class TestTutorials(_Section):
+    section = "docs/tutorials"
+
+
+class TestHowTo(_Section):
+    section = "docs/howto"
+
+
+class TestReference(_Section):
+    section = "docs/reference"
+
+
+class TestTheory(_Section):
+    section = "docs/theory"
+
+
+class TestValidation(_Section):
+    section = "docs/validation"
+
+
+def test_every_page_with_snippets_has_its_class():
+    assert {_section(p) for p in WITH_SNIPPETS} <= {c.section for c in _Section.__subclasses__()}
 
 
 # each page with slow blocks runs whole in the slow tier; its default run above checks those blocks' scenes
