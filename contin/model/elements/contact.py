@@ -15,9 +15,9 @@ from typing import Mapping
 import numpy as np
 
 from contin.model.base import ForceElement, Switching
-from contin.model.elements.registry import shorten
+from contin.model.elements.registry import CompiledForm, shorten
 
-__all__ = ["ContactForce", "contact_values"]
+__all__ = ["ContactForce", "ContactForm", "contact_values"]
 
 
 class ContactForce(ForceElement):
@@ -129,3 +129,17 @@ def contact_values(item: Mapping, key: str, scene):
                           "would feed energy in at every impact)", shorten(item["damping"]),
                           f"; it is {damping.value(scene.p0):g}")
     return clearance, stiffness, damping
+
+
+class ContactForm(CompiledForm):
+    """A contact element's compiled form: its three coefficients and the clip flag are the constants."""
+
+    def dofs(self) -> tuple:
+        """The dofs the contact force acts on."""
+        raise NotImplementedError
+
+    def constants(self, p):
+        return list(self.element._values(p)) + [1.0 if self.element.clip else 0.0]
+
+    def contact_matrices(self, p, n):
+        return self.element._contact_matrices(p, n, self.dofs())

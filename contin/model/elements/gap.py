@@ -14,8 +14,8 @@ import numba as nb
 import numpy as np
 
 from contin.model.base import Monomial, register_force
-from contin.model.elements.contact import ContactForce, contact_values
-from contin.model.elements.registry import CompiledForm, SceneKeys, item_label, shorten
+from contin.model.elements.contact import ContactForce, ContactForm, contact_values
+from contin.model.elements.registry import SceneKeys, item_label, shorten
 
 __all__ = ["GapForce", "GapForm"]
 
@@ -203,23 +203,20 @@ def _gap_switch(X, V, d, g, k, c, side, clip, S, off):
         S[off + 1] = -1.0
 
 
-class GapForm(CompiledForm):
+class GapForm(ContactForm):
     """The gap in the generated simulation module: the frozen mode's law and the two switching functions."""
 
     n_switch = 2
     imports = ("from contin.model.elements.gap import _gap_force, _gap_switch",)
     kernels = (_gap_force, _gap_switch)
 
-    def constants(self, p):
-        return list(self.element._values(p)) + [1.0 if self.element.clip else 0.0]
+    def dofs(self):
+        return (self.element.dof,)
 
     def force_lines(self, tag, c, m):
         e = self.element
         return [f"_gap_force(X, V, {e.dof}, cst[{c}], cst[{c + 1}], cst[{c + 2}], {e.side}, mode[{m}], "
                 f"mode[{m + 1}], F)"]
-
-    def contact_matrices(self, p, n):
-        return self.element._contact_matrices(p, n, (self.element.dof,))
 
     def switch_lines(self, tag, c, m):
         e = self.element

@@ -14,8 +14,8 @@ import numba as nb
 import numpy as np
 
 from contin.model.base import Monomial, register_force
-from contin.model.elements.contact import ContactForce, contact_values
-from contin.model.elements.registry import CompiledForm, SceneKeys, item_label, shorten
+from contin.model.elements.contact import ContactForce, ContactForm, contact_values
+from contin.model.elements.registry import SceneKeys, item_label, shorten
 
 __all__ = ["RadialGapForce", "RadialGapForm"]
 
@@ -236,23 +236,20 @@ def _radial_switch(X, V, ix, iy, delta, k, c, clip, S, off):
     S[off] = pen
 
 
-class RadialGapForm(CompiledForm):
+class RadialGapForm(ContactForm):
     """The radial contact in the generated simulation module: the frozen mode's law and ``r - delta``."""
 
     n_switch = 1
     imports = ("from contin.model.elements.radial_gap import _radial_force, _radial_switch",)
     kernels = (_radial_force, _radial_switch)
 
-    def constants(self, p):
-        return list(self.element._values(p)) + [1.0 if self.element.clip else 0.0]
+    def dofs(self):
+        # the radial direction may point along either dof
+        return (self.element.ix, self.element.iy)
 
     def force_lines(self, tag, c, m):
         e = self.element
         return [f"_radial_force(X, V, {e.ix}, {e.iy}, cst[{c}], cst[{c + 1}], cst[{c + 2}], mode[{m}], F)"]
-
-    def contact_matrices(self, p, n):
-        # the radial direction may point along either dof
-        return self.element._contact_matrices(p, n, (self.element.ix, self.element.iy))
 
     def switch_lines(self, tag, c, m):
         e = self.element
