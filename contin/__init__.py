@@ -16,10 +16,32 @@ in this list (``tests/test_layers.py`` enforces it):
 ``contin.scene``        scene format, schema, analysis registry, scene models
 ``contin.analyses``     one module per ``analysis.type``
 ``contin.app``          command line, runner, sweeps, progress
+``contin.api``          the Python interface: System, one call per analysis, Result
 ======================  =====================================================
+
+The Python interface is importable from the top: ``contin.System``,
+``contin.frequency_response``, ``contin.load``, ... (:mod:`contin.api`; imported on
+first use, so that ``contin --help`` stays fast).
 
 :mod:`contin.models` holds the built-in models (plug-ins of the catalogue).
 """
 
-__version__ = "0.1.0"
+from contin.util.version import __version__
 
+
+#: names of :mod:`contin.api` offered at the top level
+_API = ("System", "Result", "BranchResult", "LocatedPoint", "load", "run", "frequency_response", "backbone", "static",
+        "modes", "frf", "simulate", "bifurcation_curve", "convergence")
+__all__ = ["__version__", *_API]
+
+
+def __getattr__(name):
+    if name in _API:
+        import contin.api
+
+        return getattr(contin.api, name)
+    raise AttributeError(f"module 'contin' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_API))

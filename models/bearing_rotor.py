@@ -106,11 +106,18 @@ def _build(params: dict, effects: tuple, clip: bool = False) -> Model:
         model.start = _homotopy_start
     model.observables = whirl_components
     model.observable_names = WHIRL_COLUMNS
+    model.symbols = dict(SYMBOLS)
     return model
 
 
 WHIRL_COLUMNS = tuple(f"whirl_{d}_{f}_{part}" for part in ("disc", "bearing") for f in ("half", "1")
                       for d in ("fwd", "bwd"))
+
+#: how figures write the rotor speed, the parameters and the whirl columns (:mod:`contin.output.labels`)
+SYMBOLS = {"w": r"\Omega", "ks2": r"k_{s2}", "ip": r"i_p", "kbn": r"k_{bn}", "cbn": r"c_{bn}",
+           **{f"whirl_{d}_{f}_{part}": f"{word} whirl of the {part} at ${speed}$"
+              for d, word in (("fwd", "forward"), ("bwd", "backward"))
+              for f, speed in (("half", r"\Omega/2"), ("1", r"\Omega")) for part in ("disc", "bearing")}}
 
 
 def whirl_components(u: np.ndarray, n_dof: int, nu: int) -> dict:

@@ -23,7 +23,7 @@ def _build(params: dict, effects: tuple) -> Model:
     terms = ["m*x'' + k*x (frequency domain)"]
     if "damping" in effects:
         terms.append("c*x' (frequency domain)")
-    return polynomial_model(
+    model = polynomial_model(
         ["x"],
         params,
         mass=[["m"]],
@@ -35,6 +35,8 @@ def _build(params: dict, effects: tuple) -> Model:
         effects=effects,
         terms=terms,
     )
+    model.symbols = {"w": r"\Omega"}  # the excitation frequency, as figures write it
+    return model
 
 
 duffing = register_model(

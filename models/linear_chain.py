@@ -102,6 +102,7 @@ def _build(params: dict, effects: tuple, n: int = 2) -> Model:
         frequency="w",
         effects=tuple(effects),
         terms=terms,
+        symbols={"w": r"\Omega"},
     )
 
 

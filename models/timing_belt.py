@@ -282,6 +282,9 @@ def _build(params: dict, effects: tuple) -> Model:
         terms=terms,
         linear_observables={"w": c_obs},
         structural=STRUCTURAL,
+        # the frequency w and the displacement w share a name: figures write Omega for the first,
+        # "w at xi = 0.6" for the second (rms_w reads "RMS of w at xi = 0.6")
+        symbols={"parameter:w": r"\Omega", "w": rf"$w$ at $\xi = {xi_obs:g}$", "xi_obs": r"\xi_{\mathrm{obs}}"},
     )
     model.observables = lambda u, n_dof, nu: observe(u, c_obs)
     model.observable_names = OBSERVABLE_COLUMNS

@@ -9,7 +9,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "contin"
 
 #: the layers, lowest first (the table in contin/__init__.py)
 LAYERS = ("util", "engine", "model", "hb", "stability", "timedomain", "modal", "bifurcation", "output", "scene",
-          "analyses", "app")
+          "analyses", "app", "api")
 #: the continuation engine knows nothing about vibrations: it imports no other layer at all
 ENGINE_MAY_USE = ("util", "engine")
 #: a module of more lines than this holds more than one idea

@@ -112,9 +112,17 @@ class _BackboneRecorder:
         row.update(self._measures(u))
         self.rows.write(row)
         c = self.curves.setdefault(bid, {"x": [], "y": [], "mode": prob.mode, "omega0": prob.omega0,
-                                         "offset": self.n_rows - i})
+                                         "offset": self.n_rows - i, "lam": [], "v": [], "direction": []})
         c["x"].append(w)
         c["y"].append(A)
+        # the unknowns and the tangent in their units, for the dense curve
+        c["lam"].append(float(branch.parameter[i]))
+        c["v"].append(np.array(branch.unknowns[i], dtype=float))
+        su, sl = branch.info.get("unknown_scale"), branch.info.get("parameter_scale")
+        t = np.asarray(branch.tangents[i], dtype=float)
+        if su is not None and sl is not None:
+            c["scale"] = np.append(np.broadcast_to(np.asarray(su, dtype=float), (t.size - 1,)), float(sl))
+        c["direction"].append(t * c["scale"] if su is not None and sl is not None else None)
         self.n_rows += 1
 
     def specials(self, bid, prob, branch):
@@ -131,8 +139,8 @@ class _BackboneRecorder:
             A, _ = prob.amplitude_target(float(sp.parameter))
             row = {"branch": bid, "kind": kind, "mode": prob.mode, "amplitude": A, "frequency": w,
                    "index": off + min(max(sp.index, 0), len(branch) - 1),
-                   "interval_lo": prob.amplitude_target(sp.interval[0])[0],
-                   "interval_hi": prob.amplitude_target(sp.interval[1])[0], "located": bool(sp.located),
+                   "interval_lo": min(prob.amplitude_target(v)[0] for v in sp.interval),
+                   "interval_hi": max(prob.amplitude_target(v)[0] for v in sp.interval), "located": bool(sp.located),
                    "detail": sp.message}
             row.update(self._measures(u))
             self.special.write(row)
@@ -215,7 +223,8 @@ def run(ctx) -> dict:
                 rec.point(bid, prob, branch, i)
                 ctx.progress.update(f"backbone of mode {prob.mode}: amplitude "
                                     f"{prob.amplitude_target(branch.parameter[i])[0]:.4g}, "
-                                    f"frequency {branch.unknowns[i][prob.m]:.6g}")
+                                    f"frequency {branch.unknowns[i][prob.m]:.6g}",
+                                    parameter=branch.parameter, bounds=(lam0, lam1), task=f"backbone {bid}")
                 return not ctx.stop_requested
 
             o = opts.replace(direction=1 if lam1 > lam0 else -1)
@@ -256,30 +265,35 @@ def run(ctx) -> dict:
 def _plot(ctx, rec, prob, log):
     import matplotlib
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from contin.output.plotting import axis_label
+    from contin.output.dense import dense_branch
+    from contin.output.labels import model_symbols, quantity
+    from contin.output.plotting import SPECIAL, bifurcation_diagram
 
     out = ctx.scene.output
-    fig, ax = plt.subplots(figsize=(7.0, 4.6), constrained_layout=True)
+    symbols = {**model_symbols(ctx.model), "frequency": r"\omega"}
+    measure = f"{'rms' if ctx.scene.analysis['amplitude'] == 'rms' else 'amp'}_{prob.observe}"
+    labels = {"frequency": r"frequency $\omega$", "amplitude": quantity(measure, symbols), **(out["labels"] or {})}
+
+    def evaluate(lam, V):
+        return V[:, prob.m], np.array([prob.amplitude_target(v)[0] for v in lam])
+
+    curves, special = [], []
     for bid, c in rec.curves.items():
-        line, = ax.plot(c["x"], c["y"], "-", lw=1.6, label=f"mode {c['mode']}")
-        ax.axvline(c["omega0"], color=line.get_color(), ls=":", lw=0.8)
-    for s in rec.special_list:
-        if s["kind"] in ("frequency_min", "frequency_max", "fold", "bp"):
-            ax.plot(s["frequency"], s["amplitude"], "o", mfc="none", color="tab:red", ms=6)
-            ax.annotate(s["kind"].replace("frequency_", "f "), (s["frequency"], s["amplitude"]),
-                        textcoords="offset points", xytext=(4, 4), fontsize=7, color="tab:red")
-    if log:
-        ax.set_yscale("log")
-    name = f"{'rms' if ctx.scene.analysis['amplitude'] == 'rms' else 'peak'} amplitude of {prob.observe}"
-    ax.set_xlabel(axis_label("frequency", out["units"], out["labels"]))
-    ax.set_ylabel(axis_label("amplitude", out["units"], out["labels"] or {"amplitude": name}))
-    ax.set_title(out["title"] or f"{ctx.model.name}: backbone curves (linear frequencies dotted)")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
-    path = ctx.outdir / "backbone.png"
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
-    return [path.name]
+        points = [{"x": s["frequency"], "y": s["amplitude"], "index": s["index"] - c["offset"], "changes": False}
+                  for s in rec.special_list if s["branch"] == bid and s["kind"] in SPECIAL]
+        special += [{"x": s["frequency"], "y": s["amplitude"], "kind": s["kind"], "branch": bid}
+                    for s in rec.special_list if s["branch"] == bid]
+        directions = np.array(c["direction"]) if all(d is not None for d in c["direction"]) else None
+        d = dense_branch(np.array(c["lam"]), np.array(c["v"]), evaluate, directions=directions, scale=c.get("scale"),
+                         special=points, node_xy=(np.array(c["x"]), np.array(c["y"])), log_y=log)
+        curves.append({"x": d["x"], "y": d["y"], "stable": None, "id": bid, "label": f"mode {c['mode']}"})
+
+    def natural_frequencies(ax):
+        colors = matplotlib.rcParams["axes.prop_cycle"].by_key().get("color", ["C0"])
+        for k, c in enumerate(rec.curves.values()):
+            ax.axvline(c["omega0"], color=colors[k % len(colors)], ls=":", lw=0.8)
+        ax.plot([], [], ls=":", lw=0.8, color="0.4", label="linear natural frequency")
+
+    return bifurcation_diagram(curves, special, "frequency", "amplitude", ctx.outdir / "backbone", units=out["units"],
+                               labels=labels, symbols=symbols, title=out["title"], extra=natural_frequencies,
+                               formats=out["formats"], dpi=out["dpi"], style=out["style"], log_y=log)

@@ -23,7 +23,7 @@ starts and ends, with both parameters, and why each end was reached),
 one-parameter runs, with both parameters, the curve it belongs to and its
 distance to it), ``branches.csv`` and ``special_points.csv`` of the
 one-parameter runs (branch ``i`` is the run at ``p2 = values[i]``, listed in
-``summary.json``), and the figure ``bifurcation_curves.png``.
+``summary.json``), and the figure ``bifurcation_curves.<format>`` (:mod:`contin.output.plane_plot`).
 
 The files are written when each stage finishes; an interrupted run (Ctrl-C)
 keeps the curves traced so far. ``--resume`` reruns the analysis.
@@ -307,7 +307,7 @@ def run(ctx) -> dict:
         def cb(branch, i):
             rec.point(index, problem.nu, branch, i, problem.H)
             ctx.progress.update(f"one-parameter run {index} ({p2}={value:.6g})  {p1}={branch.parameter[i]:.6g}"
-                                f"  point {i}")
+                                f"  point {i}", parameter=branch.parameter, bounds=(lo, hi), task=f"run {index}")
             return not ctx.stop_requested
 
         br = continuation(problem, u0, lam0, (lo, hi), opts, parameter_name=p1, events=events, monitors=monitors,
@@ -344,7 +344,8 @@ def run(ctx) -> dict:
 
             def ccb(branch, i, cid=cid, kind=kind):
                 ctx.progress.update(f"{kind} curve {cid}  {p2}={branch.parameter[i]:.6g}  "
-                                    f"{p1}={branch.unknowns[i][-1]:.6g}  point {i}")
+                                    f"{p1}={branch.unknowns[i][-1]:.6g}  point {i}",
+                                    parameter=branch.parameter, bounds=(lo2, hi2), task=f"curve {cid}")
                 return not ctx.stop_requested
 
             curves.append(curve_from_point(problem0, sp, p2, (lo2, hi2), (lo, hi), curve_opts, cur_opts,
@@ -462,7 +463,7 @@ def _shooting_reference(ctx, problem0, branch0, curves, p1, p2, p2_value, range1
         for value in side:
             if ctx.stop_requested:
                 break
-            ctx.progress.update(f"shooting at {p2}={value:.6g}")
+            ctx.progress.update(f"shooting at {p2}={value:.6g}", task="shooting")
             orb = _orbit_towards(model, p1, p2, lam0, cur, value, z, opt)
             if orb is None or not orb.converged:
                 runs.append({p2: value, "status": "failed", "message": f"the orbit at {p1} = {lam0:g} was lost "
@@ -553,7 +554,7 @@ def _write_one_parameter_points(ctx, runs, curves, kinds, p1, p2) -> list:
                     continue
                 near = _on_curve(curves, kind, float(sp.parameter), value) if kind in kinds else None
                 row = {"branch": j, p2: value, "kind": kind, p1: float(sp.parameter), "located": bool(sp.located),
-                       "interval_lo": float(sp.interval[0]), "interval_hi": float(sp.interval[1]),
+                       "interval_lo": sp.bracket[0], "interval_hi": sp.bracket[1],
                        "curve": None if near is None else near[0], f"curve_{p1}": None if near is None else near[1],
                        "distance": None if near is None else near[2]}
                 out.write(row)
@@ -563,30 +564,26 @@ def _write_one_parameter_points(ctx, runs, curves, kinds, p1, p2) -> list:
     return checks
 
 
-def _label(i: int, cur) -> str:
+def _label(cur) -> str:
+    """Legend text of a curve (curves of one text share an entry that names their numbers)."""
     if cur.kind.value == "fold":
-        what = "fold (jump region)" if cur.nu == 1 else f"fold of the nu={cur.nu} solutions"
-    else:
-        what = f"period doubling (1/{2 * cur.nu}-subharmonic region)"
-    return f"curve {i}: {what}"
+        return "fold (jump region)" if cur.nu == 1 else rf"fold of the $\nu = {cur.nu}$ solutions"
+    return f"period doubling (1/{2 * cur.nu}-subharmonic region)"
 
 
 def _plot(ctx, curves, checks, p1, p2, range1, range2, lines, reference=()) -> list:
-    from contin.output.plotting import two_parameter_diagram
+    from contin.output.labels import math
+    from contin.output.plane_plot import two_parameter_diagram
 
-    out = ctx.scene.output
-    path = ctx.outdir / "bifurcation_curves.png"
+    out, sym = ctx.scene.output, getattr(ctx.model, "symbols", None)
     ref_y = [q["y"] for q in reference]
-    two_parameter_diagram(
-        [{"kind": c.kind.value, "x": c.p1, "y": c.p2, "closed": c.closed,
-          "label": _label(i, c)} for i, c in enumerate(curves)],
+    return two_parameter_diagram(
+        [{"kind": c.kind.value, "x": c.p1, "y": c.p2, "id": i, "label": _label(c)} for i, c in enumerate(curves)],
         [{"kind": sp.kind.value if sp.kind.value != "end" else "stop", "x": sp.p1, "y": sp.p2}
          for c in curves for sp in c.special_points
          if (sp.kind.value in CURVE_POINT_KINDS[:3] and sp.located) or (sp.kind.value == "end" and not sp.located)],
         [{"kind": c["kind"], "x": c[p1], "y": c[p2]} for c in checks],
-        p1, p2, path, lines=sorted(set(lines)), reference=reference, xlim=range1,
-        ylim=(min([range2[0]] + lines + ref_y), max([range2[1]] + lines + ref_y)),
-        units=out["units"], labels=out["labels"],
-        title=out["title"] or f"{ctx.model.name}: bifurcation curves in ({p1}, {p2})",
-    )
-    return [path.name]
+        p1, p2, ctx.outdir / "bifurcation_curves", lines=sorted(set(lines)), reference=reference, xlim=range1,
+        ylim=(min([range2[0]] + lines + ref_y), max([range2[1]] + lines + ref_y)), units=out["units"],
+        labels=out["labels"], symbols=sym, formats=out["formats"], dpi=out["dpi"], style=out["style"],
+        title=out["title"] or f"{ctx.model.name}: bifurcation curves in ({math(p1, sym)}, {math(p2, sym)})")

@@ -84,8 +84,8 @@ path: one line of the plot each), ``reference``, ``status``, ``wall_time``,
 ``cpu_time``, ``points`` (rows written), each quantity and
 ``<quantity>_error``, ``max_error`` (the largest error over the quantities;
 empty when one is missing), ``missing``, ``run`` (the run's directory) and
-``message`` (why a run failed, or why a branch ended before its range)), ``convergence.png`` (log-log error against
-time, one line per quantity, points labelled by setting) and ``summary.json`` (``analysis.table``, the
+``message`` (why a run failed, or why a branch ended before its range)), ``convergence.<format>`` (log-log error
+against time, one line per quantity, points labelled by setting) and ``summary.json`` (``analysis.table``, the
 printed table; ``analysis.recommendation`` for ``budget`` or ``contin run
 --budget ERR``: the cheapest setting whose errors are all at most ``ERR``, the
 reference excluded since its own error is not measured; ``contin budget OUTDIR
@@ -109,7 +109,7 @@ from contin.analyses.convergence_plan import BASE_TABLES, CONVERGENCE, _slug, ch
 from contin.scene.registry import register_analysis
 from contin.scene.schema import SceneError
 
-__all__ = ["run", "plot_convergence", "replot"]
+__all__ = ["run", "draw_convergence", "plot_convergence", "replot"]
 
 #: branch statuses that end a branch before its range (their messages explain a missing quantity)
 EARLY_ENDS = ("step_too_small", "start_failed", "newton_failed", "ill_conditioned")
@@ -133,7 +133,7 @@ def run(ctx) -> dict:
     runs_dir.mkdir(exist_ok=True)
     t_all = time.perf_counter()
     if a["warmup"]:
-        ctx.progress.update(f"warm-up run ({labels[0]}), not timed")
+        ctx.progress.update(f"warm-up run ({labels[0]}), not timed", task="warm-up")
         try:
             ctx.run_scene(scenes[0], runs_dir / "warmup", progress=False)
         except RunError:
@@ -160,7 +160,8 @@ def run(ctx) -> dict:
     records = []
     for i, (s, label, sc) in enumerate(zip(settings, labels, scenes)):
         run_dir = runs_dir / f"{i:02d}_{_slug(label)}"
-        ctx.progress.update(f"setting {i + 1}/{len(settings)}: {label}")
+        ctx.progress.update(f"setting {i + 1}/{len(settings)}: {label}", done=i, total=len(settings),
+                            task="settings")
         status, message, wall, cpu, points = "complete", "", None, None, None
         for _ in range(a["repeat"]):
             t0, c0 = time.perf_counter(), time.process_time()
@@ -262,37 +263,48 @@ def run(ctx) -> dict:
     }
 
 
-def plot_convergence(path: Path, records: list[dict], items: list[tuple[str, str]], kinds: dict,
-                     budget: float | None, cost: str, title: str) -> None:
-    """Log-log error against time, one line per quantity (and per value of the other settings), points labelled.
+def _describe(text: str, names=(), symbols=None) -> str:
+    """A quantity's description with its parameter, dof and measure names as symbols and words."""
+    from contin.output.labels import math, quantity
+
+    out = []
+    for word in text.split(" "):
+        core = word.rstrip(",;:)")
+        tail = word[len(core):]
+        if core in names:
+            core = math(core, symbols)
+        elif re.fullmatch(r"(amp|max|min|rms|mean|h\d+)_\w+|max_multiplier", core):
+            core = quantity(core, symbols)
+        out.append(core + tail)
+    return " ".join(out)
+
+
+def draw_convergence(ax, records: list[dict], items: list[tuple[str, str]], kinds: dict, budget: float | None,
+                     cost: str = "wall_time", names=(), symbols=None) -> None:
+    """Draw the error of each quantity against the cost of each setting (log-log) into ``ax``.
 
     Parameters
     ----------
-    path : Path
-        The PNG to write.
+    ax : matplotlib Axes
     records : list of dict
         ``setting``, ``group`` (the values of the settings but the last: one
         line each), ``reference``, ``wall_time``, ``cpu_time`` and
         ``<column>_error`` per setting (reference and zero errors are left out).
     items : list of (str, str)
-        Quantity columns and descriptions.
+        Quantity columns and descriptions (the legend shows the descriptions).
     kinds : dict
         Column -> ``relative`` or ``absolute``.
     budget : float or None
         Drawn as a horizontal line.
     cost : str
         ``wall_time`` or ``cpu_time``: the horizontal axis.
-    title : str
+    names : collection of str
+        Parameter and dof names, written as symbols in the descriptions.
+    symbols : dict, optional
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     import matplotlib.ticker
 
-    fig, ax = plt.subplots(figsize=(7.5, 5.2))
     markers = "osD^v<>ph*"
-    drawn = 0
     labelled: set = set()
     groups = list(dict.fromkeys(r.get("group", "") for r in records))
     styles = ["-", "--", ":", "-."]
@@ -303,9 +315,8 @@ def plot_convergence(path: Path, records: list[dict], items: list[tuple[str, str
                    and r.get(f"{c}_error") not in (None, 0.0) and math.isfinite(r[f"{c}_error"])]
             if not pts:
                 continue
-            drawn += 1
             t, e, lab = zip(*pts)
-            name = f"{c} ({kinds[c]})" + (f", {group}" if group else "")
+            name = f"{_describe(d, names, symbols)} ({kinds[c]} error)" + (f", {group}" if group else "")
             ax.loglog(t, e, marker=markers[(k + g) % len(markers)], ls=styles[g % len(styles)], label=name)
             for ti, ei, li in zip(t, e, lab):
                 if li not in labelled:  # the quantities of a setting share its time: one label per setting
@@ -313,25 +324,50 @@ def plot_convergence(path: Path, records: list[dict], items: list[tuple[str, str
                     short = li[len(group) + 2:] if group and li.startswith(group + ", ") else li
                     ax.annotate(short, (ti, ei), textcoords="offset points", xytext=(4, 3), fontsize=7)
     if budget is not None:
-        ax.axhline(budget, color="0.5", ls=":", lw=1, label=f"budget {budget:g}")
+        ax.axhline(budget, color="0.5", ls=":", lw=1, label=f"error budget {budget:g}")
     ax.set_xlabel(("wall" if cost == "wall_time" else "CPU") + " time per run [s]")
     lo, hi = ax.get_xlim()
     if hi < 10 * lo:  # less than a decade: plain numbers on the time axis
         ax.xaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
         ax.xaxis.set_minor_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
         ax.tick_params(axis="x", which="minor", labelsize=7)
-    ax.set_ylabel("error against the reference")
-    ax.set_title(title, fontsize=10)
+    ax.set_ylabel("error against the reference setting")
     ax.grid(True, which="both", alpha=0.3)
-    if drawn or budget is not None:
-        ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+
+
+def plot_convergence(path: Path, records: list[dict], items: list[tuple[str, str]], kinds: dict,
+                     budget: float | None, cost: str, title: str, *, formats=("png",), dpi: float | None = None,
+                     style: str | None = "contin", names=(), symbols=None) -> list[str]:
+    """Draw :func:`draw_convergence` into a new figure, its legend below the axes, and save it.
+
+    Parameters
+    ----------
+    path : Path
+        The file name; its suffix is replaced by each of ``formats``.
+    title : str
+    formats, dpi, style
+        ``output.formats``, ``output.dpi``, ``output.style``.
+
+    The other parameters are those of :func:`draw_convergence`.
+
+    Returns
+    -------
+    list of str
+        The file names written.
+    """
+    from contin.output.figures import figure_style, legend_below, new_figure, save_figure
+
+    with figure_style(style):
+        fig = new_figure((7.5, 5.8))
+        ax = fig.add_subplot()
+        draw_convergence(ax, records, items, kinds, budget, cost, names, symbols)
+        ax.set_title(title)
+        legend_below(fig, ax)
+        return save_figure(fig, path, formats, dpi)
 
 
 def replot(outdir: Path, budget: float | None = None) -> Path:
-    """Draw ``convergence.png`` of a finished convergence run again.
+    """Draw ``convergence.<format>`` of a finished convergence run again.
 
     Parameters
     ----------
@@ -343,7 +379,7 @@ def replot(outdir: Path, budget: float | None = None) -> Path:
     Returns
     -------
     Path
-        The PNG.
+        The first figure written (one per ``output.formats`` of the run).
     """
     import json
 
@@ -357,13 +393,24 @@ def replot(outdir: Path, budget: float | None = None) -> Path:
         budget = a["recommendation"]["budget"]
     title = (summary["scene"].get("output") or {}).get("title") or \
         f"{summary['model']['name']}: {a['base']} accuracy against cost (reference {a['reference']})"
-    path = outdir / "convergence.png"
-    plot_convergence(path, records, items, kinds, budget, a.get("cost", "wall_time"), title)
-    return path
+    out = summary["scene"].get("output") or {}
+    files = plot_convergence(outdir / "convergence", records, items, kinds, budget, a.get("cost", "wall_time"), title,
+                             formats=out.get("formats") or ("png",), dpi=out.get("dpi"), style=out.get("style"),
+                             names=_names(summary))
+    return outdir / files[0]
+
+
+def _names(summary: dict) -> set:
+    """Parameter and dof names of a finished run, from its summary (written as symbols on the plot)."""
+    scene_model = summary["scene"].get("model") or {}
+    base = (summary["scene"].get("analysis") or {}).get("base") or {}
+    names = set((summary.get("model") or {}).get("dofs") or ()) | set(scene_model.get("parameters") or ())
+    return names | ({base["parameter"]} if isinstance(base.get("parameter"), str) else set())
 
 
 def _plot(ctx, records, items, kinds, budget, btype, ref_label, cost):
     title = ctx.scene.output["title"] or f"{ctx.model.name}: {btype} accuracy against cost (reference {ref_label})"
-    path = ctx.outdir / "convergence.png"
-    plot_convergence(path, records, items, kinds, budget, cost, title)
-    return [path.name]
+    out, model = ctx.scene.output, ctx.model
+    return plot_convergence(ctx.outdir / "convergence", records, items, kinds, budget, cost, title,
+                            formats=out["formats"], dpi=out["dpi"], style=out["style"],
+                            names=set(model.parameters) | set(model.dof_names), symbols=getattr(model, "symbols", None))

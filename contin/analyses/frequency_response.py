@@ -30,7 +30,9 @@ from contin.output.checkpoint import encode, special_record
 from contin.hb.condensation import condensation_dofs, condense
 from contin.hb.measures import measure_names, point_measures
 from contin.output.checkpoint import read_records, rebuild_branches, resumable_prefix
+from contin.output.dense import as_number, checkpoint_solutions
 from contin.output.results import CsvStream, read_csv, truncate_to_valid_rows
+from contin.output.model_figures import model_figures
 from contin.scene.parse import SceneError, model_frequency
 
 __all__ = ["run", "BranchRecorder", "build_problem", "engine_problem"]
@@ -185,6 +187,26 @@ class BranchRecorder:
         c["x"].append(lam)
         c["rows"].append(row)
         c["stable"].append(row.get("stable"))
+        kept = getattr(self.problems.get(branch_id), "dofs", None)
+        self._keep_solution(c, u, branch.tangents[i], branch.info.get("unknown_scale"),
+                            branch.info.get("parameter_scale"), kept, H)
+
+    def _keep_solution(self, c: dict, u, tangent, su, sl, kept, H) -> None:
+        """Keep a point's full coefficients ``u`` and its tangent in the unknowns' units (for the dense curves).
+
+        ``tangent`` (m+1,) is the engine's, scaled by ``su`` (m,) and ``sl``, over the coefficients of
+        the ``kept`` dofs (all when None); ``c`` gets ``u``, ``direction``, ``scale``, ``kept`` and ``H``.
+        """
+        c.setdefault("u", []).append(np.asarray(u, dtype=float))
+        t = np.asarray(tangent, dtype=float)
+        direction = None
+        if su is not None and sl is not None and t.size >= 2:
+            scale = np.append(np.broadcast_to(np.asarray(su, dtype=float), (t.size - 1,)), float(sl))
+            direction = t * scale
+            c["scale"] = scale
+        c.setdefault("direction", []).append(direction)
+        c["kept"] = None if kept is None else [int(d) for d in kept]
+        c["H"] = H
 
     def special_points(self, branch_id: int, branch, problem=None) -> None:
         if problem is not None:
@@ -203,7 +225,7 @@ class BranchRecorder:
             row = {"branch": branch_id, "kind": sp.kind.value, self.parameter: float(sp.parameter), "index": off + i}
             sp = self._full_point(branch_id, sp)
             row.update(self._measures(sp.unknowns, len(self.dof_names), self.curves.get(branch_id, {}).get("nu", 1)))
-            lo, hi = sp.interval
+            lo, hi = sp.bracket
             row.update({"interval_lo": float(lo), "interval_hi": float(hi), "located": bool(sp.located),
                         "detail": _detail(sp)})
             self.special.write(row)
@@ -232,6 +254,7 @@ class BranchRecorder:
         """Take up the rows and special points of an interrupted run (``--resume``)."""
         rows = read_csv(self.rows.path)
         self.n_rows = len(rows.get("branch", []))  # the rows of this run continue the numbering
+        solutions = checkpoint_solutions(read_records(self.state.name))
         for r in range(len(rows.get("branch", []))):
             bid = int(rows["branch"][r])
             self.offsets.setdefault(bid, r)
@@ -241,6 +264,8 @@ class BranchRecorder:
             c["x"].append(float(rows[self.parameter][r]))
             c["rows"].append(row)
             c["stable"].append(st)
+            if r in solutions:
+                self._keep_solution(c, *solutions[r])
         sp = read_csv(self.special.path)
         for r in range(len(sp.get("branch", []))):
             row = {c: sp[c][r] for c in self.special_columns if c in sp}
@@ -424,7 +449,8 @@ def run(ctx) -> dict:
     ctx.timings["continuation"] = time.perf_counter() - t0
     interrupted = any(b.status == BranchStatus.INTERRUPTED for b, _ in results)
     ctx.interrupted = ctx.interrupted or interrupted
-    ctx.plot = lambda: _plot(ctx, rec, hb)
+    ctx.plot = lambda: _plot(ctx, rec, hb) + model_figures(ctx.model, "frequency_response", hb.parameter, rec.curves,
+                                                           rec.special_list, ctx.outdir, ctx.scene.output)
     return {
         "parameter": hb.parameter,
         "unknowns": hb.size,
@@ -487,30 +513,76 @@ def _stability_summary(branch) -> dict | None:
 
 
 def _plot(ctx, rec, hb):
+    from contin.output.labels import model_symbols
     from contin.output.plotting import bifurcation_diagram
 
     out = ctx.scene.output
     measure = out["measure"] or f"amp_{hb.model.dof_names[0]}"  # checked by check()
-    curves = []
+    curves, special = diagram_branches(rec, measure)
+    return bifurcation_diagram(curves, special, hb.parameter, measure, ctx.outdir / "bifurcation_diagram",
+                               units=out["units"], labels=out["labels"], symbols=model_symbols(hb.model),
+                               title=out["title"], formats=out["formats"], dpi=out["dpi"], style=out["style"])
+
+
+def diagram_branches(rec: BranchRecorder, measure: str) -> tuple[list, list]:
+    """The branches and special points of the diagram of ``measure`` (for
+    :func:`contin.output.plotting.draw_bifurcation_diagram`).
+
+    Each branch is drawn densely: between its stored points the solutions are
+    interpolated (:func:`contin.output.dense.dense_branch`) and ``measure`` is
+    evaluated on them as for the CSV columns; a column that is no function of
+    the solution (a multiplier) is drawn through the stored points. Each
+    special point is put on its branch, and a change of stability is drawn
+    at its located parameter. The two halves of a branch followed both ways
+    from one start form one group (one colour, one legend entry).
+
+    Returns
+    -------
+    branches : list of dict
+        ``x``, ``y``, ``stable``, ``nu``, ``id``, ``group``.
+    special : list of dict
+        ``x``, ``y``, ``kind``, ``branch``.
+    """
+    from contin.output.dense import dense_branch, kept_indices, value_between
+    from contin.output.plotting import CHANGES, SPECIAL
+
+    n = len(rec.dof_names)
+    branches, special = [], []
     for bid, c in rec.curves.items():
-        st = c["stable"]
-        x = list(c["x"])
-        y = [r[measure] for r in c["rows"]]
-        stable = None if all(v is None for v in st) else list(st)  # None inside: points without a verdict
-        if stable is not None:
-            # draw each stability change at its located parameter, not at the next stored point
-            off = rec.offsets.get(bid, 0)
-            changes = [s for s in rec.special_list if s["branch"] == bid and s["kind"] in ("fold", "pd", "ns", "bp", "stability")]
-            for sp in sorted(changes, key=lambda s: -s["_before"]):
-                j = sp["_before"] - off + 1
-                if 0 < j < len(x) and stable[j - 1] != stable[j]:
-                    x.insert(j, sp[hb.parameter])
-                    y.insert(j, sp.get(measure, y[j]))
-                    stable.insert(j, stable[j])
-        curves.append({"x": x, "y": y, "stable": stable,
-                       "label": f"branch {bid} (nu={c['nu']})"})
-    special = [{"x": s[hb.parameter], "y": s.get(measure, 1.0), "kind": s["kind"]} for s in rec.special_list]
-    path = ctx.outdir / "bifurcation_diagram.png"
-    bifurcation_diagram(curves, special, hb.parameter, measure, path, units=out["units"], labels=out["labels"],
-                        title=out["title"] or f"{hb.model.name}: {measure} vs {hb.parameter}")
-    return [path.name]
+        x = np.asarray(c["x"], dtype=float)
+        y = np.array([as_number(r.get(measure)) for r in c["rows"]])
+        stable = None if all(v is None for v in c["stable"]) else list(c["stable"])
+        off = rec.offsets.get(bid, 0)
+        points = []
+        for s in rec.special_list:
+            if s["branch"] != bid or s["kind"] not in SPECIAL:
+                continue
+            j = int(s["_before"]) - off
+            sy = as_number(s.get(measure))
+            if not np.isfinite(sy):  # a multiplier: 1 where the stability changes, else read off the branch
+                sy = 1.0 if measure == "max_multiplier" and s["kind"] in CHANGES else \
+                    value_between(x, y, j, s[rec.parameter])
+            points.append({"x": float(s[rec.parameter]), "y": sy, "index": j, "changes": s["kind"] in CHANGES})
+            special.append({"x": float(s[rec.parameter]), "y": sy, "kind": s["kind"], "branch": bid})
+        evaluate, U, directions = None, np.zeros((x.size, 0)), None
+        if measure in rec.measures and len(c.get("u", ())) == x.size and x.size > 1:  # a function of u
+            evaluate, U = _evaluator(rec, measure, c["nu"]), np.array(c["u"])
+            if all(d is not None for d in c["direction"]):
+                directions = np.array(c["direction"])
+        kept = kept_indices(c.get("kept"), n, c.get("H") or 0) if c.get("kept") is not None else None
+        d = dense_branch(x, U, evaluate, directions=directions, kept=kept, scale=c.get("scale"), stable=stable,
+                         special=points, node_xy=(x, y))
+        # both halves of a branch followed both ways start at one point
+        group = ("start", c["nu"], float(f"{x[0]:.10g}"), float(f"{y[0]:.8g}")) if x.size else ("branch", bid)
+        branches.append({"x": d["x"], "y": d["y"], "stable": d["stable"], "nu": c["nu"], "id": bid, "group": group})
+    return branches, special
+
+
+def _evaluator(rec: BranchRecorder, measure: str, nu: int):
+    """``evaluate(lam (K,), U (K, M)) -> (lam, measure (K,))`` with the function of the CSV columns."""
+    n = len(rec.dof_names)
+
+    def evaluate(lam, U):
+        return lam, np.array([as_number(rec._measures(u, n, nu).get(measure)) for u in U])
+
+    return evaluate

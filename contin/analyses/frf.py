@@ -19,11 +19,25 @@ Matrices that depend on the frequency parameter (gyroscopic terms
 
 Result files: ``frf.csv`` (one row per case and frequency: ``case``, the
 frequency, ``amp_<dof>``, ``phase_<dof>`` in degrees (negative: lagging the
-force), ``re_<dof>``, ``im_<dof>``), plot ``frf.png`` (amplitude, on a log scale
-unless ``scale: linear``, and the unwrapped phase, with the undamped natural
-frequencies marked). ``summary.json`` lists
+force), ``re_<dof>``, ``im_<dof>``), the figure ``frf.<format>`` (amplitude, on a
+log scale unless ``scale: linear``, and the unwrapped phase, with the undamped
+natural frequencies marked). ``summary.json`` lists
 the undamped natural frequencies and, for a damped model, every interior
 amplitude maximum, located to machine precision by a bounded scalar search.
+
+``normalise: static`` draws the amplitudes divided by the static deflection
+``delta_st``, the largest ``|x|`` of ``K x = F`` under the same force at
+``w = 0`` (for an absorber on a main system ``m1, k1`` forced on ``m1``:
+``delta_st = F/k1``); the file keeps the amplitudes themselves.
+
+Fixed points (``fixed_points``, on by default): where a force acts on one
+dof of a damped model, the frequencies at which that dof's amplitude does
+not depend on the damping are located as the crossings of its response
+with the damping matrix scaled to zero and to infinity (the dampers locked:
+the motion restricted to the null space of ``C``), each refined by a
+root search. For Den Hartog's damped absorber these are the points P and Q
+(:mod:`contin.modal.absorber`); they are listed in ``summary.json`` and marked
+on the figure with both limiting curves.
 """
 
 from __future__ import annotations
@@ -37,7 +51,7 @@ from contin.scene.registry import register_analysis
 from contin.util.naming import suggest
 from contin.scene.schema import Key, SceneError, flag, int_range, is_number, string
 
-__all__ = ["FRF", "check", "run", "force_cases", "result_columns"]
+__all__ = ["FRF", "check", "run", "force_cases", "result_columns", "fixed_points", "draw_frf"]
 
 
 def _force_ok(v) -> bool:
@@ -63,6 +77,10 @@ FRF = {
                  "or a mapping dof: amplitude", _force_ok, None),
     "peaks": flag(True),
     "scale": string("log", ("log", "linear")),
+    "normalise": Key("'none' or 'static' (the figure divides the amplitudes by the static deflection delta_st, "
+                     "the largest |x| of K x = F)", lambda v: v in ("none", "static"), "none"),
+    "fixed_points": Key("true or false (locate and mark the fixed points: the frequencies where the forced dof's "
+                        "amplitude does not depend on the damping)", lambda v: isinstance(v, bool), True),
 }
 
 
@@ -190,7 +208,88 @@ def check(scene, model) -> dict:
     if cases is None:
         cases = [("excitation", _own_force(model, wname))]
     check_output(scene, result_columns(wname, dofs)[1:], AXIS_NAMES)
-    return {"wname": wname, "kw": kw, "p0": p0, "w": w, "cases": cases}
+    static = [_static_deflection(model, kw, p0, F) for _, F in cases] if a["normalise"] == "static" else None
+    if static is not None and not all(np.isfinite(d) and d > 0 for d in static):
+        raise scene.error("analysis.normalise", "a model with a static deflection under the force for 'static' "
+                          "(a stiffness matrix it can invert and a force that does not vanish at w = 0), or 'none'",
+                          a["normalise"])
+    return {"wname": wname, "kw": kw, "p0": p0, "w": w, "cases": cases, "static": static}
+
+
+def _static_deflection(model, kw: int, p0, F) -> float:
+    """``max |x|`` of ``K x = F(0)`` (K at ``w = 0``); NaN where ``K`` is singular."""
+    p = np.array(p0, dtype=float)
+    p[kw] = 0.0
+    F0 = np.asarray(F(np.zeros(1))[0] if callable(F) else F)
+    try:
+        return float(np.max(np.abs(np.linalg.solve(model.linear(p)[2], F0))))
+    except np.linalg.LinAlgError:
+        return float("nan")
+
+
+def _limit_responses(resp, w, F):
+    """``X`` of the undamped model and of the model with its dampers locked, shape (nw, n) each.
+
+    Locked dampers (``C`` scaled to infinity) allow only motions ``N y`` in
+    the null space ``N`` of ``C``: ``X = N (N^T Z_0 N)^-1 N^T F``, ``Z_0 = K - w^2 M``.
+    A singular impedance (an undamped resonance on the grid) gives NaN.
+    """
+    M, C, K = resp.MCK
+    _, sv, vt = np.linalg.svd(C)
+    N = vt[sv <= 1e-12 * sv.max()].T if sv.size else np.eye(M.shape[0])
+    out0 = np.full((w.size, M.shape[0]), np.nan, dtype=complex)
+    out1 = np.full_like(out0, np.nan)
+    for i, wi in enumerate(w):
+        Z0 = K - wi**2 * M
+        with np.errstate(all="ignore"):
+            if np.linalg.cond(Z0) < 1e14:
+                out0[i] = np.linalg.solve(Z0, F[i])
+            Zr = N.T @ Z0 @ N
+            if N.shape[1] and np.linalg.cond(Zr) < 1e14:
+                out1[i] = N @ np.linalg.solve(Zr, N.T @ F[i])
+    return out0, out1
+
+
+def fixed_points(resp, w, k: int) -> list[tuple[float, float]]:
+    """Frequencies where ``|X_k|`` does not depend on the damping, and the amplitude there.
+
+    They are the crossings of ``|X_k|`` of the undamped model with ``|X_k|``
+    of the model with locked dampers (:func:`_limit_responses`): sign
+    changes of their difference on the grid ``w``, refined by Brent's
+    method; a sign change at a resonance of either (a jump, not a crossing) is
+    left out.
+
+    Parameters
+    ----------
+    resp : _Response
+        A force case of a model whose matrices do not depend on ``w``.
+    w : ndarray, shape (nw,)
+    k : int
+        The dof.
+
+    Returns
+    -------
+    list of (float, float)
+        ``(w, |X_k|)`` in increasing ``w``.
+    """
+    from scipy.optimize import brentq
+
+    def force(ws):
+        F = resp.F(ws) if callable(resp.F) else np.broadcast_to(resp.F, (ws.size, resp.F.size))
+        return np.asarray(F)
+
+    def gap(ws):
+        x0, x1 = _limit_responses(resp, ws, force(ws))
+        return np.abs(x0[:, k]) - np.abs(x1[:, k]), np.abs(x0[:, k])
+
+    g, _ = gap(w)
+    out = []
+    for i in np.flatnonzero(np.isfinite(g[:-1]) & np.isfinite(g[1:]) & (np.sign(g[:-1]) * np.sign(g[1:]) < 0)):
+        root = brentq(lambda x: gap(np.array([x]))[0][0], w[i], w[i + 1], xtol=1e-14 * abs(w[i + 1]), rtol=1e-13)
+        d, a = gap(np.array([root]))
+        if np.isfinite(d[0]) and abs(d[0]) <= 1e-7 * a[0]:
+            out.append((float(root), float(a[0])))
+    return out
 
 
 @register_analysis("frf", FRF, check=check)
@@ -240,15 +339,35 @@ def run(ctx) -> dict:
     except (ValueError, np.linalg.LinAlgError):
         omega = []
     peaks = _peaks(results, dofs) if a["peaks"] else []
-    ctx.plot = lambda: _plot(ctx, wname, dofs, results, omega, peaks)
+    fixed = _fixed_points(results, dofs, plan["static"]) if a["fixed_points"] else []
+    ctx.plot = lambda: _plot(ctx, wname, dofs, results, omega, peaks, fixed, plan["static"])
     return {
         "frequency": wname,
         "points": int(w.size),
         "cases": [c[0] for c in results],
         "natural_frequencies": omega,
         "peaks": peaks,
+        "static_deflection": plan["static"],
+        "fixed_points": [{k: v for k, v in f.items() if k != "_resp"} for f in fixed],
         "skipped_singular": skipped,
     }
+
+
+def _fixed_points(results, dofs, static) -> list[dict]:
+    """The fixed points of every force case on one dof of a damped model (see :func:`fixed_points`)."""
+    out = []
+    for j, (label, resp, ws, _) in enumerate(results):
+        if resp.varying or not np.any(resp.MCK[1]):
+            continue
+        F = np.abs(resp.F(ws[:1])[0] if callable(resp.F) else resp.F)
+        if np.count_nonzero(F) != 1:
+            continue
+        k = int(np.flatnonzero(F)[0])
+        for i, (wf, amp) in enumerate(fixed_points(resp, ws, k)):
+            name = "PQRSTUVW"[i] if i < 8 else f"F{i + 1}"
+            out.append({"case": label, "dof": dofs[k], "name": name, "frequency": wf, "amplitude": amp,
+                        "ratio": None if static is None else amp / static[j], "_resp": resp})
+    return out
 
 
 def _peaks(results, dofs):
@@ -283,40 +402,104 @@ def _peaks(results, dofs):
     return out
 
 
-def _plot(ctx, wname, dofs, results, omega, peaks) -> list:
-    import matplotlib
+def draw_frf(ax_amp, ax_phase, wname, dofs, results, omega=(), peaks=(), fixed=(), static=None, *,
+             scale: str = "log", units=None, labels=None, symbols=None):
+    """Draw amplitude and phase of an FRF into two axes (``ax_phase`` may be None).
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    import matplotlib.ticker
+    Parameters
+    ----------
+    ax_amp, ax_phase : matplotlib Axes
+    wname : str
+        The frequency parameter.
+    dofs : list of str
+    results : list of (label, response, w (nw,), X (nw, n))
+        One per force case.
+    omega : sequence of float
+        Undamped natural frequencies (dotted vertical lines).
+    peaks, fixed : list of dict
+        As in ``summary.json``; a fixed point's ``_resp`` (its force case) draws
+        the undamped and locked-damper curves of its dof.
+    static : list of float, optional
+        The static deflection per case: amplitudes are drawn divided by it.
+    scale : {"log", "linear"}
+    units, labels, symbols : dict, optional
+    """
+    from contin.output.labels import axis_label, math
 
-    from contin.output.plotting import axis_label
+    units, labels = dict(units or {}), dict(labels or {})
+    cases = {label: j for j, (label, *_) in enumerate(results)}
+    norm = [1.0] * len(results) if static is None else list(static)
+    top = 0.0
+    for j, (label, _, ws, X) in enumerate(results):
+        for k, d in enumerate(dofs):
+            name = math(d, symbols) if len(results) == 1 else f"{math(d, symbols)} (force on {label})"
+            y = np.abs(X[:, k]) / norm[j]
+            top = max(top, float(np.nanmax(y)) if y.size else 0.0)
+            ax_amp.plot(ws, y, lw=1.5, label=name)
+            if ax_phase is not None:
+                ax_phase.plot(ws, np.degrees(np.unwrap(np.angle(X[:, k]))), lw=1.2)
+    for i, om in enumerate(omega):
+        for ax in (ax_amp, ax_phase):
+            if ax is not None:
+                ax.axvline(om, color="0.75", lw=0.9, zorder=0, label="undamped natural frequencies"
+                           if (i == 0 and ax is ax_amp) else None)
+    if peaks:
+        ax_amp.plot([p["frequency"] for p in peaks], [p["amplitude"] / norm[cases.get(p["case"], 0)] for p in peaks],
+                    "v", color="tab:red", ms=5, label="peaks")
+    drawn = set()
+    for f in fixed:
+        j, resp = cases.get(f["case"], 0), f.get("_resp")
+        key = (f["case"], f["dof"])
+        if resp is not None and key not in drawn:  # the two curves whose crossings the fixed points are
+            drawn.add(key)
+            ws = results[j][2]
+            k = dofs.index(f["dof"])
+            F = np.asarray(resp.F(ws) if callable(resp.F) else np.broadcast_to(resp.F, (ws.size, len(dofs))))
+            x0, x1 = _limit_responses(resp, ws, F)
+            first = len(drawn) == 1
+            ax_amp.plot(ws, np.abs(x0[:, k]) / norm[j], ":", color="0.35", lw=1.0,
+                        label=f"{math(f['dof'], symbols)} without damping" if first else None)
+            ax_amp.plot(ws, np.abs(x1[:, k]) / norm[j], "--", color="0.35", lw=1.0,
+                        label=f"{math(f['dof'], symbols)} with the dampers locked" if first else None)
+        y = f["amplitude"] / norm[j]
+        ax_amp.plot([f["frequency"]], [y], "o", color="k", mfc="none", ms=8, mew=1.2,
+                    label="fixed points (independent of the damping)" if f is fixed[0] else None)
+        ax_amp.annotate(f["name"], (f["frequency"], y), textcoords="offset points", xytext=(-4, 7), ha="right",
+                        fontsize=9, fontweight="bold")
+    if scale == "log":
+        ax_amp.set_yscale("log")
+        if fixed and top > 0:
+            ax_amp.set_ylim(top=3.0 * top)
+    else:
+        ax_amp.set_ylim(0, 1.25 * top if (fixed and top > 0) else None)
+    amp = "amplitude |X|"
+    if static is None:
+        labels.setdefault(amp, "amplitude $|X|$")
+        ax_amp.set_ylabel(axis_label(amp, units, labels, symbols))
+    else:  # a ratio: no unit
+        ax_amp.set_ylabel(labels.get(amp) or r"amplitude ratio $|X|/\delta_{\mathrm{st}}$")
+    ax = ax_phase if ax_phase is not None else ax_amp
+    if ax_phase is not None:
+        import matplotlib.ticker
+
+        ax_phase.set_ylabel("phase [deg]")
+        ax_phase.yaxis.set_major_locator(matplotlib.ticker.MultipleLocator(90))
+    ax.set_xlabel(axis_label(wname, units, {wname: "forcing frequency " + math(wname, symbols), **labels}, symbols))
+
+
+def _plot(ctx, wname, dofs, results, omega, peaks, fixed=(), static=None) -> list:
+    from contin.output.figures import figure_style, legend_below, new_figure, save_figure
 
     out = ctx.scene.output
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(7.2, 6.4), sharex=True, constrained_layout=True)
-    for label, _, ws, X in results:
-        for k, d in enumerate(dofs):
-            name = d if len(results) == 1 else f"{d} (force {label})"
-            ax1.plot(ws, np.abs(X[:, k]), lw=1.4, label=name)
-            ax2.plot(ws, np.degrees(np.unwrap(np.angle(X[:, k]))), lw=1.2, label=name)
-    for om in omega:
-        for ax in (ax1, ax2):
-            ax.axvline(om, color="0.6", lw=0.8, ls=":")
-    if peaks:
-        ax1.plot([p["frequency"] for p in peaks], [p["amplitude"] for p in peaks], "rv", ms=5, label="peaks")
-    if ctx.scene.analysis["scale"] == "log":
-        ax1.set_yscale("log")
-    else:
-        ax1.set_ylim(bottom=0)
-    ax1.set_ylabel(axis_label("amplitude |X|", out["units"], out["labels"]))
-    ax2.set_ylabel("phase [deg]")
-    ax2.yaxis.set_major_locator(matplotlib.ticker.MultipleLocator(90))
-    ax2.set_xlabel(axis_label(wname, out["units"], out["labels"]))
-    ax1.set_title(out["title"] or f"{ctx.model.name}: frequency response (dotted: undamped natural frequencies)")
-    for ax in (ax1, ax2):
-        ax.grid(True, alpha=0.3)
-    ax1.legend(fontsize=8)
-    path = ctx.outdir / "frf.png"
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return [path.name]
+    with figure_style(out["style"]):
+        fig = new_figure((7.2, 6.8))
+        ax1, ax2 = fig.subplots(2, 1, sharex=True, height_ratios=(3, 2))
+        draw_frf(ax1, ax2, wname, dofs, results, omega, peaks, fixed, static, scale=ctx.scene.analysis["scale"],
+                 units=out["units"], labels=out["labels"], symbols=getattr(ctx.model, "symbols", None))
+        title = out["title"] or f"{ctx.model.name}: frequency response"
+        if static is not None:
+            title += "\n" + ", ".join(rf"$\delta_{{\mathrm{{st}}}}$ = {d:.4g}" for d in static) + \
+                (f" {out['units']['amplitude |X|']}" if (out["units"] or {}).get("amplitude |X|") else "")
+        ax1.set_title(title)
+        legend_below(fig, ax1, ncols=3 if len(ax1.get_legend_handles_labels()[0]) > 4 else 2)
+        return save_figure(fig, ctx.outdir / "frf", out["formats"], out["dpi"])

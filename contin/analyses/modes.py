@@ -20,8 +20,9 @@ Result files: ``modes.csv`` (one row per value and mode: ``omega2``,
 ``omega``, ``frequency_hz``, ``divergent``, ``modal_damping_ratio``,
 ``shape_<dof>``, ``ratio_<dof>``, ``static_<dof>``), ``damped_modes.csv`` (one
 row per value and eigenvalue: ``re``, ``im``, ``natural_frequency``,
-``damped_frequency``, ``damping_ratio``, ``re_<dof>``, ``im_<dof>``); plots
-``mode_shapes.png`` and, for several values, ``natural_frequencies.png``.
+``damped_frequency``, ``damping_ratio``, ``re_<dof>``, ``im_<dof>``); figures
+``mode_shapes.<format>`` and, for several values, ``natural_frequencies.<format>``
+(:func:`draw_mode_shapes`, :func:`draw_natural_frequencies` draw them into any axes).
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ from contin.scene.registry import register_analysis
 from contin.util.naming import suggest
 from contin.scene.schema import Key, SceneError, flag, int_range, is_number
 
-__all__ = ["MODES", "check", "run"]
+__all__ = ["MODES", "check", "run", "draw_mode_shapes", "draw_natural_frequencies"]
 
 
 def _numbers(v) -> bool:
@@ -171,7 +172,7 @@ def run(ctx) -> dict:
                 ctx.interrupted = True
                 break
             ctx.progress.update(f"modes: {param}={eq.value:.6g} ({i + 1}/{len(values)})" if param
-                                else "modes")
+                                else "modes", done=i, total=len(values) if param else None)
             try:
                 nm = natural_modes(eq.M, eq.K, ref)
                 pc = principal_coordinates(eq.M, eq.C, eq.K, nm)
@@ -243,57 +244,87 @@ def run(ctx) -> dict:
     }
 
 
-def _plot(ctx, param, dofs, records) -> list:
-    import matplotlib
+def draw_mode_shapes(ax, nm, dofs, count: int, symbols=None) -> None:
+    """Draw the first ``count`` mass-normalised mode shapes of ``nm`` (NaturalModes) against the dofs.
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    Parameters
+    ----------
+    ax : matplotlib Axes
+    nm : contin.modal.modes.NaturalModes
+    dofs : list of str
+        Tick labels (as symbols).
+    count : int
+    symbols : dict, optional
+        The model's symbols.
+    """
+    from contin.output.labels import math, symbol
 
-    files = []
-    a = ctx.scene.analysis
-    title = ctx.scene.output["title"] or ctx.model.name
-    nm, dm = records[0]["_plot"]
-    k = min(a["plot_modes"], nm.n)
-    fig, ax = plt.subplots(figsize=(7.0, 4.4), constrained_layout=True)
     pos = np.arange(len(dofs))
-    for j in range(k):
-        om = "divergent" if nm.divergent[j] else f"w = {nm.omega[j]:.5g}"
-        if len(dofs) == 2 and np.isfinite(nm.ratios()[1, j]):  # seed 002's r_i = u2/u1
-            om += f", r = {dofs[1]}/{dofs[0]} = {nm.ratios()[1, j]:.4g}"
-        ax.plot(pos, nm.modes[:, j], "o-", lw=1.4, label=f"mode {j + 1}: {om}")
+    ratios = nm.ratios()
+    for j in range(min(count, nm.n)):
+        text = "divergent" if nm.divergent[j] else rf"$\omega_{{{j + 1}}}$ = {nm.omega[j]:.5g}"
+        if len(dofs) == 2 and np.isfinite(ratios[1, j]):  # seed 002's r_i = u2/u1
+            text += rf", ${symbol(dofs[1], symbols)}/{symbol(dofs[0], symbols)}$ = {ratios[1, j]:.4g}"
+        ax.plot(pos, nm.modes[:, j], "o-", lw=1.4, label=f"mode {j + 1}: {text}")
     ax.axhline(0, color="0.5", lw=0.7)
-    ax.set_xticks(pos)
-    ax.set_xticklabels(dofs, rotation=0 if len(dofs) <= 12 else 90)
+    ax.set_xticks(pos, [math(d, symbols) for d in dofs], rotation=0 if len(dofs) <= 12 else 90)
     ax.set_xlabel("degree of freedom")
     ax.set_ylabel("mass-normalised mode shape")
-    where = f" at {param} = {records[0]['value']:.6g}" if param else ""
-    ax.set_title(f"{title}: mode shapes{where}")
-    ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8)
-    path = ctx.outdir / "mode_shapes.png"
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    files.append(path.name)
-    if param and len(records) > 1:
-        v = np.array([r["value"] for r in records])
-        W = np.array([[np.nan if w is None else w for w in r["omega"]] for r in records])
-        fig, ax = plt.subplots(figsize=(7.0, 4.4), constrained_layout=True)
-        for j in range(W.shape[1]):
-            ax.plot(v, W[:, j], "-", lw=1.5, label=f"w{j + 1} (undamped)" if j < 8 else None)
-        if records[0]["eigenvalues"] is not None:
-            D = [np.array(r["eigenvalues"]) for r in records]
-            xs = np.concatenate([np.full(len(d), val) for d, val in zip(D, v)])
-            ys = np.concatenate([np.abs(d[:, 1]) for d in D])
-            sel = ys > 0
-            if np.any(sel):
-                ax.plot(xs[sel], ys[sel], ".", color="k", ms=3, label="|Im lambda| (damped)")
-        ax.set_xlabel(param)
-        ax.set_ylabel("natural angular frequency")
-        ax.set_title(f"{title}: natural frequencies versus {param}")
-        ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=8)
-        path = ctx.outdir / "natural_frequencies.png"
-        fig.savefig(path, dpi=120)
-        plt.close(fig)
-        files.append(path.name)
+
+
+def draw_natural_frequencies(ax, param: str, records, *, units=None, labels=None, symbols=None) -> None:
+    """Draw the undamped natural frequencies (and ``|Im lambda|`` of the damped roots) against ``param``.
+
+    Parameters
+    ----------
+    ax : matplotlib Axes
+    param : str
+    records : list of dict
+        ``value``, ``omega`` (list, None where divergent) and ``eigenvalues``
+        (list of [re, im] or None) per parameter value.
+    units, labels, symbols : dict, optional
+    """
+    from contin.output.labels import axis_label
+
+    v = np.array([r["value"] for r in records])
+    W = np.array([[np.nan if w is None else w for w in r["omega"]] for r in records])
+    for j in range(W.shape[1]):
+        ax.plot(v, W[:, j], "-", lw=1.5, label=rf"$\omega_{{{j + 1}}}$ (undamped)" if j < 8 else None)
+    if records[0]["eigenvalues"] is not None:
+        D = [np.array(r["eigenvalues"]) for r in records]
+        xs = np.concatenate([np.full(len(d), val) for d, val in zip(D, v)])
+        ys = np.concatenate([np.abs(d[:, 1]) for d in D])
+        sel = ys > 0
+        if np.any(sel):
+            ax.plot(xs[sel], ys[sel], ".", color="k", ms=3, label=r"$|\mathrm{Im}\,\lambda|$ of the damped roots")
+    ax.set_xlabel(axis_label(param, units, labels, symbols))
+    ax.set_ylabel(axis_label("omega", units, {"omega": r"natural angular frequency $\omega$", **(labels or {})},
+                             symbols))
+
+
+def _plot(ctx, param, dofs, records) -> list:
+    from contin.output.figures import figure_style, legend_below, new_figure, save_figure
+    from contin.output.labels import math
+
+    out = ctx.scene.output
+    sym = getattr(ctx.model, "symbols", None)
+    title = out["title"] or ctx.model.name
+    nm, _ = records[0]["_plot"]
+    count = min(ctx.scene.analysis["plot_modes"], nm.n)
+    files = []
+    with figure_style(out["style"]):
+        fig = new_figure((7.0, 4.8 + 0.18 * ((count + 1) // 2)))
+        ax = fig.add_subplot()
+        draw_mode_shapes(ax, nm, dofs, count, sym)
+        where = f" at {math(param, sym)} = {records[0]['value']:.6g}" if param else ""
+        ax.set_title(f"{title}: mode shapes{where}")
+        legend_below(fig, ax, ncols=2 if count > 2 else 1)
+        files += save_figure(fig, ctx.outdir / "mode_shapes", out["formats"], out["dpi"])
+        if param and len(records) > 1:
+            fig = new_figure((7.0, 5.2))
+            ax = fig.add_subplot()
+            draw_natural_frequencies(ax, param, records, units=out["units"], labels=out["labels"], symbols=sym)
+            ax.set_title(out["title"] or f"{title}: natural frequencies against {math(param, sym)}")
+            legend_below(fig, ax, ncols=min(len(ax.get_legend_handles_labels()[0]), 3) or 1)
+            files += save_figure(fig, ctx.outdir / "natural_frequencies", out["formats"], out["dpi"])
     return files

@@ -12,14 +12,16 @@ revolution, time histories, orbits and spectra of the disc).
 
 Result files: ``simulation.csv`` (one row per value, written as each value
 finishes), ``simulation_<i>.npz`` (recorded window and section points),
-plots ``simulation_<i>.png`` (time history of the observed pair over the last
-revolutions, orbit, amplitude spectrum in units of ``w``) and, for several
-values, ``simulation_summary.png``.
+figures ``simulation_<i>.<format>`` (time history of the observed pair over the last
+revolutions, orbit, amplitude spectrum in units of ``w`` down to
+:data:`SPECTRUM_FLOOR` of its largest line, the main lines named as multiples
+of ``w``) and, for several values, ``simulation_summary.<format>``.
 """
 
 from __future__ import annotations
 
 import math
+import re
 import time
 
 import numpy as np
@@ -29,7 +31,8 @@ from contin.scene.registry import register_analysis
 from contin.util.naming import suggest
 from contin.scene.schema import Key, SceneError, int_range, is_number
 
-__all__ = ["SIMULATE", "check", "check_time_step", "run", "COLUMNS_HEAD"]
+__all__ = ["SIMULATE", "check", "check_time_step", "run", "COLUMNS_HEAD", "SPECTRUM_FLOOR", "frequency_text",
+           "draw_spectrum", "draw_simulation"]
 
 
 def _initial_ok(v) -> bool:
@@ -246,7 +249,8 @@ def run(ctx) -> dict:
 
             def progress(done, total, i=i, value=value):
                 ctx.progress.update(f"simulate {param}={value:.6g} ({i + 1}/{len(values)}): "
-                                    f"{done:.0f}/{total:.0f} revolutions")
+                                    f"{done:.0f}/{total:.0f} revolutions",
+                                    fraction=(i + min(done / total, 1.0)) / len(values) if total > 0 else None)
 
             try:
                 res, cls = steady_state(model, {param: value}, x0, v0, transient=a["transient"], record=a["record"],
@@ -292,83 +296,186 @@ def run(ctx) -> dict:
     }
 
 
+#: a spectrum is drawn down to this fraction of its largest line (below it: leakage and rounding)
+SPECTRUM_FLOOR = 1e-6
+
+
+def frequency_text(f: float, w: str = "w", max_denominator: int = 8, tol: float = 2e-3) -> str:
+    """Mathtext for a frequency given in units of ``w``: ``w/2``, ``3w/2``, ``-w``, else ``0.59w``.
+
+    Parameters
+    ----------
+    f : float
+        Frequency / w (signed: a backward whirl is negative).
+    w : str
+        Mathtext of the forcing frequency's symbol.
+    max_denominator : int
+        Fractions ``p/q`` with ``q`` up to this are written as fractions.
+    tol : float
+        How close to ``p/q`` counts as equal.
+    """
+    from fractions import Fraction
+
+    fr = Fraction(float(f)).limit_denominator(max_denominator)
+    if abs(float(fr) - f) > tol:
+        return f"${f:.3g}\\,{w}$"
+    if fr == 0:
+        return "$0$"
+    sign = "-" if fr < 0 else ""
+    num, den = abs(fr.numerator), fr.denominator
+    head = w if num == 1 else f"{num}{w}"
+    return f"${sign}{head}$" if den == 1 else f"${sign}{head}/{den}$"
+
+
+def draw_spectrum(ax, f, amp, *, lines=(), w: str = "w", fmax: float = 3.0, floor: float = SPECTRUM_FLOOR,
+                  label: str | None = None, stems: bool = False, annotate: bool = True, **style) -> None:
+    """Draw an amplitude spectrum on a log scale, cut at a noise floor, its main lines named.
+
+    Parameters
+    ----------
+    ax : matplotlib Axes
+    f : ndarray, shape (F,)
+        Frequency / w (signed for a two-sided whirl spectrum).
+    amp : ndarray, shape (F,)
+    lines : sequence of (float, float)
+        The lines to name (frequency / w, amplitude); by default the four largest values.
+    w : str
+        Mathtext of the frequency's symbol (the names read ``w/2``, ``w``, ...).
+    fmax : float
+        ``|f|`` drawn up to this.
+    floor : float
+        The axis starts at ``floor`` times the largest amplitude drawn: leakage
+        and rounding (1e-16 relative) are not drawn.
+    stems : bool
+        Vertical stems (a line spectrum, e.g. harmonic amplitudes) instead of a curve.
+    annotate : bool
+        Name the lines.
+    """
+    f, amp = np.asarray(f, float), np.asarray(amp, float)
+    keep = np.abs(f) <= fmax
+    f, amp = f[keep], amp[keep]
+    top = float(amp.max()) if amp.size and amp.max() > 0 else 1.0
+    lo = top * floor
+    if stems:
+        shown = amp >= lo
+        ax.vlines(f[shown], lo, amp[shown], lw=2.0, label=label, **style)
+        ax.plot(f[shown], amp[shown], "o", ms=3.5, **style)
+    else:
+        ax.plot(f, np.maximum(amp, lo), lw=0.9, label=label, **style)
+    ax.set_yscale("log")
+    ax.set_ylim(lo, top * 3.0)
+    if not annotate:
+        return
+    if not len(lines):
+        order = np.argsort(amp)[::-1][:4]
+        lines = [(f[j], amp[j]) for j in order if amp[j] >= 1e3 * lo]
+    ax.autoscale_view()
+    placed = []  # boxes of the names placed, in points: a name that would cover one moves aside or is left out
+    for fl, al in sorted(lines, key=lambda t: -t[1]):
+        if abs(fl) > fmax or al < lo:
+            continue
+        text = frequency_text(fl, w)
+        x, y = ax.transData.transform((fl, al)) * 72.0 / ax.figure.dpi
+        width = 5.5 * len(re.sub(r"\\[A-Za-z]+", "x", text.strip("$")).replace("\\,", "")) + 4.0
+        for dx, ha in ((0.0, "center"), (3.0, "left"), (-3.0, "right")):
+            x0 = x + dx - (0.5 * width if ha == "center" else 0.0 if ha == "left" else width)
+            box = (x0, y + 2.0, x0 + width, y + 14.0)
+            if not any(box[0] < b[2] and b[0] < box[2] and box[1] < b[3] and b[1] < box[3] for b in placed):
+                placed.append(box)
+                ax.annotate(text, (fl, al), textcoords="offset points", xytext=(dx, 4), ha=ha, fontsize=8)
+                break
+
+
 def _plot(ctx, param, obs, records) -> list:
-    import matplotlib
+    from contin.output.figures import figure_style, new_figure, save_figure
+    from contin.output.labels import axis_label, math
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from contin.timedomain.poincare import spectrum
-
+    out = ctx.scene.output
     files = []
     n_plot = ctx.scene.analysis["plot_periods"]
     model = ctx.model
-    for r in records:
-        t, x, T, w, cls = r["_plot"]
-        fig, axs = plt.subplots(1, 3, figsize=(13, 3.9), constrained_layout=True)
-        sel = t >= t[-1] - n_plot * T
-        for j, d in enumerate(obs):
-            axs[0].plot(t[sel] / T, x[sel, j], lw=1.0, label=d)
-        axs[0].set_xlabel("t / T (revolutions)")
-        axs[0].set_ylabel("displacement")
-        axs[0].set_title(f"last {n_plot} revolutions")
-        axs[0].legend(fontsize=8)
-        if x.shape[1] == 2:
-            axs[1].plot(x[:, 0], x[:, 1], lw=0.5)
-            P = cls.section
-            i0, i1 = model.dof_index(obs[0]), model.dof_index(obs[1])
-            axs[1].plot(P[:, i0], P[:, i1], ".", color="tab:red", ms=4, label="Poincare section")
-            axs[1].set_xlabel(obs[0])
-            axs[1].set_ylabel(obs[1])
-            axs[1].set_aspect("equal", adjustable="datalim")
-            axs[1].legend(fontsize=7, loc="upper right")
-            axs[1].set_title("orbit")
-            f, amp = spectrum(t, x[:, 0] + 1j * x[:, 1], w)
-            axs[2].set_xlabel("frequency / w  (+ forward, - backward whirl)")
-        else:
-            axs[1].plot(x[:-1, 0], np.diff(x[:, 0]) / np.diff(t), lw=0.5)
-            axs[1].set_xlabel(obs[0])
-            axs[1].set_ylabel(obs[0] + "_dot")
-            axs[1].set_title("phase portrait")
-            f, amp = spectrum(t, x[:, 0], w)
-            axs[2].set_xlabel("frequency / w")
-        keep = np.abs(f) <= 3.0
-        axs[2].plot(f[keep], amp[keep], lw=0.9)
-        for fl, al in cls.lines[:4]:
-            if abs(fl) <= 3.0:
-                axs[2].annotate(f"{fl:+.3g}", (fl, al), textcoords="offset points", xytext=(2, 3), fontsize=7)
-        axs[2].set_ylabel("amplitude")
-        axs[2].set_yscale("log")
-        lo = max(amp[keep].max() * 1e-5, 1e-300) if np.any(keep) else 1e-12
-        axs[2].set_ylim(bottom=lo)
-        axs[2].set_title("spectrum (Hann window)")
-        fig.suptitle(f"{model.name}: {param} = {r['value']:.6g}: {cls.label}"
-                     + ("" if cls.settled else " (converging)"))
-        path = ctx.outdir / f"simulation_{r['index']}.png"
-        fig.savefig(path, dpi=100)
-        plt.close(fig)
-        files.append(path.name)
-    if len(records) > 1:
-        fig, ax = plt.subplots(figsize=(7, 4.4), constrained_layout=True)
-        v = np.array([r["value"] for r in records])
-        fw = np.array([abs(r["_plot"][4].whirl["+w/2"]) for r in records])
-        f1 = np.array([abs(r["_plot"][4].whirl["+w"]) for r in records])
-        ax.plot(v, f1, "-", color="0.6", lw=0.8)
-        ax.plot(v, fw, "-", color="tab:blue", lw=0.8)
-        style = {1: ("o", "tab:green"), 2: ("s", "tab:red")}
-        seen = set()
-        for vi, a1, a2, r in zip(v, f1, fw, records):
-            m, c = style.get(r["period"], ("D", "tab:purple") if r["period"] else ("x", "k"))
-            lab = r["class"] if r["class"] not in seen else None
-            seen.add(r["class"])
-            ax.plot(vi, a2, m, color=c, mfc="none", label=lab)
-            ax.plot(vi, a1, m, color=c, ms=4)
-        ax.set_xlabel(param)
-        ax.set_ylabel("whirl radius of " + " + i ".join(obs))
-        ax.set_title("+w/2 forward whirl (open markers) and +w (filled)")
-        ax.legend(fontsize=8)
-        path = ctx.outdir / "simulation_summary.png"
-        fig.savefig(path, dpi=100)
-        plt.close(fig)
-        files.append(path.name)
+    sym = getattr(model, "symbols", None)
+    wsym = math(model.frequency, sym).strip("$")
+    units, labels = out["units"], out["labels"]
+    with figure_style(out["style"]):
+        for r in records:
+            fig = new_figure((13.0, 4.2))
+            axs = fig.subplots(1, 3)
+            draw_simulation(axs, r["_plot"], obs, model, n_plot, units=units, labels=labels, symbols=sym, w=wsym)
+            fig.suptitle(out["title"] or f"{model.name}: {math(param, sym)} = {r['value']:.6g}: "
+                         f"{r['class']}" + ("" if r["settled"] else " (converging)"))
+            files += save_figure(fig, ctx.outdir / f"simulation_{r['index']}", out["formats"], out["dpi"])
+        if len(records) > 1:
+            fig = new_figure((7.0, 4.8))
+            ax = fig.add_subplot()
+            v = np.array([r["value"] for r in records])
+            fw = np.array([abs(r["_plot"][4].whirl["+w/2"]) for r in records])
+            f1 = np.array([abs(r["_plot"][4].whirl["+w"]) for r in records])
+            ax.plot(v, f1, "-", color="0.6", lw=0.8, label=f"component $+{wsym}$ (filled markers)")
+            ax.plot(v, fw, "-", color="tab:blue", lw=0.8, label=f"component $+{wsym}/2$ (open markers)")
+            style = {1: ("o", "tab:green"), 2: ("s", "tab:red")}
+            seen = set()
+            for vi, a1, a2, r in zip(v, f1, fw, records):
+                m, c = style.get(r["period"], ("D", "tab:purple") if r["period"] else ("x", "k"))
+                ax.plot(vi, a2, m, color=c, mfc="none", label=r["class"] if r["class"] not in seen else None)
+                seen.add(r["class"])
+                ax.plot(vi, a1, m, color=c, ms=4)
+            ax.set_xlabel(axis_label(param, units, labels, sym))
+            pair = " + i\\,".join(math(d, sym).strip("$") for d in obs)
+            ax.set_ylabel(f"forward whirl radius of ${pair}$" if len(obs) == 2 else f"amplitude of ${pair}$")
+            ax.set_title(out["title"] or f"{model.name}: forward whirl components against {math(param, sym)}")
+            ax.legend(loc="best")
+            files += save_figure(fig, ctx.outdir / "simulation_summary", out["formats"], out["dpi"])
     return files
+
+
+def draw_simulation(axs, data, obs, model, n_plot: int, *, units=None, labels=None, symbols=None, w: str = "w"):
+    """Draw one simulated value into three axes: time history, orbit (or phase portrait), spectrum.
+
+    Parameters
+    ----------
+    axs : sequence of 3 matplotlib Axes
+    data : tuple
+        ``(t (N,), x (N, k), T, w, classification)`` of the observed dofs (k = 1 or 2).
+    obs : list of str
+        The observed dofs.
+    model : Model
+    n_plot : int
+        Revolutions of the time history.
+    w : str
+        Mathtext of the forcing frequency's symbol.
+    """
+    from contin.output.labels import axis_label, math
+    from contin.timedomain.poincare import spectrum
+
+    t, x, T, wv, cls = data
+    sel = t >= t[-1] - n_plot * T
+    for j, d in enumerate(obs):
+        axs[0].plot(t[sel] / T, x[sel, j], lw=1.0, label=math(d, symbols))
+    axs[0].set_xlabel("time $t/T$ (revolutions)")
+    same = {(units or {}).get(d) for d in obs}
+    axs[0].set_ylabel("displacement" + (f" [{same.pop()}]" if len(same) == 1 and None not in same else ""))
+    axs[0].set_title(f"last {n_plot} revolutions")
+    axs[0].legend(loc="upper right")
+    if x.shape[1] == 2:
+        axs[1].plot(x[:, 0], x[:, 1], lw=0.5)
+        P = cls.section
+        i0, i1 = model.dof_index(obs[0]), model.dof_index(obs[1])
+        axs[1].plot(P[:, i0], P[:, i1], ".", color="tab:red", ms=4, label="Poincaré section")
+        axs[1].set_xlabel(axis_label(obs[0], units, labels, symbols))
+        axs[1].set_ylabel(axis_label(obs[1], units, labels, symbols))
+        axs[1].set_aspect("equal", adjustable="datalim")
+        axs[1].legend(loc="upper right")
+        axs[1].set_title("orbit")
+        f, amp = spectrum(t, x[:, 0] + 1j * x[:, 1], wv)
+        axs[2].set_xlabel(f"frequency / ${w}$  (+ forward, − backward whirl)")
+    else:
+        axs[1].plot(x[:-1, 0], np.diff(x[:, 0]) / np.diff(t), lw=0.5)
+        axs[1].set_xlabel(axis_label(obs[0], units, labels, symbols))
+        axs[1].set_ylabel(axis_label(obs[0] + "_dot", units, labels, symbols))
+        axs[1].set_title("phase portrait")
+        f, amp = spectrum(t, x[:, 0], wv)
+        axs[2].set_xlabel(f"frequency / ${w}$")
+    draw_spectrum(axs[2], f, amp, lines=cls.lines[:6], w=w)
+    axs[2].set_ylabel("amplitude")
+    axs[2].set_title("spectrum (Hann window)")

@@ -45,7 +45,8 @@ def stability_setup(analysis: dict, hb):
             def callback(branch, i):
                 rec.point(index, problem.nu, branch, i, problem.H, problem=problem)
                 ctx.progress.update(f"branch {index} (nu={problem.nu})  {problem.parameter}={branch.parameter[i]:.6g}"
-                                    f"  point {i}  ds={branch.step_sizes[i]:.3g}")
+                                    f"  point {i}  ds={branch.step_sizes[i]:.3g}",
+                                    parameter=branch.parameter, bounds=lam_range, task=f"branch {index}")
                 return not ctx.stop_requested
 
             return callback

@@ -123,8 +123,15 @@ class _StaticRecorder:
                "residual_norm": float(branch.residual_norms[i])}
         row.update(self._values(x))
         self.rows.write(row)
-        c = self.curves.setdefault(bid, {"rows": [], "offset": self.n_rows - i})
+        c = self.curves.setdefault(bid, {"rows": [], "offset": self.n_rows - i, "u": [], "direction": []})
         c["rows"].append(row)
+        # the equilibrium and its tangent in the unknowns' units, for the dense curve
+        c["u"].append(np.asarray(x, dtype=float))
+        su, sl = branch.info.get("unknown_scale"), branch.info.get("parameter_scale")
+        t = np.asarray(branch.tangents[i], dtype=float)
+        if su is not None and sl is not None:
+            c["scale"] = np.append(np.broadcast_to(np.asarray(su, dtype=float), (t.size - 1,)), float(sl))
+        c["direction"].append(None if su is None or sl is None else t * c["scale"])
         self.n_rows += 1
 
     def specials(self, bid, branch) -> None:
@@ -133,8 +140,8 @@ class _StaticRecorder:
             if sp.kind.value == "start":
                 continue
             row = {"branch": bid, "kind": sp.kind.value, self.parameter: float(sp.parameter),
-                   "index": off + min(max(sp.index, 0), len(branch) - 1), "interval_lo": float(sp.interval[0]),
-                   "interval_hi": float(sp.interval[1]), "located": bool(sp.located), "detail": sp.message}
+                   "index": off + min(max(sp.index, 0), len(branch) - 1), "interval_lo": sp.bracket[0],
+                   "interval_hi": sp.bracket[1], "located": bool(sp.located), "detail": sp.message}
             row.update({k: v for k, v in self._values(sp.unknowns).items() if k in self.values})
             d = sp.point_data or {}
             for k in ("stable", "n_unstable", "lowest_eigenvalue"):
@@ -232,7 +239,8 @@ def run(ctx) -> dict:
         for bid, o in enumerate(runs):
             def callback(branch, i, bid=bid):
                 rec.point(bid, branch, i)
-                ctx.progress.update(f"static branch {bid}: {param}={branch.parameter[i]:.6g}, point {i}")
+                ctx.progress.update(f"static branch {bid}: {param}={branch.parameter[i]:.6g}, point {i}",
+                                    parameter=branch.parameter, bounds=(lo, hi), task=f"branch {bid}")
                 return not ctx.stop_requested
 
             br = continuation(hb, x0, lam0, (lo, hi), o, parameter_name=param, monitors=[monitor], callback=callback)
@@ -260,16 +268,28 @@ def run(ctx) -> dict:
 
 
 def _plot(ctx, rec, param, measure):
-    from contin.output.plotting import bifurcation_diagram
+    from contin.output.dense import dense_branch
+    from contin.output.labels import model_symbols
+    from contin.output.plotting import CHANGES, SPECIAL, bifurcation_diagram
 
     out = ctx.scene.output
+
+    def evaluate(lam, X):
+        return np.array([rec._values(x)[measure] for x in X]), lam
+
     curves = []
     for bid, c in rec.curves.items():
         rows = c["rows"]
-        curves.append({"x": [r[measure] for r in rows], "y": [r[param] for r in rows],
-                       "stable": np.array([r["stable"] for r in rows], bool), "label": f"branch {bid}"})
-    special = [{"x": s[measure], "y": s[param], "kind": s["kind"]} for s in rec.special_list]
-    path = ctx.outdir / "static.png"
-    bifurcation_diagram(curves, special, measure, param, path, units=out["units"], labels=out["labels"],
-                        title=out["title"] or f"{ctx.model.name}: equilibria, {param} against {measure}")
-    return [path.name]
+        lam = np.array([r[param] for r in rows])
+        points = [{"x": s[measure], "y": s[param], "index": s["index"] - c["offset"], "changes": s["kind"] in CHANGES}
+                  for s in rec.special_list if s["branch"] == bid and s["kind"] in SPECIAL]
+        directions = np.array(c["direction"]) if all(d is not None for d in c["direction"]) else None
+        d = dense_branch(lam, np.array(c["u"]), evaluate, directions=directions, scale=c.get("scale"),
+                         stable=[r["stable"] for r in rows], special=points,
+                         node_xy=(np.array([r[measure] for r in rows]), lam))
+        # the two halves of the path followed both ways from one equilibrium
+        curves.append({"x": d["x"], "y": d["y"], "stable": d["stable"], "nu": 0, "id": bid, "group": "equilibria"})
+    special = [{"x": s[measure], "y": s[param], "kind": s["kind"], "branch": s["branch"]} for s in rec.special_list]
+    return bifurcation_diagram(curves, special, param, measure, ctx.outdir / "static", units=out["units"],
+                               labels=out["labels"], symbols=model_symbols(ctx.model), title=out["title"],
+                               formats=out["formats"], dpi=out["dpi"], style=out["style"], vertical_parameter=True)

@@ -23,11 +23,11 @@ EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 
 def _parser() -> argparse.ArgumentParser:
-    import contin
+    from contin.util.version import __version__
 
     p = argparse.ArgumentParser(prog="contin", description="Continuation of periodic vibrations of nonlinear "
                                 "mechanical systems: branches, stability, folds and bifurcations.")
-    p.add_argument("--version", action="version", version=f"contin {contin.__version__}")
+    p.add_argument("--version", action="version", version=f"contin {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
     r = sub.add_parser("run", help="run a scene and write result files and plots")
     r.add_argument("scene", help="scene file (YAML)")
@@ -43,7 +43,9 @@ def _parser() -> argparse.ArgumentParser:
     sw = sub.add_parser("sweep", help="run a scene at every point of a grid of values, on Dask",
                         description="Run SCENE once per point of the outer product of the --grid axes, each "
                         "point in OUTDIR/points/<name>, indexed in OUTDIR/sweep.csv. Points already complete "
-                        "in OUTDIR (same scene) are not run again. Exit status 0 when every point is "
+                        "in OUTDIR (same scene) are not run again, so the same command resumes an interrupted "
+                        "sweep. The points run on Dask (pip install \"contin[sweep]\"), or with --serial one "
+                        "after another in this process without it. Exit status 0 when every point is "
                         "complete, 1 when some failed or fell short (recorded with their messages; a rerun runs "
                         "them again), 2 on bad input, "
                         "130 when interrupted.")
@@ -166,6 +168,47 @@ def cmd_check(args) -> int:
     return EXIT_OK
 
 
+def _resume_command(args, outdir) -> str:
+    """The command that resumes this run: ``contin run SCENE -o OUTDIR --resume`` with its --set and --budget."""
+    import shlex
+
+    cmd = ["contin", "run", args.scene, "-o", str(outdir), "--resume"]
+    for o in args.overrides:
+        cmd += ["--set", o]
+    if args.budget is not None:
+        cmd += ["--budget", repr(args.budget)]
+    return shlex.join(cmd)
+
+
+def _interrupted(args, outdir, summary: dict | None) -> int:
+    """Say how to resume an interrupted run, in summary.json's ``message`` and on stderr; exit status 130."""
+    import json
+
+    from contin.output.results import write_json_atomic
+
+    command = _resume_command(args, outdir)
+    message = f"interrupted; to resume from the last stored point: {command}"
+    path = outdir / "summary.json"
+    if summary is None:  # interrupted before the run could stop by itself: the runner wrote its summary
+        try:
+            summary = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            summary = None
+    if isinstance(summary, dict) and summary.get("status") == "interrupted":
+        summary["message"] = message
+        write_json_atomic(path, summary)
+    sys.stderr.write(f"contin: the run was interrupted; the results so far are in {outdir}. To resume it from "
+                     f"the last stored point:\n  {command}\n")
+    return EXIT_INTERRUPTED
+
+
+def _branch_line(b: dict) -> str:
+    if b["status"] == "interrupted":  # the continuation stopped at the interrupt: say where, not how
+        at = str(b.get("message", "")).partition(" at ")[2]
+        return f"branch {b['branch']} (nu={b['nu']}): {b['points']} points, interrupted" + (f" at {at}" if at else "")
+    return f"branch {b['branch']} (nu={b['nu']}): {b['points']} points, {b['status']}: {b['message']}"
+
+
 def cmd_run(args) -> int:
     from pathlib import Path
 
@@ -187,12 +230,17 @@ def cmd_run(args) -> int:
     if outdir.exists() and not outdir.is_dir():
         raise SceneError("-o", "a directory for the results (new or existing)", str(outdir),
                          hint=" (a file of that name exists)")
-    summary = run_scene(scene, outdir, progress=not args.quiet, resume=args.resume)
+    try:
+        summary = run_scene(scene, outdir, progress=not args.quiet, resume=args.resume)
+    except KeyboardInterrupt:  # a second Ctrl-C, or one outside the analysis
+        if not outdir.is_dir():
+            return _fail("interrupted", EXIT_INTERRUPTED)
+        return _interrupted(args, outdir, None)
     a = summary.get("analysis", {})
     for line in a.get("table", []) if scene.analysis["type"] == "convergence" else []:
         print(line)
     for b in a.get("branches", []):
-        print(f"branch {b['branch']} (nu={b['nu']}): {b['points']} points, {b['status']}: {b['message']}")
+        print(_branch_line(b))
     for c in a.get("curves", []):
         ends = "; ".join(f"{e['side']} {e['status']}" for e in c["ends"])
         found = ", ".join(f"{n} {k}" for k, n in c["special_points"].items() if n)
@@ -200,9 +248,7 @@ def cmd_run(args) -> int:
               + (f"; {found}" if found else ""))
     print(f"results in {outdir} ({summary['timings']['total']:.2f} s)")
     if summary["status"] == "interrupted":
-        sys.stderr.write(f"contin: interrupted; the same command with --resume (and -o {outdir}) continues "
-                         "from the last stored point\n")
-        return EXIT_INTERRUPTED
+        return _interrupted(args, outdir, summary)
     if summary["status"] == "incomplete":
         lines = summary.get("shortfalls") or []
         sys.stderr.write("contin: the run fell short of what the scene asked:\n"
@@ -268,14 +314,22 @@ def cmd_absorber(args) -> int:
 def cmd_sweep(args) -> int:
     from pathlib import Path
 
-    from contin.app.sweep import SweepOptions, run_sweep
+    from contin.app.sweep import SweepOptions, run_sweep, sweep_command
     from contin.app.sweep_grid import parse_grid
 
     opts = SweepOptions(scene=args.scene, grid=tuple(parse_grid(g) for g in args.grid),
                         outdir=args.outdir or str(Path("results") / (Path(args.scene).stem + "-sweep")),
                         overrides=tuple(args.overrides), scheduler=args.scheduler, workers=args.workers,
                         serial=args.serial, retries=args.retries, map_plot=args.map_plot, progress=not args.quiet)
-    result = run_sweep(opts)
+    try:
+        result = run_sweep(opts)
+    except KeyboardInterrupt:
+        if not (Path(opts.outdir) / "sweep.csv").is_file():
+            return _fail("interrupted", EXIT_INTERRUPTED)
+        sys.stderr.write(f"contin: the sweep was interrupted; the points finished so far are in {opts.outdir} "
+                         "(sweep.csv). To resume it (the complete points are not run again):\n"
+                         f"  {sweep_command(opts)}\n")
+        return EXIT_INTERRUPTED
     c = result.counts
     print(f"sweep: {len(result.records)} points, {c.get('complete', 0)} complete ({c.get('reused', 0)} from "
           f"before), {len(result.failed)} failed or incomplete; index in {Path(opts.outdir) / 'sweep.csv'} "

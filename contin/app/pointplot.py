@@ -1,4 +1,4 @@
-"""``contin plot OUTDIR --point ROW``: time history, orbit and spectrum of a stored point."""
+"""``contin plot OUTDIR --point ROW``: time history, orbit and spectrum of a stored point (:func:`draw_point`)."""
 
 from __future__ import annotations
 
@@ -8,12 +8,15 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from contin.analyses.simulate import SPECTRUM_FLOOR, draw_spectrum, frequency_text
 from contin.hb import aft
 from contin.hb.harmonics import coefficient_blocks, harmonic_amplitudes
 from contin.output.checkpoint import CheckpointError, read_records
+from contin.output.figures import figure_style, new_figure, save_figure
+from contin.output.labels import axis_label, math
 from contin.scene.parse import SceneError, parse_scene
 
-__all__ = ["load_state_row", "plot_point"]
+__all__ = ["load_state_row", "plot_point", "draw_point"]
 
 
 def load_state_row(outdir: Path, row: int) -> dict:
@@ -37,13 +40,9 @@ def plot_point(outdir: Path, row: int, samples: int = 512) -> Path:
     Returns
     -------
     Path
-        ``OUTDIR/point_ROW.png``.
+        ``OUTDIR/point_ROW.<format>``, the first of the run's ``output.formats`` (its ``style`` and
+        ``dpi`` too).
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     from contin.analyses.frequency_response import build_problem
     from contin.scene.build import build_model
 
@@ -79,32 +78,66 @@ def plot_point(outdir: Path, row: int, samples: int = 512) -> Path:
     t = np.linspace(0, T, samples, endpoint=False)
     xd = Omega * xp
     amps = harmonic_amplitudes(u, n)
-    fig, axs = plt.subplots(1, 3, figsize=(12, 3.8), constrained_layout=True)
-    for i, d in enumerate(model.dof_names):
-        axs[0].plot(t, x[:, i], label=d)
-    axs[0].set_xlabel("t (one period)")
+    out = scene.output
+    sym = getattr(model, "symbols", None)
+    with figure_style(out["style"]):
+        fig = new_figure((12.5, 4.2))
+        axs = fig.subplots(1, 3)
+        draw_point(axs, t, x, xd, amps, nu, model.dof_names, units=out["units"], labels=out["labels"], symbols=sym,
+                   w=math(hb.frequency, sym).strip("$"))
+        fig.suptitle(f"row {row}: branch {rec['branch']}, $\\nu$ = {nu}, {math(hb.parameter, sym)} = {lam:.6g}")
+        names = save_figure(fig, outdir / f"point_{row}", out["formats"], out["dpi"])
+    return outdir / names[0]
+
+
+def draw_point(axs, t, x, xd, amps, nu: int, dofs, *, units=None, labels=None, symbols=None, w: str = "w") -> None:
+    """Draw one periodic solution into three axes: time history, orbit (or phase portrait), harmonic spectrum.
+
+    Parameters
+    ----------
+    axs : sequence of 3 matplotlib Axes
+    t : ndarray, shape (S,)
+        One period.
+    x, xd : ndarray, shape (S, n)
+        Displacements and velocities.
+    amps : ndarray, shape (H + 1, n)
+        Amplitude of harmonic ``k`` of ``w/nu`` per dof (``k = 0``: the mean).
+    nu : int
+    dofs : sequence of str
+    w : str
+        Mathtext of the forcing frequency's symbol.
+    """
+    n = len(dofs)
+    for i, d in enumerate(dofs):
+        axs[0].plot(t, x[:, i], label=math(d, symbols))
+    axs[0].set_xlabel("time $t$ (one period)")
     axs[0].set_ylabel("displacement")
-    axs[0].legend(fontsize=8)
+    axs[0].legend(loc="upper right")
     if n >= 2:
         axs[1].plot(x[:, 0], x[:, 1])
-        axs[1].set_xlabel(model.dof_names[0])
-        axs[1].set_ylabel(model.dof_names[1])
+        axs[1].set_xlabel(axis_label(dofs[0], units, labels, symbols))
+        axs[1].set_ylabel(axis_label(dofs[1], units, labels, symbols))
         axs[1].set_title("orbit")
     else:
         axs[1].plot(x[:, 0], xd[:, 0])
-        axs[1].set_xlabel(model.dof_names[0])
-        axs[1].set_ylabel(model.dof_names[0] + "_dot")
+        axs[1].set_xlabel(axis_label(dofs[0], units, labels, symbols))
+        axs[1].set_ylabel(axis_label(dofs[0] + "_dot", units, labels, symbols))
         axs[1].set_title("phase portrait")
     freqs = np.arange(amps.shape[0]) / nu
-    width = 0.8 / (n * nu)
-    for i, d in enumerate(model.dof_names):
-        axs[2].bar(freqs + (i - (n - 1) / 2) * width, amps[:, i], width=width, label=d)
-    axs[2].set_xlabel("frequency / w")
+    width = 0.6 / (n * nu)
+    top = float(np.max(amps)) if amps.size else 0.0
+    for i, d in enumerate(dofs):  # harmonic amplitudes as stems, cut at the spectrum floor, main ones named
+        draw_spectrum(axs[2], freqs + (i - (n - 1) / 2) * width, amps[:, i], w=w, fmax=np.inf, stems=True,
+                      label=math(d, symbols), color=f"C{i}", annotate=False)
+    if top > 0:
+        axs[2].set_ylim(top * SPECTRUM_FLOOR, top * 3.0)
+        main = [(float(freqs[k]), float(amps[k].max())) for k in np.argsort(amps.max(axis=1))[::-1][:5]
+                if amps[k].max() >= 1e3 * SPECTRUM_FLOOR * top]
+        for fk, ak in main:
+            axs[2].annotate(frequency_text(fk, w), (fk, ak), textcoords="offset points", xytext=(0, 4),
+                            ha="center", fontsize=8)
+    axs[2].set_xlabel(f"frequency / ${w}$")
     axs[2].set_ylabel("harmonic amplitude")
-    axs[2].set_yscale("log")
     axs[2].set_title("spectrum")
-    fig.suptitle(f"row {row}: branch {rec['branch']}, nu={nu}, {hb.parameter}={lam:.6g}")
-    path = outdir / f"point_{row}.png"
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    if n > 1:
+        axs[2].legend(loc="upper right")

@@ -9,11 +9,13 @@ from pathlib import Path
 
 import numpy as np
 
-import contin
+from contin.util.version import __version__
 from contin.output.checkpoint import CheckpointError, read_records, rebuild_branches, resumable_prefix
 from contin.app.progress import Progress
+from contin.output.exports import write_exports
+from contin.output.labels import model_symbols
 from contin.output.results import write_json_atomic
-from contin.scene.parse import Scene, SceneError
+from contin.scene.parse import Scene, SceneError, model_frequency
 from contin.scene.build import build_model
 from contin.scene.registry import RunContext, RunError
 
@@ -24,7 +26,7 @@ def versions() -> dict:
     import numba
     import scipy
 
-    return {"contin": contin.__version__, "python": platform.python_version(), "numpy": np.__version__,
+    return {"contin": __version__, "python": platform.python_version(), "numpy": np.__version__,
             "scipy": scipy.__version__, "numba": numba.__version__}
 
 
@@ -63,7 +65,10 @@ def run_scene(scene: Scene, outdir: str | Path, progress: bool = True, resume: b
     ctx.timings["model"] = time.perf_counter() - t0
     summary = {"status": "running", "scene": scene.data, "source": scene.source, "versions": versions(),
                "model": {"name": model.name, "dofs": list(model.dof_names), "effects": list(model.effects),
-                         "terms": model.describe().splitlines()[1:]},
+                         "terms": model.describe().splitlines()[1:],
+                         "frequency": model_frequency(scene.model, scene.analysis) or model.frequency,
+                         "parameters": dict(zip(model.param_names, map(float, model.parameter_vector()))),
+                         "symbols": model_symbols(model)},
                "timings": ctx.timings, "resumed": resumed_from}
     write_json_atomic(outdir / "summary.json", summary)
 
@@ -100,6 +105,7 @@ def run_scene(scene: Scene, outdir: str | Path, progress: bool = True, resume: b
                     "timings": ctx.timings})
     if status == "incomplete":
         summary["message"] = "; ".join(shortfalls)
+    summary["exports"] = write_exports(outdir, scene.output["exports"], summary)
     write_json_atomic(outdir / "summary.json", summary)
     return summary
 

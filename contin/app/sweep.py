@@ -9,10 +9,11 @@ status, message, timings, a summary of the special points and of the stable
 intervals per subharmonic order) and ``OUTDIR/sweep_map.png`` maps that
 summary over the grid.
 
-Execution is delegated to ``dask.distributed``: by default an embedded
-``LocalCluster`` of worker processes (one per core, one thread each) that the
-sweep starts and stops; with ``scheduler`` an existing cluster. What the
-engine provides and the sweep relies on:
+Execution is delegated to ``dask.distributed``, an optional dependency
+(``pip install "contin[sweep]"``; ``serial`` runs without it): by default an
+embedded ``LocalCluster`` of worker processes (one per core, one thread
+each) that the sweep starts and stops; with ``scheduler`` an existing
+cluster. What the engine provides and the sweep relies on:
 
 - a task whose worker dies is rescheduled on another worker (the scheduler's
   ``allowed-failures``), and a task that raises an unexpected exception is
@@ -49,20 +50,21 @@ import contextlib
 import hashlib
 import json
 import os
+import shlex
 import shutil
-import sys
 import time
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
 
+from contin.app.progress import Progress
 from contin.app.sweep_grid import GridAxis, grid_points
-from contin.app.sweep_index import _Index, summarize_point
+from contin.app.sweep_index import _Index, _progress_line, summarize_point
 from contin.app.sweep_point import PointTask, _now
-from contin.app.sweep_workers import _run_dask, _run_serial
+from contin.app.sweep_workers import _run_dask, _run_serial, require_distributed
 from contin.scene.schema import SceneError
 
-__all__ = ["SweepOptions", "SweepResult", "run_sweep"]
+__all__ = ["SweepOptions", "SweepResult", "run_sweep", "sweep_command"]
 
 
 @dataclass(frozen=True)
@@ -91,7 +93,8 @@ class SweepOptions:
     map_plot : bool
         Draw ``sweep_map.png``.
     progress : bool
-        Print a line per finished point on stderr.
+        Show the progress on stderr (points done of the total, with the
+        remaining time) and a line for each point that failed or fell short.
     """
 
     scene: str
@@ -199,6 +202,28 @@ class SweepResult:
         return [r for r in self.records if r.get("status") != "complete"]
 
 
+def sweep_command(options: SweepOptions) -> str:
+    """The ``contin sweep`` command line of ``options``: run again, it resumes the sweep.
+
+    The scene, the ``--grid`` axes (as typed, when parsed from text), the
+    ``--set`` options, ``-o`` and the way of running (``--serial``,
+    ``--workers``, ``--scheduler``); shell-quoted.
+    """
+    args = ["contin", "sweep", str(options.scene)]
+    for a in options.grid:
+        args += ["--grid", a.option()]
+    for o in options.overrides:
+        args += ["--set", o]
+    args += ["-o", str(options.outdir)]
+    if options.serial:
+        args.append("--serial")
+    if options.workers is not None:
+        args += ["--workers", str(options.workers)]
+    if options.scheduler is not None:
+        args += ["--scheduler", options.scheduler]
+    return shlex.join(args)
+
+
 def _normalized(data):
     return json.loads(json.dumps(data, default=str))
 
@@ -241,7 +266,10 @@ def run_sweep(options: SweepOptions, echo=None) -> SweepResult:
     ----------
     options : SweepOptions
     echo : callable, optional
-        ``echo(line)`` for progress lines; default: stderr when ``options.progress``.
+        ``echo(line)`` for the opening line and a line per finished point;
+        default: a :class:`~contin.app.progress.Progress` display on stderr
+        when ``options.progress`` (the opening line, points done of the total
+        with the remaining time, a line per point that failed or fell short).
 
     Returns
     -------
@@ -252,15 +280,33 @@ def run_sweep(options: SweepOptions, echo=None) -> SweepResult:
     SceneError
         Bad input: the scene (with the ``--set`` options) is invalid, every
         grid point is refused by the scene's schema (a wrong ``--grid`` key),
-        another sweep is writing ``outdir``, or the scheduler cannot be reached.
+        another sweep is writing ``outdir``, the scheduler cannot be reached,
+        or Dask is not installed and ``serial`` is false
+        (:class:`~contin.app.sweep_workers.MissingDependencyError`); nothing
+        is written then.
     KeyboardInterrupt
-        After ``sweep.csv`` has been written with the points finished so far.
+        After ``sweep.csv`` has been written with the points finished so far,
+        and ``sweep.json`` with status ``interrupted`` and a ``message`` that
+        gives the command that resumes the sweep (:func:`sweep_command`).
     """
     from contin.scene.parse import parse_scene
 
     t_start = time.perf_counter()
+    display = None
     if echo is None:
-        echo = (lambda line: print(line, file=sys.stderr, flush=True)) if options.progress else (lambda line: None)
+        display = Progress(options.progress)
+        echo = display.write
+
+    def report(done: int, total: int, point, rec: dict) -> None:
+        line = _progress_line(done, total, point, rec)
+        if display is None:
+            echo(line)
+            return
+        # a point that failed or fell short gets a line of its own; an interrupted one ends the sweep, and its
+        # line comes as the display's last
+        if rec.get("status") not in ("complete", "interrupted"):
+            display.write(line)
+        display.update(line, done=done, total=total, task="sweep")
     scene_path = Path(options.scene)
     try:
         text = scene_path.read_text(encoding="utf-8")
@@ -269,6 +315,8 @@ def run_sweep(options: SweepOptions, echo=None) -> SweepResult:
     source = str(scene_path)
     base = parse_scene(text, source, options.overrides)  # the scene itself must be valid: bad input otherwise
     _check_grid_keys(base, options.grid)
+    if not options.serial:
+        require_distributed()  # before anything is written
     points = grid_points(options.grid)
     scenes, refusals = {}, {}
     for p in points:
@@ -318,9 +366,11 @@ def run_sweep(options: SweepOptions, echo=None) -> SweepResult:
         timings: dict[str, float] = {}
         try:
             if todo:
+                if display is not None:  # the remaining time counts from here, on the points to run
+                    display.update(f"[{reused}/{len(points)}] running", done=reused, total=len(points), task="sweep")
                 runner = _run_serial if options.serial else _run_dask
                 first = next((p for p in todo if p.index in scenes), todo[0])
-                runner(options, todo, tasks, index, echo, len(points), reused, timings,
+                runner(options, todo, tasks, index, report, len(points), reused, timings,
                        warm=(text, source, tasks[first.index].overrides))
         except KeyboardInterrupt:
             interrupted = True
@@ -329,6 +379,8 @@ def run_sweep(options: SweepOptions, echo=None) -> SweepResult:
                                                       "finished_at": _now()})
             raise
         finally:
+            if display is not None:
+                display.close()
             for p in points:  # runs that ended while the sweep was stopping
                 if p.index not in index.records:
                     rec = _existing(points_dir / p.name, scenes.get(p.index))
@@ -350,12 +402,17 @@ def run_sweep(options: SweepOptions, echo=None) -> SweepResult:
             from contin.output.sweep_plot import sweep_map
 
             t0 = time.perf_counter()
-            files = sweep_map(index.rows(), options.grid, outdir / "sweep_map.png")
+            files = sweep_map(index.rows(), options.grid, outdir / "sweep_map", formats=base.output["formats"],
+                              dpi=base.output["dpi"], style=base.output["style"])
             timings["map"] = time.perf_counter() - t0
         seconds = time.perf_counter() - t_start
-        write_json_atomic(outdir / "sweep.json", {**meta, "status": "interrupted" if interrupted else "finished",
-                                                  "finished_at": _now(), "counts": counts, "plots": files,
-                                                  "timings": {"total": seconds, **timings}})
+        end = {"status": "interrupted" if interrupted else "finished"}
+        if interrupted:
+            end["message"] = (f"interrupted with {counts.get('complete', 0)} of {len(points)} points complete; "
+                              f"to resume, run the same command again: {sweep_command(options)} "
+                              "(the complete points are not run again)")
+        write_json_atomic(outdir / "sweep.json", {**meta, **end, "finished_at": _now(), "counts": counts,
+                                                  "plots": files, "timings": {"total": seconds, **timings}})
         if interrupted:
             raise KeyboardInterrupt
     return SweepResult(records, outdir, counts, seconds)

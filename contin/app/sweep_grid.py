@@ -11,7 +11,7 @@ from __future__ import annotations
 import itertools
 import math
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import yaml
@@ -88,6 +88,8 @@ class GridAxis:
 
     key: str
     values: tuple
+    #: the ``SPEC`` the axis was read from (``0:1:11``), if any; not part of its identity
+    text: str | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self):
         where = f"--grid {self.key}"
@@ -110,6 +112,12 @@ class GridAxis:
     def override(self, value) -> str:
         """The ``--set`` assignment of ``value`` on this axis."""
         return f"{self.key}={_yaml_text(value)}"
+
+    def option(self) -> str:
+        """The ``--grid`` argument that gives this axis back: ``key=SPEC`` as typed, else the list of values."""
+        if self.text is not None:
+            return f"{self.key}={self.text}"
+        return f"{self.key}=" + ",".join(_yaml_text(v) for v in self.values)
 
 
 def parse_grid(text: str) -> GridAxis:
@@ -159,8 +167,8 @@ def parse_grid(text: str) -> GridAxis:
         values = values[:-1] + (stop,)
         if len(set(values)) != len(values):
             raise SceneError(where, f"a range whose {count} values differ in {RANGE_DIGITS} significant digits", spec)
-        return GridAxis(key, values)
-    return GridAxis(key, tuple(_scalar(t, where) for t in spec.split(",")))
+        return GridAxis(key, values, spec)
+    return GridAxis(key, tuple(_scalar(t, where) for t in spec.split(",")), spec)
 
 
 def _label(value) -> str:

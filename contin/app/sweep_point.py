@@ -49,14 +49,15 @@ _RUN_LOCK = threading.Lock()
 
 
 def _prepare_process() -> None:
-    """Once per process: the Agg backend and one BLAS thread (as the command line runs)."""
+    """Once per process: one BLAS thread (as the command line runs).
+
+    The figures of a run are drawn on their own canvas (:mod:`contin.output.figures`),
+    so no matplotlib backend is chosen here: a worker thread in the user's own
+    process leaves the user's backend as it was.
+    """
     global _PREPARED
     if _PREPARED:
         return
-    os.environ.setdefault("MPLBACKEND", "Agg")
-    import matplotlib
-
-    matplotlib.use("Agg")
     from contin.util.blas import limit_blas_threads
 
     limit_blas_threads()
@@ -126,7 +127,8 @@ def run_point(task: PointTask) -> dict:
                               "overrides": list(task.overrides), "started_at": started, "worker": _where()}
     scene = None
     try:
-        with _RUN_LOCK:  # one run at a time per process (pyplot is not thread-safe)
+        # one run at a time per process: a run's figures set matplotlib's rcParams (global) for their style
+        with _RUN_LOCK:
             scene = parse_scene(task.scene_text, task.scene_source, task.overrides)
             summary = run_scene(scene, tmp, progress=False)
         status, message, error = summary["status"], "", ""

@@ -6,6 +6,11 @@ scheduler (:func:`_client`), and records the results as they complete;
 :func:`_run_serial` runs them one after another in this process. Each worker
 loads the kernels and the plotting stack once, when it starts
 (:class:`WarmUp`, :func:`warm_up`), not in every task.
+
+Dask is an optional dependency (``pip install "contin[sweep]"``): this module
+imports ``distributed`` only when the points run on a cluster, so a serial
+sweep and ``contin run`` never load it; :func:`require_distributed` turns its
+absence into a message before the sweep writes anything.
 """
 
 from __future__ import annotations
@@ -16,11 +21,31 @@ import threading
 import time
 import uuid
 
-from contin.app.sweep_index import _progress_line
 from contin.app.sweep_point import _now, _prepare_process, run_point
 from contin.scene.schema import SceneError
 
-__all__ = ["WarmUp", "warm_up"]
+__all__ = ["WarmUp", "warm_up", "require_distributed", "MissingDependencyError"]
+
+#: what ``contin sweep`` says when Dask is needed and not installed
+DASK_MISSING = ("contin sweep runs its points on Dask (the dask.distributed package), which is not installed. "
+                "Install it with: pip install \"contin[sweep]\" (or: pip install \"dask[distributed]\"); or run "
+                "the points one after another in this process, without Dask, with --serial.")
+
+
+class MissingDependencyError(SceneError):
+    """An optional package that the requested way of running needs is not installed (bad input: exit status 2)."""
+
+    def __init__(self, message: str):
+        ValueError.__init__(self, message)
+        self.key, self.expected, self.found, self.line = "contin sweep", message, None, None
+
+
+def require_distributed() -> None:
+    """Raise :class:`MissingDependencyError` if ``distributed`` cannot be imported."""
+    try:
+        import distributed  # noqa: F401
+    except ImportError:
+        raise MissingDependencyError(DASK_MISSING) from None
 
 
 def warm_up(scene_text: str, scene_source: str, overrides=()) -> dict:
@@ -47,16 +72,13 @@ def warm_up(scene_text: str, scene_source: str, overrides=()) -> dict:
     try:
         import io
 
-        import matplotlib.pyplot as plt
-
-        import contin.output.plotting  # noqa: F401
+        from contin.output.figures import new_figure
         from contin.scene.build import build_model
         from contin.scene.parse import parse_scene
 
-        fig = plt.figure(figsize=(1, 1))
-        fig.gca().plot([0, 1], [0, 1], "--")
+        fig = new_figure((1, 1))  # loads matplotlib's fonts and PNG writer once, outside the tasks
+        fig.add_subplot().plot([0, 1], [0, 1], "--")
         fig.savefig(io.BytesIO(), format="png")
-        plt.close(fig)
         scene = parse_scene(scene_text, scene_source, overrides)
         model = build_model(scene)
         if scene.analysis["type"] == "frequency_response":
@@ -76,13 +98,26 @@ def warm_up(scene_text: str, scene_source: str, overrides=()) -> dict:
     return {"seconds": time.perf_counter() - t0, "status": status}
 
 
-try:  # the plugin base class, when distributed is installed
-    from distributed.diagnostics.plugin import WorkerPlugin as _WorkerPlugin
-except ImportError:  # pragma: no cover
-    _WorkerPlugin = object
+def _warm_up_class():
+    """The :class:`WarmUp` plugin class, made on first use: it derives from distributed's ``WorkerPlugin``."""
+    cls = globals().get("WarmUp")
+    if cls is None:
+        from distributed.diagnostics.plugin import WorkerPlugin
+
+        cls = globals()["WarmUp"] = type("WarmUp", (_WarmUpMixin, WorkerPlugin), {"__module__": __name__})
+        cls.__doc__ = _WarmUpMixin.__doc__
+    return cls
 
 
-class WarmUp(_WorkerPlugin):
+def __getattr__(name):
+    # ``WarmUp`` (imported, or looked up by pickle on a worker) is made when first asked for, so that
+    # importing this module does not import distributed
+    if name == "WarmUp":
+        return _warm_up_class()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+class _WarmUpMixin:
     """Dask worker plugin: prepares each worker (Agg, one BLAS thread) and runs :func:`warm_up`.
 
     Registered by the sweep on every worker of the cluster, including workers
@@ -118,14 +153,17 @@ class WarmUp(_WorkerPlugin):
 
 
 
-def _run_serial(options, todo, tasks, index, echo, total, done, timings, warm):
-    """The points one after another in this process (no Dask): the baseline and a debugging aid."""
+def _run_serial(options, todo, tasks, index, report, total, done, timings, warm):
+    """The points one after another in this process (no Dask): the baseline and a debugging aid.
+
+    ``report(done, total, point, record)`` is called as each point finishes.
+    """
     for p in todo:
         rec = run_point(tasks[p.index])
         rec["reused"] = False
         index.set(p, rec)
         done += 1
-        echo(_progress_line(done, total, p, rec))
+        report(done, total, p, rec)
         if rec["status"] == "interrupted":  # Ctrl-C inside the run: it stopped after its current point
             raise KeyboardInterrupt
 
@@ -137,11 +175,8 @@ def _worker_env() -> dict:
 @contextlib.contextmanager
 def _client(options, timings):
     """A ``distributed.Client`` on the given scheduler, or on an embedded ``LocalCluster`` it starts and stops."""
-    try:
-        from distributed import Client, LocalCluster
-    except ImportError:
-        raise SceneError("contin sweep", "the dask.distributed package (pip install \"dask[distributed]\"); "
-                         "--serial runs without it", None) from None
+    require_distributed()
+    from distributed import Client, LocalCluster
 
     t0 = time.perf_counter()
     if options.scheduler is not None:
@@ -174,9 +209,12 @@ def _client(options, timings):
         cluster.close()
 
 
-def _run_dask(options, todo, tasks, index, echo, total, done, timings, warm):
+def _run_dask(options, todo, tasks, index, report, total, done, timings, warm):
+    """The points on a Dask cluster; ``report(done, total, point, record)`` as each finishes."""
+    require_distributed()
     from distributed import as_completed
 
+    WarmUp = _warm_up_class()
     t_end = None
     with _client(options, timings) as client:
         t0 = time.perf_counter()
@@ -202,7 +240,7 @@ def _run_dask(options, todo, tasks, index, echo, total, done, timings, warm):
             rec["reused"] = False
             index.set(p, rec)
             done += 1
-            echo(_progress_line(done, total, p, rec))
+            report(done, total, p, rec)
             fut.release()
         timings["tasks"] = time.perf_counter() - t0
         if options.scheduler is not None:  # leave an existing cluster as it was

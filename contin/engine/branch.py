@@ -152,6 +152,12 @@ class SpecialPoint:
     def __post_init__(self):
         self.kind = SpecialKind(self.kind)
 
+    @property
+    def bracket(self) -> tuple:
+        """``(lo, hi)``: :attr:`interval` in increasing order (a branch may run towards smaller values)."""
+        a, b = (float(v) for v in self.interval)
+        return (a, b) if a <= b else (b, a)
+
     def to_dict(self) -> dict:
         """Plain-python/numpy representation (enums as strings)."""
         return {f.name: _to_builtin(getattr(self, f.name)) for f in dataclasses.fields(self)}

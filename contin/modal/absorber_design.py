@@ -5,7 +5,8 @@ absorber mass ``m2`` or the largest allowed amplification (then ``m2``
 follows from a sizing rule); :func:`design_absorber` gives the optimal
 tuning and damping (seed 000, sec. 7.4-7.5; seed 002, sec. 6.3.3) as an
 :class:`AbsorberDesign`, from the closed forms of
-:mod:`contin.modal.absorber`; :func:`plot_design` draws its response.
+:mod:`contin.modal.absorber`; :func:`draw_design` draws its response into an axes and
+:func:`plot_design` into a file.
 """
 
 from __future__ import annotations
@@ -18,7 +19,8 @@ import numpy as np
 from contin.modal.absorber import (amplification, fixed_point_height, fixed_points, mass_ratio_for_height,
                                    optimal_damping, optimal_tuning, peaks, true_peak, undamped_resonances)
 
-__all__ = ["AbsorberProblem", "AbsorberDesign", "FixedPoint", "Peak", "design_absorber", "plot_design", "SIZINGS"]
+__all__ = ["AbsorberProblem", "AbsorberDesign", "FixedPoint", "Peak", "design_absorber", "draw_design", "plot_design",
+           "SIZINGS"]
 
 #: how ``design_absorber`` sizes ``m2`` from a maximum allowed amplification
 SIZINGS = ("fixed_points", "peak")
@@ -297,34 +299,61 @@ def design_absorber(m1: float, k1: float, m2: float | None = None, *, max_amplif
     return _design(prob.m1, prob.k1, beta * prob.m1, prob)
 
 
-def plot_design(design: AbsorberDesign, path, points: int = 1200):
-    """Save the response of a design: ``|X1|/delta_st`` against ``w`` with ``c = 0``, the optimum and ``c -> inf``."""
-    import matplotlib
+def draw_design(ax, design: AbsorberDesign, points: int = 1200) -> None:
+    """Draw ``|X1|/delta_st`` of a design against ``w`` into ``ax``: without damper, damper locked, optimal.
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    The fixed points P and Q, where every damping gives the same amplitude
+    (the crossings of the curves ``c = 0`` and ``c -> inf``), are marked with
+    the true peak; the top axis shows ``w/p``.
 
+    Parameters
+    ----------
+    ax : matplotlib Axes
+    design : AbsorberDesign
+    points : int
+        Frequencies drawn, over ``0.5 p .. 1.5 p``.
+    """
     d = design
     w = np.linspace(0.5 * d.p, 1.5 * d.p, points)
-    fig, ax = plt.subplots(figsize=(7.2, 4.6), constrained_layout=True)
-    for z, style, lab in ((0.0, ":", "without damper (c = 0)"), (math.inf, "--", "rigid damper (c -> inf)"),
-                          (d.zeta, "-", f"optimal: c = {d.c:.4g} (zeta = {d.zeta:.4g}, zeta_a = {d.zeta_a:.4g})")):
+    top = 2.2 * d.fixed_point_height
+    for z, style, lab in ((0.0, ":", "without damper ($c = 0$)"), (math.inf, "--", r"damper locked ($c \to \infty$)"),
+                          (d.zeta, "-", rf"optimal damping $c$ = {d.c:.4g} ($\zeta$ = {d.zeta:.4g}, "
+                                        rf"$\zeta_a$ = {d.zeta_a:.4g})")):
         y = d.amplification(w, z)
-        y = np.where(y < 5 * d.fixed_point_height, y, np.nan)  # clip the undamped resonances
-        ax.plot(w, y, style, lw=1.8 if z == d.zeta else 1.0, label=lab)
-    ax.plot([d.P.w, d.Q.w], [d.P.height, d.Q.height], "ko", mfc="none", ms=8, label="fixed points P, Q")
+        y = np.where(y < 5 * top, y, np.nan)  # the undamped resonances leave the plot
+        ax.plot(w, y, style, lw=1.8 if z == d.zeta else 1.0, color="tab:blue" if z == d.zeta else "0.35",
+                label=lab)
+    ax.plot([d.P.w, d.Q.w], [d.P.height, d.Q.height], "ko", mfc="none", ms=8, mew=1.2,
+            label=rf"fixed points P, Q: $\sqrt{{(2+\beta)/\beta}}$ = {d.fixed_point_height:.5g}")
     for f in (d.P, d.Q):
-        ax.annotate(f.name, (f.w, f.height), textcoords="offset points", xytext=(5, 6))
+        ax.annotate(f.name, (f.w, f.height), textcoords="offset points", xytext=(-5, 7), ha="right",
+                    fontsize=9, fontweight="bold")
     tp = d.true_peak
-    ax.plot([tp.w], [tp.amplification], "r^", label=f"true peak {tp.amplification:.5g} (fixed points "
-                                                    f"{d.fixed_point_height:.5g})")
-    ax.axvline(d.anti_resonance, color="0.6", lw=0.8)
-    ax.set_xlabel("forcing frequency w [rad/s]")
-    ax.set_ylabel("|X1| / delta_st")
-    ax.set_ylim(0, 2.2 * d.fixed_point_height)
-    ax.set_title(f"absorber m2 = {d.m2:.4g}, k2 = {d.k2:.5g}, c = {d.c:.4g} on m1 = {d.m1:.4g}, k1 = {d.k1:.4g}")
+    ax.plot([tp.w], [tp.amplification], "^", color="tab:red", ms=6, label=f"true peak {tp.amplification:.5g}")
+    ax.axvline(d.anti_resonance, color="0.75", lw=0.9, zorder=0, label=r"absorber tuning $p_a$")
+    ax.set_xlabel("forcing frequency $w$")
+    ax.set_ylabel(r"amplitude ratio $|X_1|/\delta_{\mathrm{st}}$, $\delta_{\mathrm{st}} = F/k_1$")
+    ax.set_ylim(0, top)
+    sec = ax.secondary_xaxis("top", functions=(lambda x: x / d.p, lambda r: r * d.p))
+    sec.set_xlabel(r"frequency ratio $w/p$, $p = \sqrt{k_1/m_1}$")
+
+
+def plot_design(design: AbsorberDesign, path, points: int = 1200, dpi: float = 200):
+    """Save the response of a design (:func:`draw_design`); the format follows the suffix of ``path``.
+
+    The figure is made on its own canvas (no global figure manager, the user's matplotlib
+    settings untouched), its legend below the axes.
+    """
+    from matplotlib.figure import Figure
+
+    d = design
+    fig = Figure(figsize=(7.2, 5.6), layout="constrained")
+    ax = fig.add_subplot()
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    draw_design(ax, d, points)
+    ax.set_title(f"absorber $m_2$ = {d.m2:.4g}, $k_2$ = {d.k2:.5g}, $c$ = {d.c:.4g} on $m_1$ = {d.m1:.4g}, "
+                 f"$k_1$ = {d.k1:.4g}", fontsize=10)
+    handles, texts = ax.get_legend_handles_labels()
+    fig.legend(handles, texts, loc="outside lower center", ncols=2, fontsize=8)
+    fig.savefig(path, dpi=dpi, metadata={"Software": "contin"} if str(path).lower().endswith(".png") else None)
     return path

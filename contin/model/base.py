@@ -392,6 +392,8 @@ class Model:
         The effects this instance was built with (for reports).
     terms : list of str
         Human-readable list of the terms in the residual.
+    symbols : dict
+        Symbols of names in figures (see the attribute's comment).
     """
 
     name: str
@@ -422,6 +424,10 @@ class Model:
     #: that sets the matrices); they are neither continued nor overridden: a new
     #: value needs a new model
     structural: tuple = ()
+    #: how figures write names (:mod:`contin.output.labels`): parameter, dof or observable name ->
+    #: mathtext without dollars (``{"w": r"\Omega"}``), or a phrase holding ``$``; a key
+    #: ``parameter:NAME`` for a parameter that shares its name with an observable
+    symbols: dict = field(default_factory=dict)
 
     registry_kind: ClassVar[str] = "model"
 

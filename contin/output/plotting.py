@@ -1,27 +1,44 @@
-"""Figures: the bifurcation diagram (stable solid, unstable dashed, special points labelled) and the
-two-parameter diagram of fold and period-doubling curves."""
+"""The bifurcation diagram (the two-parameter diagram is :mod:`contin.output.plane_plot`).
+
+The bifurcation diagram draws each branch in one colour: stable parts solid,
+unstable parts dashed, parts without a stability verdict dotted. Its special
+points are marked by kind and numbered on the plot; a table beside the plot
+gives each number's kind and parameter value. Points closer than a number's
+size share one label (``3-5``); a number that had to move away from its point
+is tied to it by a leader line. :func:`draw_bifurcation_diagram` draws into
+any axes (a user's ``Result.plot``); :func:`bifurcation_diagram` writes the
+files of a run.
+"""
 
 from __future__ import annotations
 
+import math as _math
 from pathlib import Path
 
 import matplotlib
+import numpy as np
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
+from matplotlib.transforms import Affine2D, ScaledTranslation
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+from contin.output.figures import figure_style, new_figure, save_figure
+from contin.output.labels import axis_label, math
 
-__all__ = ["bifurcation_diagram", "axis_label", "two_parameter_diagram"]
+__all__ = ["bifurcation_diagram", "draw_bifurcation_diagram", "branch_label", "axis_label", "SPECIAL", "CHANGES"]
 
-MARKERS = {"fold": ("o", "tab:red"), "pd": ("s", "tab:purple"), "ns": ("D", "tab:green"), "kink": ("v", "tab:gray"),
-           "bp": ("^", "tab:orange"), "stability": ("x", "k"), "grazing": ("*", "tab:brown")}
+#: special points drawn: marker, name in the table, short name (narrow figures)
+SPECIAL = {"fold": ("o", "fold", "fold"), "pd": ("s", "period doubling", "PD"), "ns": ("D", "Neimark-Sacker", "NS"),
+           "bp": ("^", "branch point", "BP"), "kink": ("v", "corner", "corner"),
+           "stability": ("X", "stability change", "stab."), "grazing": ("*", "grazing", "grazing"),
+           "frequency_min": ("<", "frequency minimum", "min."), "frequency_max": (">", "frequency maximum", "max.")}
+#: kinds at which the stability of a branch changes
+CHANGES = ("fold", "pd", "ns", "bp", "stability")
 
 
-def axis_label(name: str, units: dict | None = None, labels: dict | None = None) -> str:
-    """``label [unit]`` for a parameter or measure, from the scene's ``output.labels``/``units``."""
-    text = (labels or {}).get(name, name)
-    unit = (units or {}).get(name)
-    return f"{text} [{unit}]" if unit else text
+def branch_label(nu: int) -> str:
+    """The name of a branch of order ``nu``: ``harmonic``, ``1/2 subharmonic``, ...; ``equilibria`` for 0."""
+    nu = int(nu)
+    return "equilibria" if nu == 0 else "harmonic" if nu == 1 else f"1/{nu} subharmonic"
 
 
 def _segments(x, y, stable):
@@ -37,193 +54,428 @@ def _segments(x, y, stable):
     return [(xs, ys, None if st is None else bool(st)) for xs, ys, st in segs]
 
 
-#: line style and width of stable, unstable and unknown (no stability verdict) parts of a branch
-_STYLES = {True: ("-", 1.6), False: ("--", 1.1), None: (":", 1.1)}
+def _line_styles() -> dict:
+    """Line style and width of stable, unstable and unknown (no verdict) parts, from the style's line width."""
+    lw = float(matplotlib.rcParams["lines.linewidth"])
+    return {True: ("-", lw), False: ("--", 0.75 * lw), None: (":", 0.9 * lw)}
 
 
-# offsets (points) tried in turn for a label, and the box (points) a label of a few letters covers
-_LABEL_OFFSETS = ((4, 4), (4, -11), (-6, 4), (-6, -11), (4, 14), (4, -21))
-_LABEL_BOX = (34.0, 9.0)
-
-
-def _label_points(ax, points):
-    """Name each special point beside its marker without letting two names overlap.
-
-    Points of one kind closer than a label's height are named once, with their
-    count (``grazing (2)``); a name that would cover another is moved to the
-    next free offset of ``_LABEL_OFFSETS``, or left out where none is free
-    (the legend still names the marker).
-    """
-    if not points:
-        return
-    ax.autoscale_view()
-    fig = ax.figure
-    xy = ax.transData.transform(np.array([[float(p["x"]), float(p["y"])] for p in points]))
-    xy = xy * 72.0 / fig.dpi  # display pixels to points
-    groups = []  # [kind, index of the first point, count]
-    for i, p in enumerate(points):
-        for g in groups:
-            if g[0] == p["kind"] and np.all(np.abs(xy[i] - xy[g[1]]) < _LABEL_BOX[1]):
-                g[2] += 1
-                break
+def _groups(branches) -> list:
+    """Branches drawn alike (one colour, one legend entry): ``[(label or None, [indices])]`` in order."""
+    keys, out = {}, []
+    for i, br in enumerate(branches):
+        key = br.get("group", ("branch", i))
+        if key not in keys:
+            keys[key] = len(out)
+            out.append([i])
         else:
-            groups.append([p["kind"], i, 1])
-    boxes = []  # lower-left and upper-right corners of the labels placed, in points
-    for kind, i, count in groups:
-        text = kind if count == 1 else f"{kind} ({count})"
-        width = _LABEL_BOX[0] * max(len(text), 4) / 7.0
-        for dx, dy in _LABEL_OFFSETS:
-            x0 = xy[i, 0] + (dx if dx > 0 else dx - width)
-            box = (x0, xy[i, 1] + dy, x0 + width, xy[i, 1] + dy + _LABEL_BOX[1])
-            if all(box[2] <= b[0] or b[2] <= box[0] or box[3] <= b[1] or b[3] <= box[1] for b in boxes):
-                boxes.append(box)
-                ax.annotate(text, (float(points[i]["x"]), float(points[i]["y"])), textcoords="offset points",
-                            xytext=(dx, dy), ha="left" if dx > 0 else "right", fontsize=7,
-                            color=MARKERS[kind][1])
-                break
+            out[keys[key]].append(i)
+    nus = [branches[g[0]].get("nu") for g in out]
+    labels = []
+    for g in out:
+        br = branches[g[0]]
+        if "label" in br:
+            labels.append(br["label"] or None)
+        elif br.get("nu") is None:
+            labels.append(f"branch {br.get('id', g[0])}")
+        else:
+            shared = nus.count(br["nu"]) > 1
+            labels.append(branch_label(br["nu"]) + (f" (branch {br.get('id', g[0])})" if shared else ""))
+    return list(zip(labels, out))
 
 
-def bifurcation_diagram(branches, special, parameter: str, measure: str, path: Path, *,
-                        units=None, labels=None, title: str | None = None, extra=None):
-    """Draw and save a bifurcation diagram.
+def draw_bifurcation_diagram(ax, branches, special, parameter: str, measure: str, *, units=None, labels=None,
+                             symbols=None, title: str | None = None, extra=None, vertical_parameter: bool = False,
+                             log_y: bool = False, table: bool = True, short_names: bool | None = None):
+    """Draw a bifurcation diagram into ``ax``.
+
+    The numbered table of special points stands right of the axes: a figure
+    with ``constrained`` layout (:func:`contin.output.figures.new_figure`,
+    ``plt.subplots(layout="constrained")``) makes room for it. The numbers
+    are placed for the figure's size at the call.
 
     Parameters
     ----------
+    ax : matplotlib Axes
     branches : list of dict
-        Each with ``x`` (P,), ``y`` (P,), ``stable`` (None, or (P,) of True, False or None where a
-        point has no stability verdict), ``label``.
+        Each with ``x`` (P,), ``y`` (P,) (plotted coordinates), ``stable``
+        (None, or P flags True, False or None where a point has no
+        verdict), and optionally ``nu``, ``id``, ``group`` (branches of one
+        group share colour and legend entry: the two halves of a branch
+        followed both ways) and ``label`` (the legend's name; None for none;
+        made from ``nu`` when absent). With one group there is no branch entry.
     special : list of dict
-        Each with ``x``, ``y``, ``kind``.
+        Each with ``x``, ``y``, ``kind`` and optionally ``parameter`` (the
+        value the table gives; ``x``, or ``y`` with ``vertical_parameter``).
     parameter, measure : str
-        Axis names.
-    path : Path
-        Output file (format from the suffix).
+        Names of the parameter and the plotted measure (axis labels from
+        :func:`contin.output.labels.axis_label`).
+    units, labels, symbols : dict, optional
+        The scene's ``output.units`` and ``output.labels``, the model's symbols.
+    title : str, optional
     extra : callable, optional
-        ``extra(ax)`` to draw more on the axes.
+        ``extra(ax)`` draws more (before the legend is made).
+    vertical_parameter : bool
+        The parameter is on the y axis and the measure on the x axis (a restoring-force curve).
+    log_y : bool
+        Logarithmic y axis.
+    table : bool
+        Number the special points and list them beside the axes (else they are only marked).
+    short_names : bool, optional
+        Short kind names in the table (default: when the figure is narrower than 5 inches).
+
+    Returns
+    -------
+    Axes
     """
-    fig, ax = plt.subplots(figsize=(7.0, 4.6), constrained_layout=True)
-    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    unknown = False
-    for i, br in enumerate(branches):
-        c = colors[i % len(colors)]
-        for xs, ys, st in _segments(np.asarray(br["x"]), np.asarray(br["y"]), br.get("stable")):
-            ax.plot(xs, ys, _STYLES[st][0], color=c, lw=_STYLES[st][1])
-            unknown = unknown or st is None
-        if br.get("label"):  # the legend shows the branch's colour; the styles are keyed below
-            ax.plot([], [], "-", color=c, lw=1.6, label=br["label"])
-    seen = set()
-    drawn = [sp for sp in special if sp["kind"] in MARKERS]
-    for sp in drawn:
-        kind = sp["kind"]
-        m, c = MARKERS[kind]
-        ax.plot(sp["x"], sp["y"], m, color=c, ms=6, mfc="none" if kind != "stability" else c,
-                label=kind if kind not in seen else None, zorder=5)
-        seen.add(kind)
-    _label_points(ax, drawn)
+    styles = _line_styles()
+    colors = matplotlib.rcParams["axes.prop_cycle"].by_key().get("color", ["C0"])
+    groups = _groups(branches)
+    seen_styles = set()
+    handles = []
+    for gi, (label, members) in enumerate(groups):
+        color = colors[gi % len(colors)]
+        for i in members:
+            br = branches[i]
+            for xs, ys, st in _segments(np.asarray(br["x"], float), np.asarray(br["y"], float), br.get("stable")):
+                ls, lw = styles[st]
+                ax.plot(xs, ys, linestyle=ls, linewidth=lw, color=color)
+                seen_styles.add(st if br.get("stable") is not None else "plain")
+        if label and len(groups) > 1:  # a colour swatch: the branch's style varies along it, keyed below
+            handles.append(Patch(facecolor=color, edgecolor=color, label=label))
+    key_color = colors[0] if len(groups) == 1 else "0.3"
+    for st, text in ((True, "stable"), (False, "unstable"), (None, "no stability verdict")):
+        if st in seen_styles:  # the styles drawn (none for branches without stability)
+            handles.append(Line2D([], [], linestyle=styles[st][0], linewidth=styles[st][1], color=key_color,
+                                  label=text))
+    points = [dict(sp) for sp in special
+              if sp.get("kind") in SPECIAL and np.isfinite(sp["x"]) and np.isfinite(sp["y"])]
+    ms = 0.9 * float(matplotlib.rcParams["lines.markersize"])
+    for sp in points:
+        ax.plot(sp["x"], sp["y"], SPECIAL[sp["kind"]][0], ms=ms, mfc="white", mec="k", mew=0.8, zorder=5)
+    if log_y:
+        ax.set_yscale("log")
     if extra is not None:
         extra(ax)
-    ax.set_xlabel(axis_label(parameter, units, labels))
-    ax.set_ylabel(axis_label(measure, units, labels))
+    xname, yname = (measure, parameter) if vertical_parameter else (parameter, measure)
+    ax.set_xlabel(axis_label(xname, units, labels, symbols, "parameter" if xname == parameter else None))
+    ax.set_ylabel(axis_label(yname, units, labels, symbols, "parameter" if yname == parameter else None))
     if title:
         ax.set_title(title)
-    ax.grid(True, alpha=0.3)
-    if any(br.get("stable") is not None for br in branches):
-        ax.plot([], [], "k-", label="stable")
-        ax.plot([], [], "k--", label="unstable")
-    if unknown:
-        ax.plot([], [], "k:", label="no stability verdict")
-    if ax.get_legend_handles_labels()[0]:  # an empty diagram (a start that failed) has none
-        ax.legend(fontsize=8, loc="best")
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
-    return path
+    own = [h for h in ax.get_legend_handles_labels()[0] if h not in handles]
+    legend = ax.legend(handles=handles + own, loc="best") if handles or own else None
+    if points and table:
+        if short_names is None:
+            short_names = ax.figure.get_size_inches()[0] < 5.0
+        for sp in points:
+            sp.setdefault("parameter", sp["y"] if vertical_parameter else sp["x"])
+        # the table first (it narrows the axes), then the numbers from the final layout, then the table's rows
+        rows = _table(ax, points, parameter, symbols, short_names, units)
+        _place_numbers(ax, points, legend, ms)
+        _fill_table(rows, points, short_names)
+    return ax
 
 
-CURVE_STYLE = {"fold": ("tab:red", "fold curve (jump region)"),
-               "pd": ("tab:purple", "period-doubling curve (2nu-subharmonic region)")}
-CODIM2_MARKERS = {"cusp": ("^", "k", 8), "fold_flip": ("*", "tab:green", 11), "extremum": ("o", "0.4", 4),
-                  "stop": ("X", "tab:brown", 8)}
+# ---------------------------------------------------------------- numbers and table
+#: radii (points) of the rings of places tried for a number, beyond the places beside its point
+_RINGS = (14.0, 22.0, 32.0, 44.0, 60.0, 80.0)
+#: directions tried on each ring (degrees, the first preferred)
+_ANGLES = (45, 135, -45, -135, 90, -90, 0, 180, 22.5, 157.5, -22.5, -157.5, 67.5, 112.5, -67.5, -112.5)
 
 
-def two_parameter_diagram(curves, codim2, points, p1: str, p2: str, path: Path, *, lines=(), reference=(),
-                          xlim=None, ylim=None, units=None, labels=None, title: str | None = None):
-    """Fold and period-doubling curves in the plane of two parameters.
+def _fontsize() -> float:
+    """Size (points) of the numbers and the table: the legend's."""
+    return float(matplotlib.font_manager.FontProperties(size=matplotlib.rcParams["legend.fontsize"])
+                 .get_size_in_points())
 
-    A curve that turns in ``p2`` (a tongue or a wedge with a tip or a cusp:
-    the jump region between two folds, the region of a period-doubled
-    solution) is drawn with the region inside it shaded (the polygon of the
-    curve closed by the chord between its ends). The points located by
-    one-parameter runs are drawn on top, with the lines ``p2 = const`` along
-    which those runs went, so that one sees them fall on the curves.
+
+def _renderer(fig):
+    fig.draw_without_rendering()  # runs the layout: the axes have their final place
+    get = getattr(fig.canvas, "get_renderer", None)
+    return get() if get is not None else fig._get_renderer()
+
+
+def _display_points(ax, x, y) -> np.ndarray:
+    """Data to display coordinates in points (K, 2)."""
+    xy = ax.transData.transform(np.column_stack([np.asarray(x, float), np.asarray(y, float)]))
+    return xy * 72.0 / ax.figure.dpi
+
+
+def _clusters(p: np.ndarray, threshold: float) -> list:
+    """Groups of the points ``p`` (K, 2) (display, points) within ``threshold`` of each other in x and y,
+    each point joining the first group all of whose points are that close (no chains)."""
+    groups = []
+    for i in np.lexsort((p[:, 1], p[:, 0])):
+        for g in groups:
+            if np.all(np.abs(p[g] - p[i]) < threshold):
+                g.append(int(i))
+                break
+        else:
+            groups.append([int(i)])
+    return groups
+
+
+def _numbering(points, p: np.ndarray, groups) -> list:
+    """Number the points group after group from left to right; labels ``[(text, member indices)]``
+    (``3``, ``3,4``, ``3-5``), and ``number`` in each point."""
+    ordered = sorted(groups, key=lambda c: (min(p[c, 0]), min(p[c, 1])))
+    out, k = [], 1
+    for c in ordered:
+        c = sorted(c, key=lambda i: (points[i]["parameter"], points[i]["y"]))
+        text = str(k) if len(c) == 1 else f"{k},{k + 1}" if len(c) == 2 else f"{k}\u2013{k + len(c) - 1}"
+        for i in c:
+            points[i]["number"] = k
+            k += 1
+        out.append((text, c))
+    return out
+
+
+def _value_texts(values) -> list:
+    """Values with 5 significant digits; up to 7 for those that would read as another one does
+    (two points closer than that are one point found twice, and keep 5)."""
+    def clashes(texts):
+        return [i for i, t in enumerate(texts) if any(t == u and float(values[i]) != float(values[k])
+                                                      for k, u in enumerate(texts) if k != i)]
+
+    digits = [5] * len(values)
+    for _ in range(2):
+        for i in clashes([f"{v:.{d}g}" for v, d in zip(values, digits)]):
+            digits[i] += 1
+    for i in clashes([f"{v:.{d}g}" for v, d in zip(values, digits)]):
+        digits[i] = 5
+    return [f"{v:.{d}g}".replace("-", "\u2212") for v, d in zip(values, digits)]
+
+
+def _table(ax, points, parameter, symbols, short_names, units) -> list:
+    """The list of the special points beside the axes (right of it, from its top), one row per point.
+
+    Returns the rows' artists ``(marker, kind, value)``, filled by :func:`_fill_table` once the points
+    are numbered: the columns are as wide as their widest entry, whatever the order.
+    """
+    fig = ax.figure
+    fontsize = _fontsize()
+    renderer = _renderer(fig)
+    values = _value_texts([sp["parameter"] for sp in points])
+    for sp, v in zip(points, values):
+        sp["value_text"] = v
+    names = [SPECIAL[sp["kind"]][2 if short_names else 1] for sp in points]
+    unit = (units or {}).get(parameter)
+    head = math(parameter, symbols, "parameter") + (f" [{unit}]" if unit else "")
+
+    def width(text):
+        t = matplotlib.text.Text(0, 0, text, fontsize=fontsize, figure=fig)
+        return t.get_window_extent(renderer).width * 72.0 / fig.dpi
+
+    pitch = 1.45 * fontsize
+    w_num = width(str(len(points)))
+    w_name = max(width(n) for n in names)
+    w_val = max(width(v) for v in values)
+    ms = 0.8 * fontsize
+    # columns (points from the axes' right edge): number (right-aligned), marker, kind, value (right-aligned);
+    # the value's heading may reach over the kind column
+    x_num = 10.0 + w_num
+    x_mark = x_num + 4.0 + ms / 2
+    x_name = x_mark + ms / 2 + 4.0
+    x_val = x_name + max(w_name + 6.0 + w_val, width(head))
+    rows_per_column = max(int((fig.get_size_inches()[1] * 72.0 * 0.78) // pitch) - 1, 4)
+    col_width = x_val + 4.0
+    # points from the axes' top right corner (following the figure's dpi, which saving may change)
+    corner = Affine2D().scale(1.0 / 72.0) + fig.dpi_scale_trans + ScaledTranslation(1.0, 1.0, ax.transAxes)
+    rows = []
+    for r in range(len(points)):
+        c, row = divmod(r, rows_per_column)
+        dx, y = c * col_width, -pitch * (row + 1.5)
+        if row == 0:
+            _table_text(ax, corner, dx + x_val, -pitch * 0.5, head, "right", fontsize)
+            rule = Line2D([dx + x_num - w_num, dx + x_val], [-pitch, -pitch], lw=0.5, color="0.3", transform=corner,
+                          clip_on=False)
+            rule.set_gid("special-table")
+            ax.add_line(rule)
+        _table_text(ax, corner, dx + x_num, y, str(r + 1), "right", fontsize)
+        mark = Line2D([dx + x_mark], [y], marker="o", ms=ms, mfc="white", mec="k", mew=0.7, linestyle="none",
+                      transform=corner, clip_on=False)
+        mark.set_gid("special-table")
+        ax.add_line(mark)
+        rows.append((mark, _table_text(ax, corner, dx + x_name, y, max(names, key=len), "left", fontsize),
+                     _table_text(ax, corner, dx + x_val, y, max(values, key=len), "right", fontsize)))
+    return rows
+
+
+def _fill_table(rows, points, short_names) -> None:
+    """Write each point into the row of its number."""
+    for sp in points:
+        mark, name, value = rows[sp["number"] - 1]
+        mark.set_marker(SPECIAL[sp["kind"]][0])
+        name.set_text(SPECIAL[sp["kind"]][2 if short_names else 1])
+        value.set_text(sp["value_text"])
+
+
+def _table_text(ax, corner, x, y, text, ha, fontsize):
+    t = ax.text(x, y, text, ha=ha, va="center", fontsize=fontsize, clip_on=False,
+                transform=corner)
+    t.set_gid("special-table")
+    return t
+
+
+def _overlap(a, b) -> bool:
+    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
+
+
+def _place_numbers(ax, points, legend, ms) -> None:
+    """Number the points and put each label where it covers no other label, marker or the legend,
+    and as little of the curves as it can: beside its point, else farther out with a leader line.
+
+    Points whose markers touch share a label; a label that finds no free place joins the
+    nearest other group, and the search starts again.
+    """
+    fig = ax.figure
+    renderer = _renderer(fig)  # the final layout: the distances are those of the saved figure
+    fontsize = _fontsize()
+    scale = 72.0 / fig.dpi
+    frame = np.array(ax.get_window_extent(renderer).extents) * scale
+    blocked = []
+    if legend is not None:
+        # "best" would move the legend once the numbers are there: keep it where it is now
+        (getattr(legend, "set_loc", None) or legend._set_loc)(_frozen_loc(ax, legend, renderer))
+        blocked.append(tuple(np.array(legend.get_window_extent(renderer).extents) * scale + [-2, -2, 2, 2]))
+    p = _display_points(ax, [s["x"] for s in points], [s["y"] for s in points])
+    r_mark = ms / 2 + 1.0
+    groups = _clusters(p, 2 * r_mark)
+    curve = _curve_points(ax)
+    while True:
+        numbers = _numbering(points, p, groups)
+        spots = _search(numbers, p, r_mark, frame, blocked, curve, fig, renderer, fontsize, scale)
+        failed = next((k for k, spot in enumerate(spots) if spot is None), None)
+        if failed is None or len(numbers) == 1:
+            break
+        lost = numbers[failed][1]
+        centre = p[lost].mean(axis=0)
+        rest = [g for _, g in numbers if g is not lost]
+        nearest = min(rest, key=lambda g: float(np.min(np.linalg.norm(p[g] - centre, axis=1))))
+        groups = [g + lost if g is nearest else g for g in rest]
+    for (text, members), spot in zip(numbers, spots):
+        if spot is None:  # a single label with no free place at all: beside its points
+            spot = p[members].mean(axis=0) + np.array([r_mark + 6.0, r_mark + 4.0])
+        c, box = spot, None
+        w, h = _label_size(text, fig, renderer, fontsize, scale)
+        box = (c[0] - w / 2, c[1] - h / 2, c[0] + w / 2, c[1] + h / 2)
+        # a leader line to the nearest of the label's points, unless the label is right beside it
+        near = p[members][np.argmin(np.linalg.norm(p[members] - c, axis=1))]
+        gap = np.hypot(max(box[0] - near[0], 0.0, near[0] - box[2]), max(box[1] - near[1], 0.0, near[1] - box[3]))
+        leader = gap > r_mark + 2.5
+        anchor = near if leader else p[members].mean(axis=0)
+        props = dict(arrowstyle="-", lw=0.6, color="0.35", shrinkA=0.0, shrinkB=r_mark) if leader else None
+        ann = ax.annotate(text, tuple(ax.transData.inverted().transform(anchor / scale)),
+                          xytext=(float(c[0] - anchor[0]), float(c[1] - anchor[1])), textcoords="offset points",
+                          ha="center", va="center", fontsize=fontsize, arrowprops=props, annotation_clip=False,
+                          zorder=6, bbox=dict(boxstyle="square,pad=0.1", fc="white", ec="none", alpha=0.85))
+        ann.set_in_layout(False)
+        ann.set_gid("special-number")
+
+
+def _label_size(text, fig, renderer, fontsize, scale) -> tuple:
+    """Width and height (points) a label takes: its text, its white box and a margin."""
+    ext = matplotlib.text.Text(0, 0, text, fontsize=fontsize, figure=fig).get_window_extent(renderer)
+    return ext.width * scale + 3.0, ext.height * scale + 2.0
+
+
+def _search(numbers, p, r_mark, frame, blocked, curve, fig, renderer, fontsize, scale) -> list:
+    """The centre (points) of each label of ``numbers``, or None where no place is free, greedily in turn."""
+    markers = [(q[0] - r_mark, q[1] - r_mark, q[0] + r_mark, q[1] + r_mark) for q in p]
+    placed, out = [], []
+    for text, members in numbers:
+        w, h = _label_size(text, fig, renderer, fontsize, scale)
+        anchor = p[members].mean(axis=0)
+        spread = float(np.max(np.linalg.norm(p[members] - anchor, axis=1))) + r_mark
+        others = [m for k, m in enumerate(markers) if k not in members]
+        best = None
+        for ring, radius in enumerate((None,) + _RINGS):
+            for n_angle, angle in enumerate(_ANGLES):
+                u = np.array([_math.cos(_math.radians(angle)), _math.sin(_math.radians(angle))])
+                if radius is None:  # beside the point: the box just clears the marker(s)
+                    k = min(abs(w / 2 / u[0]) if abs(u[0]) > 1e-9 else np.inf,
+                            abs(h / 2 / u[1]) if abs(u[1]) > 1e-9 else np.inf)
+                    c = anchor + (spread + 1.0 + k) * u
+                else:
+                    c = anchor + (spread + radius) * u
+                box = (c[0] - w / 2, c[1] - h / 2, c[0] + w / 2, c[1] + h / 2)
+                if box[0] < frame[0] or box[2] > frame[2] or box[1] < frame[1] or box[3] > frame[3]:
+                    continue
+                if any(_overlap(box, b) for b in blocked + placed + markers):
+                    continue
+                covered = _inside(curve, (box[0] - 1.0, box[1] - 1.0, box[2] + 1.0, box[3] + 1.0))
+                cost = 4.0 * covered + 3.0 * ring + 0.05 * n_angle
+                if radius is not None:  # a leader line should cross no label and no other marker
+                    line = anchor + np.outer(np.linspace(0.0, 1.0, 24), c - anchor)
+                    cost += 10.0 * sum(_inside(line, b) > 0 for b in placed + others + blocked)
+                if best is None or cost < best[0]:
+                    best = (cost, c, covered)
+            if best is not None and best[2] == 0:  # a place that covers no curve: no need to go farther
+                break
+        out.append(None if best is None else best[1])
+        if best is not None:
+            c = best[1]
+            placed.append((c[0] - w / 2, c[1] - h / 2, c[0] + w / 2, c[1] + h / 2))
+    return out
+
+
+def _inside(q: np.ndarray, box) -> int:
+    """How many of the points ``q`` (K, 2) lie inside ``box``."""
+    if not q.size:
+        return 0
+    return int(np.count_nonzero((q[:, 0] > box[0]) & (q[:, 0] < box[2]) & (q[:, 1] > box[1]) & (q[:, 1] < box[3])))
+
+
+def _frozen_loc(ax, legend, renderer):
+    """The legend's place as it is drawn now (``best`` would move it once the numbers are there)."""
+    bb = legend.get_window_extent(renderer).transformed(ax.transAxes.inverted())
+    return (float(bb.x0), float(bb.y0))
+
+
+def _curve_points(ax) -> np.ndarray:
+    """Points (K, 2) every two points (display, in points) along the curves drawn in the axes."""
+    out = []
+    for line in ax.get_lines():
+        if line.get_gid() == "special-table" or line.get_linestyle() in ("None", "none", " ", ""):
+            continue
+        xy = line.get_xydata()
+        if len(xy) < 2 or line.get_transform() != ax.transData:
+            continue
+        q = ax.transData.transform(np.asarray(xy, float)) * 72.0 / ax.figure.dpi
+        q = q[np.all(np.isfinite(q), axis=1)]
+        if len(q) < 2:
+            continue
+        seg = np.diff(q, axis=0)
+        n = np.maximum(np.ceil(np.hypot(seg[:, 0], seg[:, 1]) / 2.0).astype(int), 1)
+        for a, d, k in zip(q[:-1], seg, n):
+            out.append(a + np.outer(np.arange(k) / k, d))
+        out.append(q[-1:])
+    return np.vstack(out) if out else np.zeros((0, 2))
+
+
+def bifurcation_diagram(branches, special, parameter: str, measure: str, path: Path, *, units=None, labels=None,
+                        symbols=None, title: str | None = None, extra=None, formats=("png",), dpi=None,
+                        style: str | None = None, **options) -> list[str]:
+    """Draw a bifurcation diagram (:func:`draw_bifurcation_diagram`) and write it in every format.
 
     Parameters
     ----------
-    curves : list of dict
-        ``kind`` ('fold' or 'pd'), ``x`` (P,) = p1, ``y`` (P,) = p2, ``label``.
-    codim2 : list of dict
-        ``kind`` (cusp, fold_flip, extremum, or ``stop``: a curve that ended
-        before its range, see its message), ``x``, ``y``.
-    points : list of dict
-        One-parameter special points: ``kind`` ('fold' or 'pd'), ``x``, ``y``.
-    p1, p2 : str
-        Axis names.
     path : Path
-    lines : sequence of float
-        Values of ``p2`` of the one-parameter runs.
-    reference : list of dict
-        Period doublings of the integrated flow (:mod:`contin.timedomain.shooting`): ``x``, ``y``.
-    xlim, ylim : (float, float), optional
-        Axis limits. A non-negative ``p2`` spanning more than 50 times its
-        smallest positive value is drawn on a symmetric-log axis.
+        The files' path without suffix (``outdir / "bifurcation_diagram"``).
+    formats, dpi, style
+        The scene's ``output.formats``, ``output.dpi`` and ``output.style``.
+    **options
+        Passed to :func:`draw_bifurcation_diagram`.
+
+    Returns
+    -------
+    list of str
+        The file names written.
     """
-    fig, ax = plt.subplots(figsize=(7.2, 5.0), constrained_layout=True)
-    seen = set()
-    for c in curves:
-        x, y = np.asarray(c["x"]), np.asarray(c["y"])
-        color, text = CURVE_STYLE.get(c["kind"], ("k", c["kind"]))
-        if x.size >= 3 and (0 < int(np.argmin(y)) < y.size - 1 or 0 < int(np.argmax(y)) < y.size - 1):
-            ax.fill(x, y, color=color, alpha=0.12, lw=0)  # a tongue or wedge: the region inside its tip
-        ax.plot(x, y, "-", color=color, lw=1.6, label=c.get("label") or (text if c["kind"] not in seen else None))
-        seen.add(c["kind"])
-    for v in lines:
-        ax.axhline(v, color="0.6", lw=0.8, ls=":", zorder=0)
-    done = set()
-    for q in codim2:
-        if q["kind"] not in CODIM2_MARKERS:
-            continue
-        m, color, ms = CODIM2_MARKERS[q["kind"]]
-        text = "curve stops early" if q["kind"] == "stop" else q["kind"]
-        ax.plot(q["x"], q["y"], m, color=color, ms=ms, label=text if q["kind"] not in done else None, zorder=6)
-        if q["kind"] in ("cusp", "fold_flip"):
-            ax.annotate(q["kind"], (q["x"], q["y"]), textcoords="offset points", xytext=(5, -10), fontsize=8)
-        done.add(q["kind"])
-    for q in points:
-        m, color = MARKERS.get(q["kind"], ("x", "k"))
-        key = "one-parameter " + q["kind"]
-        ax.plot(q["x"], q["y"], m, color=color, mfc="none", ms=7, mew=1.3, label=key if key not in done else None,
-                zorder=7)
-        done.add(key)
-    if len(reference):
-        ax.plot([q["x"] for q in reference], [q["y"] for q in reference], "o", color="k", ms=3.5, zorder=8,
-                label="period doubling of the integrated flow (shooting)")
-    if xlim is not None:
-        ax.set_xlim(*xlim)
-    ys = np.concatenate([np.asarray(c["y"], float).ravel() for c in curves] + [np.asarray(lines, float).ravel()]
-                        + [np.array([q["y"] for q in reference], float)])
-    positive = ys[ys > 0]
-    if ylim is not None and ylim[0] >= 0 and positive.size and ylim[1] > 50 * positive.min():
-        # a second parameter over decades (a damping from 0.005 to 5): logarithmic above the smallest value
-        ax.set_yscale("symlog", linthresh=max(float(positive.min()), 1e-3 * ylim[1]), linscale=0.3)
-        ax.set_ylim(ylim[0], ylim[1] * 1.2)
-    elif ylim is not None:
-        pad = 0.02 * (ylim[1] - ylim[0])
-        ax.set_ylim(ylim[0] - pad, ylim[1] + pad)
-    ax.set_xlabel(axis_label(p1, units, labels))
-    ax.set_ylabel(axis_label(p2, units, labels))
-    if title:
-        ax.set_title(title)
-    ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8, loc="best")
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
-    return path
+    with figure_style(style):
+        default = tuple(matplotlib.rcParams["figure.figsize"]) == tuple(matplotlib.rcParamsDefault["figure.figsize"])
+        fig = new_figure((7.6, 4.6) if default else None)  # the default size, widened for the table
+        ax = fig.add_subplot()
+        draw_bifurcation_diagram(ax, branches, special, parameter, measure, units=units, labels=labels,
+                                 symbols=symbols, title=title, extra=extra, **options)
+        return save_figure(fig, path, formats, dpi)

@@ -364,6 +364,7 @@ class _Builder(SceneContext):
             frequency=freq,
             effects=tuple(dict.fromkeys(effects)),
             terms=terms,
+            symbols=self.symbols(),
         )
         model.dependent_parameters = {q: ExpressionCoefficient(node, self.pnames, f"model.parameters.{q}")
                                       for q, node in self.dependent.items()}
@@ -373,6 +374,33 @@ class _Builder(SceneContext):
             if isinstance(name, str):
                 check_continuation_parameter(model, name, f"analysis.{k}", self.lines)
         return model
+
+
+    def symbols(self) -> dict:
+        """``model.symbols``: dof or parameter name -> how figures write it (:mod:`contin.output.labels`).
+
+        Each value is mathtext without dollars (``'\\Omega'``) or a phrase with ``$...$``;
+        it is checked by matplotlib's mathtext parser, so that a figure cannot fail after the run.
+        """
+        from matplotlib.mathtext import MathTextParser
+
+        names = list(self.dofs) + list(self.all_params)
+        parser = MathTextParser("path")
+        out = {}
+        for name, text in (self.m.get("symbols") or {}).items():
+            key = f"model.symbols.{name}"
+            if name not in names:
+                raise self.error(key, "the name of a dof or parameter of the model", name,
+                                 hint=suggest(str(name), names))
+            if not isinstance(text, str) or not text.strip():
+                raise self.error(key, "mathtext such as '\\Omega' or 'x_1', or a phrase with $...$", shorten(text))
+            try:
+                parser.parse(text if "$" in text else f"${text}$", 72)
+            except ValueError as exc:
+                raise self.error(key, "mathtext such as '\\Omega' or 'x_1', or a phrase with $...$", shorten(text),
+                                 hint=f" ({' '.join(str(exc).split())})") from None
+            out[name] = text
+        return out
 
 
 def _singular(M: np.ndarray) -> bool:

@@ -27,12 +27,14 @@ from typing import Any
 import yaml
 
 from contin.util.naming import suggest
+from contin.output.exports import EXPORT_FORMATS
+from contin.output.figures import FIGURE_FORMATS, style_names
 from contin.scene.schema import (Key, SceneError, anything, check_section, integer, is_int, is_number, listing,
                            mapping, number, string)
 
 __all__ = ["SceneError", "Scene", "load_scene", "parse_scene", "scene_from_data", "apply_override", "analysis_schemas",
            "SceneLoader", "START_SIMULATION", "check_names", "check_parameter_values", "model_frequency",
-           "parameter_rule"]
+           "parameter_rule", "check_model_section"]
 
 
 class SceneLoader(yaml.SafeLoader):
@@ -164,6 +166,16 @@ OUTPUT = {
     "units": mapping(),
     "labels": mapping(),
     "title": string(),
+    # figures: file formats, resolution of raster files, style (contin.output.figures)
+    "formats": listing(["png"], lambda x: x in FIGURE_FORMATS,
+                       "a list of figure formats among " + ", ".join(repr(f) for f in FIGURE_FORMATS)),
+    "dpi": Key("an integer from 50 to 1200 (dots per inch of PNG figures)", lambda v: is_int(v) and 50 <= v <= 1200,
+               200),
+    "style": Key("'contin', 'paper', 'presentation' or the name of a style shipped with matplotlib",
+                 lambda v: isinstance(v, str) and v in style_names(), "contin"),
+    # data files beside the CSV tables (contin.output.exports)
+    "exports": listing(["npz"], lambda x: x in EXPORT_FORMATS,
+                       "a list of export formats among " + ", ".join(repr(f) for f in EXPORT_FORMATS)),
 }
 
 BUILTIN_MODEL = {
@@ -185,6 +197,7 @@ CUSTOM_MODEL = {
     "forces": listing([]),
     "excitation": listing([]),
     "frequency": string("w"),
+    "symbols": mapping(),  # how figures write names: name -> mathtext (contin.output.labels)
 }
 
 
@@ -490,11 +503,7 @@ def scene_from_data(data: dict, source: str = "<string>", lines: dict | None = N
     for sec in ("model", "analysis"):
         if not isinstance(data.get(sec), dict):
             raise SceneError(sec, "a mapping (required section)", data.get(sec), lines.get(sec))
-    model = data["model"]
-    schema = BUILTIN_MODEL if "builtin" in model else CUSTOM_MODEL
-    model = check_section(model, schema, "model", lines)
-    if "builtin" in model:
-        _check_builtin_parameters(model, lines)
+    model = check_model_section(data["model"], lines)
     analysis = data["analysis"]
     atype = analysis.get("type")
     schemas = analysis_schemas()
@@ -516,6 +525,24 @@ def scene_from_data(data: dict, source: str = "<string>", lines: dict | None = N
         raise SceneError("output", "a mapping", output, lines.get("output"))
     output = check_section(output, OUTPUT, "output", lines)
     return Scene({"model": model, "analysis": analysis, "output": output}, source, lines)
+
+
+def check_model_section(model: dict, lines: dict | None = None) -> dict:
+    """The ``model`` section checked against its schema (built-in or custom), defaults filled in.
+
+    Raises
+    ------
+    SceneError
+        On any schema violation, naming the key.
+    """
+    lines = lines or {}
+    if not isinstance(model, dict):
+        raise SceneError("model", "a mapping (required section)", model, lines.get("model"))
+    check_names({"model": model}, lines)
+    model = check_section(model, BUILTIN_MODEL if "builtin" in model else CUSTOM_MODEL, "model", lines)
+    if "builtin" in model:
+        _check_builtin_parameters(model, lines)
+    return model
 
 
 def load_scene(path: str | Path, overrides=()) -> Scene:

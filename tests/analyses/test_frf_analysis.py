@@ -83,6 +83,43 @@ def test_absorber_exercise_peak_and_closed_form(tmp_path):
     from contin.modal.absorber_design import design_absorber
 
     assert top == pytest.approx(design_absorber(m1, k1, m2).true_peak.amplification, rel=1e-10)
+    # normalise: static divides by delta_st = F/k1; the fixed points P, Q sit at sqrt((2+beta)/beta)
+    assert summary["analysis"]["static_deflection"] == [pytest.approx(F / k1, rel=1e-12)]
+    fixed = summary["analysis"]["fixed_points"]
+    assert [f["name"] for f in fixed] == ["P", "Q"] and {f["dof"] for f in fixed} == {"x1"}
+    assert [f["ratio"] for f in fixed] == [pytest.approx(height, rel=1e-9)] * 2
+    assert summary["plots"] == ["frf.png"]
+
+
+def test_fixed_points_are_where_the_undamped_and_the_locked_responses_cross():
+    """P and Q of Den Hartog's absorber (seed 000, sec. 7.4) from the scene's linear model, not the formula."""
+    from pathlib import Path
+    from types import SimpleNamespace
+
+    from contin.analyses.frf import _Response, check, fixed_points
+    from contin.modal.absorber import fixed_point_height, fixed_points as closed_form
+    from contin.modal.absorber_design import design_absorber
+    from contin.scene.build import build_model
+
+    root = Path(__file__).resolve().parents[2]
+    scene = parse_scene((root / "scenes" / "absorber_exercise_frf.yaml").read_text())
+    model = build_model(scene)
+    plan = check(scene, model)
+    resp = _Response(model, plan["kw"], plan["p0"], plan["cases"][0][1])
+    found = fixed_points(resp, plan["w"], 0)
+    m1, k1, m2 = 100.0, 5e5, 10.0
+    beta, p = m2 / m1, math.sqrt(k1 / m1)
+    (OP, OQ), _ = closed_form(beta, 1 / (1 + beta))
+    np.testing.assert_allclose([w for w, _ in found], [OP * p, OQ * p], rtol=1e-10)
+    np.testing.assert_allclose([a for _, a in found], [fixed_point_height(beta) / k1] * 2, rtol=1e-9)
+    # the fixed points of the damping-free design and of its FRF agree (the absorber's own matrices)
+    d = design_absorber(m1, k1, m2)
+    alone = SimpleNamespace(MCK=d.matrices(), F=np.array([1.0, 0.0]))
+    found = fixed_points(alone, np.linspace(0.5 * d.p, 1.5 * d.p, 101), 0)
+    np.testing.assert_allclose(found, [(d.P.w, d.P.height / k1), (d.Q.w, d.Q.height / k1)], rtol=1e-9)
+    # no damper, no fixed points: the crossings of an undamped response with itself are not sought
+    assert fixed_points(SimpleNamespace(MCK=(d.matrices()[0], 0 * d.matrices()[1], d.matrices()[2]),
+                                        F=np.array([1.0, 0.0])), np.linspace(40, 110, 71), 0) == []
 
 
 def test_frequency_dependent_force_and_gyroscopic_matrices(tmp_path):
@@ -141,6 +178,9 @@ def test_range_must_be_increasing_and_the_model_linear(tmp_path):
         run("model: {builtin: duffing}\nanalysis: {type: frf, range: [0.5, 2]}\n", tmp_path)
     with pytest.raises(SceneError, match="^analysis.force: .*the model has no excitation"):
         run(SEED002.replace("effects: [forcing]", "effects: []"), tmp_path)
+    with pytest.raises(SceneError, match=r"^analysis.normalise \(line \d+\): expected a model with a static "
+                                         "deflection under the force"):
+        run(SEED002 + "  force: x1\n  normalise: static\n".replace("x1", "{x1: 0.0}"), tmp_path)
 
 
 def test_the_frequency_named_by_the_analysis_is_used_and_the_model_keeps_its_own(tmp_path):

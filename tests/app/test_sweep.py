@@ -190,6 +190,15 @@ def test_grid_lists_and_ranges():
     assert same[0].name == "model.parameters.w=1__analysis.continuation.w=1"
 
 
+def test_an_axis_spells_the_option_that_gives_it_back():
+    # as typed when parsed (so the resume command of an interrupted sweep is the command given), else its values
+    for text in ("model.parameters.F=0:0.6:13", "analysis.stability=hill,both", "model.parameters.c=1e-3,-2"):
+        assert parse_grid(text).option() == text
+    axis = GridAxis("model.parameters.F", (0.1, 2, "1", True))
+    assert axis.option() == "model.parameters.F=0.1,2,'1',true"
+    assert parse_grid(axis.option()) == axis
+
+
 @pytest.mark.parametrize("spec,fragment", [
     ("F", "dotted.key=SPEC"),
     ("model.parameters.F=", "a list v1,v2,... or a range"),

@@ -6,21 +6,25 @@ through each chord's midpoint; the secant-tangent angle must stay bounded and
 the midpoint solution must lie between the two points. Checked on every
 example scene with a frequency response (a representative subset runs by
 default, all of them with ``-m slow``), on random well-posed polynomial
-models (hypothesis), and shown to catch a constructed jump.
+models (hypothesis), and shown to catch a constructed jump. The same runs' data exports
+agree with their tables.
 """
 
 from pathlib import Path
 
 import numpy as np
 import pytest
+import scipy.io
 import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+import contin
 from contin.analyses.frequency_response import build_problem, engine_problem
 from contin.engine.branch import BranchBuilder, BranchStatus
 from contin.model.catalog import build_model
 from contin.output.checkpoint import read_records, rebuild_branches
+from contin.output.exports import coefficient_names
 from contin.engine.continuation import connection_report, continuation
 from contin.hb.problem import HarmonicBalance, HBOptions
 from contin.models.polynomial import polynomial_model
@@ -80,6 +84,30 @@ def test_example_scene_branches_are_connected(name, scene_run):
         assert rep["ok"], f"{name} branch {j}: {rep['failures'][:3]}"
         n += rep["checked"]
     assert n > 10
+
+
+@pytest.mark.parametrize("name", sorted(QUICK))
+def test_exports_of_example_runs_agree_with_their_tables(name, scene_run, tmp_path):
+    """Brackets in order, one coefficient row per table row, the coefficients' time history giving the
+    table's extremes, no NaN in the data files (contin.output.exports)."""
+    r = contin.load(scene_run(name))
+    for s in r.special_points:
+        assert s.interval[0] <= s.interval[1], s
+    rows = r.data["coefficient_rows"]
+    np.testing.assert_array_equal(rows, np.arange(len(r["branch"])))
+    dof = r.dofs[0]
+    for row in rows[:: max(1, len(rows) // 7)]:
+        _, x, _ = r.time_history(row, samples=4096)
+        scale = max(abs(r[f"max_{dof}"][row]), abs(r[f"min_{dof}"][row]), 1e-12)
+        assert abs(x[:, 0].max() - r[f"max_{dof}"][row]) < 1e-5 * scale
+        assert abs(x[:, 0].min() - r[f"min_{dof}"][row]) < 1e-5 * scale
+    copy = r.save(tmp_path / "copy", exports=["npz", "mat"])
+    z = np.load(copy / "results.npz")
+    assert not any(np.isnan(z[k]).any() for k in z.files if z[k].dtype.kind == "f")
+    mat = scipy.io.loadmat(copy / "results.mat", squeeze_me=True, struct_as_record=False)
+    np.testing.assert_array_equal(np.atleast_1d(mat["branches"].branch), r["branch"])
+    header = (copy / "coefficients.csv").read_text().splitlines()[0].split(",")
+    assert header[5:] == coefficient_names(r.dofs, int(z["H"]))
 
 
 @st.composite

@@ -113,3 +113,47 @@ def test_a_failed_run_is_recorded_and_the_sweep_exits_1(tmp_path, capsys):
     [point] = list((out / "points").iterdir())
     summary = json.loads((point / "summary.json").read_text())
     assert summary["status"] == "failed" and "after 0.01 revolutions" in summary["message"]
+
+
+# ---------------------------------------------------------------- Dask is optional; Ctrl-C says how to resume
+def test_without_dask_the_sweep_says_what_to_install_and_writes_nothing(tmp_path, capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "distributed", None)  # `import distributed` raises ImportError
+    out = tmp_path / "s"
+    assert main(["sweep", DUFFING, "--grid", "model.parameters.F=0.3,0.5", "-o", str(out)]) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert 'pip install "contin[sweep]"' in err and "--serial" in err and "not installed" in err
+    assert not out.exists()
+
+
+def test_a_serial_sweep_runs_without_dask(tmp_path, capsys, monkeypatch):
+    for name in ("dask", "distributed"):
+        monkeypatch.setitem(sys.modules, name, None)
+    out = tmp_path / "s"
+    with no_hang(120):
+        assert main(["sweep", DUFFING, "--grid", "model.parameters.F=0.3", "--set", "output.plots=false",
+                     "--set", "analysis.harmonics=3", "--set", "analysis.stability=none", "-o", str(out), "--serial",
+                     "--no-map"]) == 0
+    captured = capsys.readouterr()
+    assert "1 complete" in captured.out
+    assert captured.err.startswith(f"sweep of 1 points in {out}: 0 already complete, 1 to run (serial)")
+    assert list(read_csv(out / "sweep.csv")["status"]) == ["complete"]
+
+
+def test_an_interrupted_sweep_says_how_to_resume_it(tmp_path, capsys, monkeypatch):
+    import contin.app.sweep_workers
+
+    def ctrl_c(task):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(contin.app.sweep_workers, "run_point", ctrl_c)  # Ctrl-C during the first point
+    out = tmp_path / "the sweep"
+    args = ["sweep", DUFFING, "--grid", "model.parameters.F=0:0.6:4", "--set", "output.plots=false", "-o", str(out),
+            "--serial"]
+    assert main(args) == 130
+    command = f"contin sweep {DUFFING} --grid model.parameters.F=0:0.6:4 --set output.plots=false -o '{out}' --serial"
+    err = capsys.readouterr().err
+    assert "contin: the sweep was interrupted" in err and f"\n  {command}\n" in err
+    meta = json.loads((out / "sweep.json").read_text())
+    assert meta["status"] == "interrupted" and command in meta["message"]
+    assert list(read_csv(out / "sweep.csv")["status"]) == ["pending"] * 4
+

@@ -1,6 +1,7 @@
 """A run killed in the middle leaves parseable files, and --resume completes it."""
 
 import json
+import shlex
 import signal
 import subprocess
 import sys
@@ -110,7 +111,10 @@ def test_ctrl_c_stops_cleanly_with_what_was_computed(tmp_path, reference):
     rows = read_csv(out / "branches.csv")
     assert len(rows["delta"]) >= 50 and (out / "bifurcation_diagram.png").exists()
     assert "Traceback" not in stderr
-    assert "--resume" in stderr  # the message says how to go on
+    # the message says how to go on: the command that resumes the run, on stderr and in summary.json
+    command = shlex.join(["contin", "run", SCENE, "-o", str(out), "--resume", *SETS])
+    assert f"\n  {command}\n" in stderr and summary["message"].endswith(command)
+    assert "stopped by the callback" not in stdout and "points, interrupted at delta=" in stdout
     # and the interrupted run can be resumed, to the uninterrupted run
     assert main(["run", SCENE, "-o", str(out), "-q", "--resume", *SETS]) == 0
     assert_same_run(out, reference)
@@ -137,3 +141,51 @@ def test_progress_line_appears_only_for_long_runs():
     q.update("never shown")
     q.close()
     assert quiet.getvalue() == ""
+
+
+DUFFING = str(ROOT / "scenes/duffing.yaml")
+QUICK = ["--set", "output.plots=false", "--set", "analysis.harmonics=3", "--set", "analysis.stability=none"]
+
+
+def test_ctrl_c_in_the_middle_of_a_run_prints_the_command_that_resumes_it(tmp_path, capsys, monkeypatch):
+    from contin.app.progress import Progress
+
+    update, calls = Progress.update, []
+
+    def ctrl_c_at_the_fifth_point(self, text, **kwargs):
+        calls.append(text)
+        if len(calls) == 5:
+            signal.raise_signal(signal.SIGINT)  # the runner's handler sets the stop flag
+        update(self, text, **kwargs)
+
+    monkeypatch.setattr(Progress, "update", ctrl_c_at_the_fifth_point)
+    out = tmp_path / "run dir"
+    assert main(["run", DUFFING, "-o", str(out), "-q", *QUICK]) == 130
+    captured = capsys.readouterr()
+    command = f"contin run {DUFFING} -o '{out}' --resume " + " ".join(QUICK)
+    assert captured.err.endswith(f"To resume it from the last stored point:\n  {command}\n")
+    assert "branch 0 (nu=1): 5 points, interrupted at w=" in captured.out
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "interrupted" and summary["message"].endswith(command)
+    # the command does resume it
+    monkeypatch.setattr(Progress, "update", update)
+    assert main(shlex.split(command)[1:] + ["-q"]) == 0
+    assert json.loads((out / "summary.json").read_text())["status"] == "complete"
+
+
+def test_a_second_ctrl_c_still_says_how_to_resume(tmp_path, capsys, monkeypatch):
+    import contin.app.runner
+    from contin.output.results import write_json_atomic
+
+    def interrupted(scene, outdir, progress=True, resume=False):  # what the runner leaves when Ctrl-C escapes
+        outdir.mkdir(parents=True)
+        write_json_atomic(outdir / "summary.json", {"status": "interrupted", "message": "KeyboardInterrupt: "})
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(contin.app.runner, "run_scene", interrupted)
+    out = tmp_path / "run"
+    assert main(["run", DUFFING, "-o", str(out), "--set", "analysis.harmonics=3"]) == 130
+    command = f"contin run {DUFFING} -o {out} --resume --set analysis.harmonics=3"
+    assert f"\n  {command}\n" in capsys.readouterr().err
+    assert json.loads((out / "summary.json").read_text())["message"].endswith(command)
+

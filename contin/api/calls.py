@@ -1,0 +1,150 @@
+"""One call per analysis, with the scene's keys as keyword arguments.
+
+``frequency_response(system, parameter="w", range=(0.5, 3), harmonics=9, stability="hill")``
+runs exactly what the scene
+
+.. code-block:: yaml
+
+    model: ...            # the system's model section
+    analysis: {type: frequency_response, parameter: w, range: [0.5, 3], harmonics: 9, stability: hill}
+    output: {plots: false}
+
+runs, with the same checks (an unknown or misspelt keyword is refused with the scene's
+message, naming ``analysis.<key>``), and returns a :class:`contin.api.result.Result`.
+Nothing global changes: no matplotlib backend is selected, no rcParams outlive the
+call, BLAS threads are left as they are, and the interrupt handler in place before the
+call is back after it.
+"""
+
+from __future__ import annotations
+
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Mapping
+
+from contin.api.result import Result
+from contin.api.system import System, plain
+from contin.app.runner import run_scene
+from contin.scene.parse import Scene, SceneError, load_scene, parse_scene, scene_from_data
+
+__all__ = ["run", "frequency_response", "backbone", "static", "modes", "frf", "simulate", "bifurcation_curve",
+           "convergence", "ANALYSIS_CALLS"]
+
+#: what a call writes unless ``output=`` says otherwise: no figure files (``Result.plot`` draws on demand)
+DEFAULT_OUTPUT = {"plots": False}
+
+
+def _system(system) -> System:
+    if isinstance(system, System):
+        return system
+    if isinstance(system, str) and "\n" not in system and not system.endswith((".yaml", ".yml")):
+        return System.builtin(system)
+    return System.from_scene(system)
+
+
+def _execute(scene: Scene, outdir, progress: bool) -> Result:
+    temporary = outdir is None
+    directory = Path(tempfile.mkdtemp(prefix="contin-")) if temporary else Path(outdir)
+    try:
+        run_scene(scene, directory, progress=progress)
+    except BaseException:
+        if temporary:
+            shutil.rmtree(directory, ignore_errors=True)
+        raise
+    return Result(directory, temporary=temporary)
+
+
+def _analysis_call(kind: str, system, outdir, output, progress, keys: dict) -> Result:
+    system = _system(system)
+    if "type" in keys:
+        raise SceneError("analysis.type", f"no type keyword: this call runs a {kind} analysis", keys["type"])
+    data = {"model": system.section, "analysis": {"type": kind, **plain(keys, "analysis")},
+            "output": {**DEFAULT_OUTPUT, **plain(dict(output or {}), "output")}}
+    return _execute(scene_from_data(data, "<python>"), outdir, progress)
+
+
+def run(scene, outdir: str | Path | None = None, *, overrides=(), progress: bool = False) -> Result:
+    """Run a whole scene: a path to a scene file, its YAML text, or a dict with ``model``,
+    ``analysis`` and ``output``.
+
+    Parameters
+    ----------
+    scene : path, str or mapping
+    outdir : path, optional
+        Where the result files go; a temporary directory (removed with the result) if omitted.
+    overrides : sequence of str
+        ``"dotted.key=value"`` as ``--set`` takes them.
+    progress : bool
+        Show progress on stderr.
+    """
+    if isinstance(scene, Mapping):
+        data = plain(scene, "scene")
+        if overrides:
+            import yaml
+
+            parsed = parse_scene(yaml.safe_dump(data), "<python>", overrides)
+        else:
+            parsed = scene_from_data(data, "<python>")
+    elif isinstance(scene, str) and "\n" in scene:
+        parsed = parse_scene(scene, "<string>", overrides)
+    else:
+        parsed = load_scene(scene, overrides)
+    return _execute(parsed, outdir, progress)
+
+
+def _make(kind: str, summary: str, required: str):
+    def call(system, *, outdir: str | Path | None = None, output: Mapping | None = None, progress: bool = False,
+             **keys) -> Result:
+        return _analysis_call(kind, system, outdir, output, progress, keys)
+
+    call.__name__ = call.__qualname__ = kind
+    call.__doc__ = f"""{summary}
+
+    Parameters
+    ----------
+    system : System, str or mapping
+        A :class:`contin.api.system.System`, a built-in model's name, or a scene (path, dict).
+    outdir : path, optional
+        Where the result files go; a temporary directory (removed with the result) if omitted.
+    output : mapping, optional
+        Keys of the scene's ``output`` section (``{{"plots": True, "formats": ["pdf"]}}``);
+        figures are not written by default.
+    progress : bool
+        Show progress on stderr.
+    **keys
+        The keys of the ``analysis`` section of a ``{kind}`` scene ({required}; every key:
+        ``docs/reference/scenes.md``).
+
+    Returns
+    -------
+    Result
+    """
+    return call
+
+
+#: analysis.type -> (one line on what it computes, its required keys)
+_ANALYSES = {
+    "frequency_response": ("Periodic solutions against a parameter, harmonic or subharmonic, with stability, "
+                           "special points and branch switching.", "range; often parameter, harmonics, stability, "
+                           "switch"),
+    "backbone": ("Free conservative periodic solutions against their amplitude.", "dof, range"),
+    "static": ("Equilibria against a load parameter, with limit loads.", "parameter, range"),
+    "modes": ("Natural frequencies and mode shapes about the static equilibrium.", "none required"),
+    "frf": ("Frequency response of a linear model from its impedance matrix.", "range"),
+    "simulate": ("Time integration to steady state, classified periodic or not.", "none required"),
+    "bifurcation_curve": ("Fold and period-doubling curves in the plane of two parameters.",
+                          "range, second_parameter, second_range"),
+    "convergence": ("Another analysis over a range of harmonics, samples or terms: error against cost.",
+                    "base, vary, quantities"),
+}
+
+ANALYSIS_CALLS = {kind: _make(kind, *text) for kind, text in _ANALYSES.items()}
+frequency_response = ANALYSIS_CALLS["frequency_response"]
+backbone = ANALYSIS_CALLS["backbone"]
+static = ANALYSIS_CALLS["static"]
+modes = ANALYSIS_CALLS["modes"]
+frf = ANALYSIS_CALLS["frf"]
+simulate = ANALYSIS_CALLS["simulate"]
+bifurcation_curve = ANALYSIS_CALLS["bifurcation_curve"]
+convergence = ANALYSIS_CALLS["convergence"]

@@ -1,0 +1,241 @@
+"""Data files of a run beside its CSV tables: the harmonic coefficients of every point
+(``coefficients.csv``), and the whole run in one file for numpy (``results.npz``) or
+MATLAB and NLvib users (``results.mat``).
+
+What each file holds is documented in ``docs/reference/results.md``; in short:
+
+========================  ====================================================================
+name                      content
+========================  ====================================================================
+``branches/<column>``     every column of ``branches.csv``, one entry per row
+``special/<column>``      every column of ``special_points.csv``
+``coefficients``          (rows, 2H+1, n): the matrix ``U`` of each row's harmonic coefficients
+                          (row ``r`` of ``U`` is the coefficient block ``r`` of
+                          :mod:`contin.hb.harmonics`: mean, then cosine and sine of each k);
+                          ``H`` is the largest count of the run, rows of fewer are zero-padded
+``harmonics``             (rows,): each row's own harmonic count
+``coefficient_rows``      (rows,): the ``branches.csv`` row of each ``coefficients`` entry
+``base_frequency``        (rows,): the base frequency ``w/nu`` of each row (rad per time unit)
+``dofs``, ``parameter``   the dof names, the continued parameter's name
+``H``, ``status``         harmonics; the run's status
+========================  ====================================================================
+
+In ``results.mat`` the groups are structs (``branches.amp_x``), and stability
+cells that hold no verdict are stored as -1 (1 stable, 0 unstable) in both
+files, so no NaN is written.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+
+from contin.output.checkpoint import read_records
+from contin.output.results import read_csv
+
+__all__ = ["EXPORT_FORMATS", "RunData", "collect_run", "write_exports", "write_coefficients_csv",
+           "coefficient_names", "stability_code"]
+
+#: formats of ``output.exports``
+EXPORT_FORMATS = ("npz", "mat")
+
+#: columns that hold a stability verdict (true, false, or empty: none)
+_FLAG_COLUMNS = ("stable", "located")
+
+
+def stability_code(column: np.ndarray) -> np.ndarray:
+    """A column of ``true``/``false``/empty cells as int8 1/0/-1 (-1: no verdict), so that no NaN is stored."""
+    col = np.asarray(column)
+    if col.dtype == bool:
+        return col.astype(np.int8)
+    if col.dtype.kind == "f":
+        return np.where(np.isnan(col), -1, col != 0).astype(np.int8)
+    return np.array([{"true": 1, "false": 0}.get(str(c).lower(), -1) for c in col], dtype=np.int8)
+
+
+def coefficient_names(dofs, H: int) -> list[str]:
+    """Column names of ``coefficients.csv``: ``a0_x``, then ``a1_x``, ``b1_x``, ... (block order, dofs inside)."""
+    names = [f"a0_{d}" for d in dofs]
+    for k in range(1, H + 1):
+        names += [f"a{k}_{d}" for d in dofs] + [f"b{k}_{d}" for d in dofs]
+    return names
+
+
+class RunData(dict):
+    """Everything :func:`collect_run` read from a result directory (a dict of numpy arrays and names)."""
+
+
+def _table(path: Path) -> dict:
+    cols = read_csv(path) if path.is_file() else {}
+    out = {}
+    for name, col in cols.items():
+        if name in _FLAG_COLUMNS:
+            out[name] = stability_code(col)
+        elif col.dtype == object:
+            out[name] = np.array([str(c) for c in col], dtype=str)
+        elif col.size and np.isnan(col).any():
+            # an empty cell of a numeric column (no verdict, not computed): kept apart, never as NaN
+            out[name] = np.where(np.isnan(col), 0.0, col)
+            out[name + "_missing"] = np.isnan(col)
+        else:
+            out[name] = col
+    return out
+
+
+def collect_run(outdir: str | Path, summary: dict | None = None) -> RunData:
+    """Read a result directory's tables, summary and point coefficients into arrays.
+
+    Parameters
+    ----------
+    outdir : path
+    summary : dict, optional
+        The run's summary, when it is not yet written to ``summary.json``.
+
+    Returns
+    -------
+    RunData
+        Keys ``branches`` and ``special`` (dicts of column arrays), ``summary`` (dict),
+        ``parameter`` (str or None), ``dofs`` (list of str), ``H`` (int or None), and when the
+        run stored solutions (``state.jsonl``): ``coefficients`` (rows, 2H+1, n),
+        ``harmonics`` (rows,), ``coefficient_rows`` (rows,), ``nu`` (rows,), ``base_frequency`` (rows,).
+    """
+    outdir = Path(outdir)
+    data = RunData(branches=_table(outdir / "branches.csv"), special=_table(outdir / "special_points.csv"))
+    if summary is None and (outdir / "summary.json").is_file():
+        summary = json.loads((outdir / "summary.json").read_text(encoding="utf-8"))
+    data["summary"] = summary = summary or {}
+    analysis = summary.get("analysis") if isinstance(summary.get("analysis"), dict) else {}
+    data["parameter"] = analysis.get("parameter")
+    data["dofs"] = list((summary.get("model") or {}).get("dofs") or [])
+    data["H"] = None
+    path = outdir / "state.jsonl"
+    if not path.is_file():
+        return data
+    points = {}
+    for rec in read_records(path):
+        if rec.get("type", "point") == "point":
+            points[int(rec["row"])] = rec  # a resumed run rewrites its last rows: the latest wins
+    if not points:
+        return data
+    rows = sorted(points)
+    n = len(data["dofs"])
+    Hs = [int(points[r].get("H") or 0) for r in rows]
+    if n == 0 or any(len(points[r]["u"]) != n * (2 * h + 1) for r, h in zip(rows, Hs)):
+        return data  # solutions of another form (a frequency among the unknowns): left in state.jsonl
+    H = max(Hs)
+    # a subharmonic branch has more harmonics of its lower base frequency: pad with zeros (exact)
+    coefficients = np.zeros((len(rows), 2 * H + 1, n))
+    for i, (r, h) in enumerate(zip(rows, Hs)):
+        coefficients[i, :2 * h + 1] = np.reshape(points[r]["u"], (2 * h + 1, n))
+    data["H"] = H
+    data["coefficients"] = coefficients
+    data["harmonics"] = np.array(Hs, dtype=np.int64)
+    data["coefficient_rows"] = np.array(rows, dtype=np.int64)
+    data["nu"] = np.array([int(points[r].get("nu") or 1) for r in rows], dtype=np.int64)
+    data["base_frequency"] = _base_frequency(data, points, rows)
+    return data
+
+
+def _base_frequency(data: RunData, points: dict, rows: list) -> np.ndarray:
+    """``w/nu`` at each row: w is the continued parameter, or fixed in the scene's parameters."""
+    summary = data["summary"]
+    freq = (summary.get("model") or {}).get("frequency") or "w"
+    nu = data["nu"].astype(float)
+    if freq == data["parameter"]:
+        return np.array([float(points[r]["lam"]) for r in rows]) / nu
+    value = ((summary.get("model") or {}).get("parameters") or {}).get(freq, 1.0)
+    return float(value) / nu
+
+
+def write_coefficients_csv(outdir: str | Path, data: RunData | None = None) -> str | None:
+    """``coefficients.csv``: per stored point its row, branch, nu, parameter, base frequency and
+    coefficients (columns of :func:`coefficient_names`). Returns the file name, or None without solutions."""
+    outdir = Path(outdir)
+    data = collect_run(outdir) if data is None else data
+    if "coefficients" not in data:
+        return None
+    branches = data["branches"]
+    par = data["parameter"]
+    names = coefficient_names(data["dofs"], data["H"])
+    tmp = outdir / "coefficients.csv.tmp"
+    with open(tmp, "w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(["row", "branch", "nu", par or "parameter", "base_frequency"] + names)
+        for i, r in enumerate(data["coefficient_rows"]):
+            branch = int(branches["branch"][r]) if "branch" in branches and r < len(branches["branch"]) else 0
+            lam = float(branches[par][r]) if par in branches and r < len(branches[par]) else 0.0
+            w.writerow([int(r), branch, int(data["nu"][i]), repr(lam), repr(float(data["base_frequency"][i]))]
+                       + [repr(float(v)) for v in data["coefficients"][i].ravel()])
+    tmp.replace(outdir / "coefficients.csv")
+    return "coefficients.csv"
+
+
+def _flat(data: RunData) -> dict:
+    out = {f"branches/{k}": v for k, v in data["branches"].items()}
+    out.update({f"special/{k}": v for k, v in data["special"].items()})
+    for key in ("coefficients", "harmonics", "coefficient_rows", "nu", "base_frequency"):
+        if key in data:
+            out[key] = data[key]
+    out["dofs"] = np.array(data["dofs"], dtype=str)
+    out["parameter"] = np.array(data["parameter"] or "", dtype=str)
+    out["H"] = np.array(-1 if data["H"] is None else data["H"], dtype=np.int64)
+    out["status"] = np.array(str(data["summary"].get("status", "")), dtype=str)
+    return out
+
+
+def _matlab_name(name: str) -> str:
+    """A valid MATLAB identifier (letters, digits, underscores; a letter first; at most 63 characters)."""
+    text = re.sub(r"\W", "_", name)
+    if not text or not text[0].isalpha():
+        text = "v_" + text
+    return text[:63]
+
+
+def write_exports(outdir: str | Path, formats=("npz",), summary: dict | None = None) -> list[str]:
+    """Write ``coefficients.csv`` (when the run stored solutions) and ``results.<fmt>`` for each format.
+
+    Parameters
+    ----------
+    outdir : path
+        A result directory (read and written).
+    formats : sequence of str
+        Among :data:`EXPORT_FORMATS`.
+    summary : dict, optional
+        The run's summary (read from ``summary.json`` if omitted).
+
+    Returns
+    -------
+    list of str
+        The file names written.
+    """
+    outdir = Path(outdir)
+    data = collect_run(outdir, summary)
+    names = []
+    name = write_coefficients_csv(outdir, data)
+    if name:
+        names.append(name)
+    flat = _flat(data)
+    for fmt in formats:
+        if fmt not in EXPORT_FORMATS:
+            raise ValueError(f"unknown export format {fmt!r}; expected one of {', '.join(EXPORT_FORMATS)}")
+        path = outdir / f"results.{fmt}"
+        if fmt == "npz":
+            with open(path, "wb") as fh:
+                np.savez_compressed(fh, **flat)
+        else:
+            from scipy.io import savemat
+
+            mat = {}
+            for key, value in flat.items():
+                group, _, field = key.rpartition("/")
+                if group:
+                    mat.setdefault(group, {})[_matlab_name(field)] = value
+                else:
+                    mat[_matlab_name(key)] = value
+            savemat(path, mat, do_compression=True, oned_as="column")
+        names.append(path.name)
+    return names
