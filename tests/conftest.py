@@ -1,4 +1,5 @@
 import contextlib
+import os
 import signal
 
 import numpy as np
@@ -8,6 +9,19 @@ import pytest
 from contin.util.blas import limit_blas_threads
 
 limit_blas_threads(1)
+
+
+def pytest_configure(config):
+    """The slow tier (``-m slow``, ``-m ""``) runs the property tests at their full depth (see fuzz_examples);
+    set here, before the test workers start, so that they inherit it."""
+    expr = (config.getoption("markexpr", "") or "").replace(" ", "")
+    if "notslow" not in expr and ("slow" in expr or expr == ""):
+        os.environ["CONTIN_FUZZ_DEPTH"] = "full"
+
+
+def fuzz_examples(n: int) -> int:
+    """Examples a property test draws: all ``n`` in the slow tier, a quarter (at least 3) in the default one."""
+    return n if os.environ.get("CONTIN_FUZZ_DEPTH") == "full" else max(3, n // 4)
 
 
 @pytest.fixture

@@ -19,6 +19,8 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from conftest import fuzz_examples
+
 import contin
 from contin.analyses.frequency_response import build_problem, engine_problem
 from contin.engine.branch import BranchBuilder, BranchStatus
@@ -123,7 +125,7 @@ def polynomial_systems(draw):
         forcing=[{"dof": "x1", "amplitude": F}])
 
 
-@settings(max_examples=6, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=fuzz_examples(6), deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
 @given(polynomial_systems())
 def test_random_polynomial_models_stay_on_their_branch(model):
     hb = HarmonicBalance(model, "w", HBOptions(harmonics=3))

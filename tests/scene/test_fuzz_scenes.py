@@ -17,6 +17,8 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from conftest import fuzz_examples
+
 from contin.app.cli import main
 from contin.scene.build import build_model
 from contin.scene.parse import SceneError, parse_scene
@@ -185,7 +187,7 @@ def scratch():
         yield Path(d)
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large,
+@settings(max_examples=fuzz_examples(150), deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large,
                                                                    HealthCheck.function_scoped_fixture])
 @given(mutated_scene(), st.booleans())
 def test_mutated_scenes_give_clear_errors(scratch, data, run_check):
@@ -205,7 +207,7 @@ def test_mutated_scenes_give_clear_errors(scratch, data, run_check):
                 raise AssertionError(f"contin check: {type(exc).__name__} escaped: {exc!r}\n{text[:3000]}") from exc
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=fuzz_examples(150), deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.sampled_from(["forces[0].expr", "excitation[0].expr", "mass", "stiffness", "parameters.F", "parameters.k",
                         "forces[2].clearance", "gyroscopic.speed", "excitation[1].amplitude"]), EXPRESSIONS)
 def test_random_expressions_in_a_valid_scene(where, expr):
@@ -224,7 +226,7 @@ def test_random_expressions_in_a_valid_scene(where, expr):
     _build(yaml.safe_dump(data, sort_keys=False))
 
 
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=fuzz_examples(60), deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.lists(st.one_of(
     st.tuples(st.sampled_from(["model.parameters.F", "model.forces", "model.mass", "model.dofs", "model.frequency",
                                "model.excitation", "model.gyroscopic.speed", "analysis.parameter", "model.parameters",

@@ -71,6 +71,7 @@ def test_a_pair_between_two_grid_values_is_found():
     assert not period_doubling_scan(model, {}, "delta", grid, [0.0, 0.0], opt, hidden_pairs=False).points
 
 
+@pytest.mark.slow  # compiles the rotor's shooting integrator; by default rotor_subharmonic_shooting.py --quick shoots
 def test_rotor_period_doublings_match_the_harmonic_balance_in_permanent_contact():
     """f0 = 0.5, paper's c2: the bearing stays on its casing, where H = 40 has converged.
 

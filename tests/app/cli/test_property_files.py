@@ -27,6 +27,8 @@ import pytest
 from conftest import no_hang
 from hypothesis import HealthCheck, Phase, event, given, settings
 from hypothesis import strategies as st
+
+from conftest import fuzz_examples
 from test_hostile_files import DUFFING, FAST, run
 
 import contin
@@ -40,7 +42,7 @@ VALID = [(ROOT / "scenes" / name).read_text(encoding="utf-8")
          for name in ("duffing.yaml", "custom_duffing.yaml", "gap_oscillator.yaml")]
 RESULT_FILES = ["summary.json", "state.jsonl", "branches.csv", "special_points.csv"]
 EXIT_CODES = {0, 1, 2, 130}
-PROPERTY = settings(max_examples=100, deadline=None, derandomize=True, database=None,
+PROPERTY = settings(max_examples=fuzz_examples(100), deadline=None, derandomize=True, database=None,
                     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow,
                                            HealthCheck.data_too_large])
 
@@ -243,7 +245,7 @@ def restore_modes(out: Path):
 
 # each example is a resume and a plot (~0.1-1 s): no shrinking, whose hundreds of reruns would take minutes;
 # a failure prints the drawn damage in full, which is its reproducer
-@settings(PROPERTY, max_examples=20, phases=[Phase.explicit, Phase.reuse, Phase.generate])
+@settings(PROPERTY, max_examples=fuzz_examples(20), phases=[Phase.explicit, Phase.reuse, Phase.generate])
 @given(interrupted=st.booleans(), keep=st.integers(0, 40), damages=st.lists(DAMAGE, max_size=3))
 def test_damaged_result_directories_resume_and_plot_cleanly(finished, scratch, capsys, interrupted, keep, damages):
     out = scratch / uuid.uuid4().hex
