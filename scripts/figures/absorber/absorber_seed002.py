@@ -65,9 +65,9 @@ def main() -> None:
     for l in (l1, l2):
         ax.axvline(l, color="0.6", lw=0.8, ls=":")
     ax.set_ylim(0, 16)
-    ax.set_xlabel("lambda = w / w1")
-    ax.set_ylabel("X1 / x_st")
-    ax.set_title("seed 002, 6.3.3: mu = m2/m1 = 1/20, alpha = w2/w1 = 1, zeta = c/(2 m2 w1)", fontsize=10)
+    ax.set_xlabel(r"$\lambda = \omega / \omega_1$")
+    ax.set_ylabel(r"$X_1 / x_{\mathrm{st}}$")
+    ax.set_title(r"seed 002, 6.3.3: $\mu = m_2/m_1 = 1/20$, $\alpha = \omega_2/\omega_1 = 1$, $\zeta = c/(2 m_2 \omega_1)$", fontsize=10)
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
     fig.savefig(args.out, dpi=120)

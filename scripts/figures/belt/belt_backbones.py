@@ -63,8 +63,8 @@ def figure(path, title, curves):
     for label, mode, A, W, style, color in curves:
         ax.plot(W, A, style, color=color, lw=1.4, label=f"{label}, mode {mode}")
     ax.set_yscale("log")
-    ax.set_xlabel("frequency w")
-    ax.set_ylabel("w_rms at xi = 0.6")
+    ax.set_xlabel(r"frequency $\omega$")
+    ax.set_ylabel(r"RMS of $w$ at $\xi = 0.6$")
     ax.set_title(title)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)

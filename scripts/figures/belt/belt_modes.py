@@ -77,9 +77,9 @@ def main(argv=None):
     fig, ax = plt.subplots(figsize=(6.0, 4.6), constrained_layout=True)
     for j in range(5):
         ax.plot(F[:, j], betas, "-", label=f"({j + 1})")
-    ax.set_xlabel("natural frequency w")
-    ax.set_ylabel("mass ratio beta")
-    ax.set_title("Fig. 2: natural frequencies, alpha = 0.005, q = 0, xi1 = 0.4")
+    ax.set_xlabel(r"natural frequency $\omega$")
+    ax.set_ylabel(r"mass ratio $\beta$")
+    ax.set_title(r"Fig. 2: natural frequencies, $\alpha = 0.005$, $q = 0$, $\xi_1 = 0.4$")
     ax.legend(title="mode", fontsize=8)
     ax.grid(True, alpha=0.3)
     fig.savefig(out / "belt_fig2_frequencies.png", dpi=130)
@@ -94,7 +94,7 @@ def main(argv=None):
     for j in range(3):
         axs[j].axvline(0.4, color="k", lw=0.6, ls=":")
         axs[j].set_title(f"mode {j + 1}")
-        axs[j].set_xlabel("xi")
+        axs[j].set_xlabel(r"$\xi$")
         axs[j].legend(fontsize=7)
         axs[j].grid(True, alpha=0.3)
     axs[0].set_ylabel("mode shape (largest displacement 1)")

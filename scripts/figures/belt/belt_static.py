@@ -82,9 +82,9 @@ def main(argv=None):
                                         label=f"gamma0 = {50 * s:g}" if color is None else None)
                         color = line.get_color()
             ax.plot(sp["w"][folds], sp["p_s"][folds], "o", mfc="none", color=color)
-        ax.set_xlabel("w at xi = 0.6")
-        ax.set_ylabel("static load p_s")
-        ax.set_title(f"Fig. {fig_no}: restoring force, beta = {beta:g} (dashed: unstable, o: folds)")
+        ax.set_xlabel(r"$w$ at $\xi = 0.6$")
+        ax.set_ylabel(r"static load $p_s$")
+        ax.set_title(rf"Fig. {fig_no}: restoring force, $\beta$ = {beta:g} (dashed: unstable, o: folds)")
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=8)
         path = out / f"belt_fig{fig_no}_static.png"

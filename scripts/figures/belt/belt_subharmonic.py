@@ -135,8 +135,8 @@ def _plot(path, results):
         for k, marker in (("pd", "s"), ("fold", "o")):
             f = sp["kind"] == k
             ax.plot(sp["w"][f], sp["w_rms"][f], marker, mfc="none", color="tab:red", label=k if f.any() else None)
-        ax.set_xlabel("excitation frequency w")
-        ax.set_ylabel("w_rms at xi = 0.6")
+        ax.set_xlabel(r"excitation frequency $\Omega$")
+        ax.set_ylabel(r"RMS of $w$ at $\xi = 0.6$")
         ax.set_title(label, fontsize=9)
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=7)

@@ -88,9 +88,9 @@ def main(argv=None) -> int:
         pds = ", ".join(f"{v:.4f}" for v in np.unique(np.round(pd_w, 4))) or "none"
         print(f"{label:22s} {pds:34s} {'none' if iv is None else f'{iv[0]:.4f} .. {iv[1]:.4f}'}")
         ax.set_title(label)
-        ax.set_ylabel("+w/2 forward whirl radius")
+        ax.set_ylabel(r"forward whirl radius at $\Omega/2$")
     for ax in axes[-1]:
-        ax.set_xlabel("rotor speed w")
+        ax.set_xlabel(r"rotor speed $\Omega$")
     axes.flat[0].plot([], [], "-", color="tab:blue", label="harmonic (nu=1)")
     axes.flat[0].plot([], [], "-", color="tab:red", label="1/2 subharmonic (nu=2)")
     axes.flat[0].plot([], [], "k-", label="stable")

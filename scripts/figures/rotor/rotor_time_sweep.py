@@ -154,7 +154,7 @@ def main(argv=None):
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(7.5, 4.6), constrained_layout=True)
-    ylabel = "|+w/2| forward whirl radius of the disc"
+    ylabel = r"forward whirl radius of the disc at $\Omega/2$"
     if args.diagram is not None:
         curves, label = read_diagram(args.diagram, args.column)
         ylabel += f"\n(diagram: {label})"
@@ -177,7 +177,7 @@ def main(argv=None):
         if pts:
             p = np.array(pts)
             ax.plot(p[:, 0], p[:, 1], m, color=col, mfc="none", ms=7, label=f"simulation: {k}")
-    ax.set_xlabel("rotor speed w")
+    ax.set_xlabel(r"rotor speed $\Omega$")
     ax.set_ylabel(ylabel)
     ax.set_title(f"bearing rotor, time simulation ({args.steps} steps/rev), "
                  + ", ".join(f"{k} = {v:g}" for k, v in params.items()))
