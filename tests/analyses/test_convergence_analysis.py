@@ -96,6 +96,7 @@ def duffing(tmp_path_factory):
     return run(tmp, DUFFING, "--budget", "1e-5")
 
 
+@pytest.mark.slow  # five runs of 125 points; by default the Mathieu and static-deflection studies check closed forms
 def test_duffing_h1_peak_is_the_closed_form_amplitude_and_errors_decay_spectrally(duffing, capsys):
     rows, summary, out = duffing
     assert list(rows["analysis.harmonics"]) == [1, 3, 5, 7, 15]
