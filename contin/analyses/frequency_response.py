@@ -15,7 +15,6 @@ tangents are the engine's, in the kept dofs' coefficients, listed as
 
 from __future__ import annotations
 
-import dataclasses
 import inspect
 import json
 import time
@@ -26,22 +25,19 @@ from contin.scene.registry import register_analysis, shortfalls
 from contin.engine.branch import BranchStatus
 from contin.engine.continuation import ContinuationOptions
 from contin.hb.problem import HarmonicBalance, HBOptions
-from contin.output.checkpoint import encode, special_record
 from contin.hb.condensation import condensation_dofs, condense
-from contin.hb.measures import measure_names, point_measures
+# the recorder's names are part of this analysis' interface (bifurcation_curve, convergence_plan use them)
+from contin.analyses.branch_recorder import SPECIAL_EXTRA, BranchRecorder, row_measures  # noqa: F401
+from contin.hb.torus import torus_measure_names
 from contin.output.checkpoint import read_records, rebuild_branches, resumable_prefix
-from contin.output.dense import as_number, checkpoint_solutions
-from contin.output.results import CsvStream, read_csv, truncate_to_valid_rows
+from contin.output.dense import as_number
+from contin.output.results import truncate_to_valid_rows
 from contin.output.model_figures import model_figures
 from contin.scene.parse import SceneError, model_frequency
 
 __all__ = ["run", "BranchRecorder", "build_problem", "engine_problem"]
 
-SPECIAL_EXTRA = ["interval_lo", "interval_hi", "located", "detail"]
-#: what a finished branch's ``info`` keeps in its checkpoint (what the summary reports of it)
-_END_INFO = ("unknown_scale", "parameter_scale", "lam_range", "min_rcond", "min_rcond_index", "max_condition",
-             "max_condition_parameter", "last_condition", "n_rejected_steps", "n_newton_iterations", "n_backtracked",
-             "rescalings", "n_linearizations", "last_failure", "uncovered")
+
 
 
 def build_problem(scene, model) -> HarmonicBalance:
@@ -99,194 +95,6 @@ def continuation_options(scene, lam_start: float, lam_end: float) -> Continuatio
         raise SceneError("analysis.continuation", "valid continuation options", None, hint=f": {exc}") from None
 
 
-class BranchRecorder:
-    """Streams the rows of ``branches.csv`` and ``special_points.csv``.
-
-    Parameters
-    ----------
-    outdir : Path
-    dof_names : sequence of str
-    parameter : str
-    harmonic_columns, H : int
-        Number of ``hK`` columns is ``min(H, harmonic_columns) + 1``.
-    """
-
-    def __init__(self, outdir, dof_names, parameter, harmonic_columns, H, append=False, model=None):
-        self.failed_switches: list = []  # sides of a switch with no first point
-        self.dof_names = list(dof_names)
-        self.parameter = parameter
-        self.harmonic_columns = harmonic_columns
-        self.observables = getattr(model, "observables", None)
-        self.measures = row_measures(self.dof_names, harmonic_columns, H, model)
-        head = ["branch", "nu", parameter, "stable", "n_unstable", "max_multiplier"]
-        self.branch_columns = head + self.measures + ["newton_iterations", "residual_norm"]
-        self.special_columns = ["branch", "kind", parameter, "index"] + self.measures + SPECIAL_EXTRA
-        self.rows = CsvStream(outdir / "branches.csv", self.branch_columns, append)
-        self.special = CsvStream(outdir / "special_points.csv", self.special_columns, append)
-        # full solutions (coefficients and tangent) for plots of any row and for --resume
-        self.state = open(outdir / "state.jsonl", "a" if append else "w")
-        self.n_rows = self.rows.rows
-        self._written_special: dict[int, int] = {}
-        self._headers: set = set()
-        self.offsets: dict[int, int] = {}  # branch id -> its first row (of this run or a resumed one)
-        self._engine_offsets: dict[int, int] = {}  # branch id -> row of the engine's index 0 in this run
-        self.curves: dict[int, dict] = {}
-        self.special_list: list[dict] = []
-        self.problems: dict = {}  # branch id -> its problem, to expand condensed unknowns
-
-    def _full(self, branch_id: int, u, lam: float, problem=None):
-        """Full coefficients of the engine's ``u`` (expanded when the branch's problem is condensed)."""
-        problem = self.problems.get(branch_id) if problem is None else problem
-        if problem is None or not hasattr(problem, "expand"):
-            return np.asarray(u)
-        return problem.expand(u, lam)
-
-    def _measures(self, u, n, nu):
-        out = point_measures(u, n, self.dof_names, self.harmonic_columns)
-        if self.observables is not None:
-            out.update(self.observables(u, n, nu))
-        return out
-
-    def point(self, branch_id: int, nu: int, branch, i: int, H: int | None = None, problem=None) -> None:
-        self.offsets.setdefault(branch_id, self.n_rows - i)
-        self._engine_offsets.setdefault(branch_id, self.n_rows - i)
-        if problem is not None:
-            self.problems[branch_id] = problem
-        lam = float(branch.parameter[i])
-        u = self._full(branch_id, branch.unknowns[i], lam)
-        row = {"branch": branch_id, "nu": nu, self.parameter: lam}
-        pd = branch.point_data
-        if "stable" in pd and bool(pd["evaluated"][i] if "evaluated" in pd else True):
-            row["stable"] = bool(pd["stable"][i])
-            row["n_unstable"] = int(pd["n_unstable"][i])
-            row["max_multiplier"] = float(pd["max_multiplier"][i])
-        elif "stable" in pd:  # no verdict at this point: empty cells, not the monitor's placeholders
-            row.update(stable=None, n_unstable=None, max_multiplier=None)
-        row.update(self._measures(u, len(self.dof_names), nu))
-        row["newton_iterations"] = int(branch.newton_iterations[i])
-        row["residual_norm"] = float(branch.residual_norms[i])
-        self.rows.write(row)
-        if branch_id not in self._headers:
-            self._headers.add(branch_id)
-            su = branch.info.get("unknown_scale")
-            kept = getattr(self.problems.get(branch_id), "dofs", None)
-            self.state.write(json.dumps(encode({"type": "branch", "branch": branch_id, "nu": nu, "H": H,
-                                                "unknown_scale": None if su is None else np.asarray(su),
-                                                "parameter_scale": branch.info.get("parameter_scale"),
-                                                "dofs": None if kept is None else [int(d) for d in kept]})) + "\n")
-        self.state.write(json.dumps({
-            "type": "point", "row": self.n_rows, "branch": branch_id, "nu": nu, "H": H, "lam": lam, "u": u.tolist(),
-            "tangent": branch.tangents[i].tolist(), "s": float(branch.arclength[i]),
-            "step": float(branch.step_sizes[i]), "iterations": int(branch.newton_iterations[i]),
-            "residual": float(branch.residual_norms[i]),
-            "data": encode({k: v[i] for k, v in pd.items()})}) + "\n")
-        self.state.flush()
-        self.n_rows += 1
-        self.special_points(branch_id, branch)
-        c = self.curves.setdefault(branch_id, {"x": [], "rows": [], "stable": [], "nu": nu})
-        c["x"].append(lam)
-        c["rows"].append(row)
-        c["stable"].append(row.get("stable"))
-        kept = getattr(self.problems.get(branch_id), "dofs", None)
-        self._keep_solution(c, u, branch.tangents[i], branch.info.get("unknown_scale"),
-                            branch.info.get("parameter_scale"), kept, H)
-
-    def _keep_solution(self, c: dict, u, tangent, su, sl, kept, H) -> None:
-        """Keep a point's full coefficients ``u`` and its tangent in the unknowns' units (for the dense curves).
-
-        ``tangent`` (m+1,) is the engine's, scaled by ``su`` (m,) and ``sl``, over the coefficients of
-        the ``kept`` dofs (all when None); ``c`` gets ``u``, ``direction``, ``scale``, ``kept`` and ``H``.
-        """
-        c.setdefault("u", []).append(np.asarray(u, dtype=float))
-        t = np.asarray(tangent, dtype=float)
-        direction = None
-        if su is not None and sl is not None and t.size >= 2:
-            scale = np.append(np.broadcast_to(np.asarray(su, dtype=float), (t.size - 1,)), float(sl))
-            direction = t * scale
-            c["scale"] = scale
-        c.setdefault("direction", []).append(direction)
-        c["kept"] = None if kept is None else [int(d) for d in kept]
-        c["H"] = H
-
-    def special_points(self, branch_id: int, branch, problem=None) -> None:
-        if problem is not None:
-            self.problems[branch_id] = problem
-        off = self._engine_offsets.get(branch_id, self.offsets.get(branch_id, self.n_rows - len(branch)))
-        done = self._written_special.get(branch_id, 0)
-        self._written_special[branch_id] = len(branch.special_points)
-        for sp in branch.special_points[done:]:
-            if sp.kind.value == "start" or self._duplicate(branch_id, sp):
-                # kept in the checkpoint all the same: a resumed branch holds every special point
-                self.state.write(json.dumps(special_record(branch_id, self._full_point(branch_id, sp), csv=False)) + "\n")
-                continue
-            i = min(max(sp.index, 0), len(branch) - 1)
-            if i + 1 < len(branch) and abs(branch.parameter[i + 1] - sp.parameter) < abs(branch.parameter[i] - sp.parameter):
-                i += 1
-            row = {"branch": branch_id, "kind": sp.kind.value, self.parameter: float(sp.parameter), "index": off + i}
-            sp = self._full_point(branch_id, sp)
-            row.update(self._measures(sp.unknowns, len(self.dof_names), self.curves.get(branch_id, {}).get("nu", 1)))
-            lo, hi = sp.bracket
-            row.update({"interval_lo": float(lo), "interval_hi": float(hi), "located": bool(sp.located),
-                        "detail": _detail(sp)})
-            self.special.write(row)
-            self.special_list.append(dict(row, _before=off + min(max(sp.index, 0), len(branch) - 1)))
-            self.state.write(json.dumps(special_record(branch_id, sp)) + "\n")
-            self.state.flush()
-
-    def _full_point(self, branch_id: int, sp):
-        """``sp`` with full coefficients (expanded when the branch's problem is condensed)."""
-        u_full = self._full(branch_id, sp.unknowns, float(sp.parameter))
-        return sp if u_full is sp.unknowns else dataclasses.replace(sp, unknowns=u_full)
-
-    def checkpoint(self, branch_id: int, branch, state: dict) -> None:
-        """The engine's state after a step (or its monitors' at the branch's end): see :mod:`contin.output.checkpoint`."""
-        self.special_points(branch_id, branch)  # the state holds them: write them first
-        if "points" in state:
-            rec = {"type": "engine", "branch": branch_id, "state": encode(state)}
-        else:
-            info = {k: v for k, v in branch.info.items() if k in _END_INFO}
-            rec = {"type": "end", "branch": branch_id, "status": branch.status.value, "message": branch.message,
-                   "info": encode(info), "monitors": encode(state.get("monitors") or [])}
-        self.state.write(json.dumps(rec) + "\n")
-        self.state.flush()
-
-    def restore(self, previous: dict) -> None:
-        """Take up the rows and special points of an interrupted run (``--resume``)."""
-        rows = read_csv(self.rows.path)
-        self.n_rows = len(rows.get("branch", []))  # the rows of this run continue the numbering
-        solutions = checkpoint_solutions(read_records(self.state.name))
-        for r in range(len(rows.get("branch", []))):
-            bid = int(rows["branch"][r])
-            self.offsets.setdefault(bid, r)
-            row = {c: rows[c][r] for c in self.branch_columns if c in rows}
-            st = _flag(rows["stable"][r]) if "stable" in rows else None
-            c = self.curves.setdefault(bid, {"x": [], "rows": [], "stable": [], "nu": int(rows["nu"][r])})
-            c["x"].append(float(rows[self.parameter][r]))
-            c["rows"].append(row)
-            c["stable"].append(st)
-            if r in solutions:
-                self._keep_solution(c, *solutions[r])
-        sp = read_csv(self.special.path)
-        for r in range(len(sp.get("branch", []))):
-            row = {c: sp[c][r] for c in self.special_columns if c in sp}
-            row["branch"], row["index"] = int(row["branch"]), int(row["index"])
-            self.special_list.append(dict(row, _before=row["index"]))
-        self._headers = set(previous)
-        self._engine_offsets = dict(self.offsets)  # a resumed branch holds its points from the first
-        self._written_special = {j: len(b.special_points) for j, b in previous.items()}
-
-    def _duplicate(self, branch_id, sp) -> bool:
-        """The same bifurcation found by two tests (the bordered determinant and a multiplier at +1)."""
-        tol = 1e-6 * max(1.0, abs(sp.parameter))
-        return any(r["branch"] == branch_id and r["kind"] == sp.kind.value
-                   and abs(r[self.parameter] - sp.parameter) <= tol for r in self.special_list)
-
-    def close(self) -> None:
-        self.rows.close()
-        self.special.close()
-        self.state.close()
-
-
 def _start(scene, model, hb, lam0: float):
     """The start guess: ``analysis.start_from`` = model (its own start, else linear), linear or simulation."""
     from contin.scene.registry import RunError
@@ -315,17 +123,6 @@ def _restore(outdir, parameter: str) -> dict:
         for r in records:
             fh.write(json.dumps(r) + "\n")
     return rebuild_branches(records, parameter)
-
-
-def _detail(sp) -> str:
-    d = sp.data or {}
-    parts = []
-    if "multiplier" in d:
-        z = complex(d["multiplier"])
-        parts.append(f"multiplier {z.real:.6g}{z.imag:+.6g}j")
-    if sp.message:
-        parts.append(sp.message)
-    return "; ".join(parts)
 
 
 def _starts(scene):
@@ -379,16 +176,16 @@ def check(scene, model) -> list:
     return setups
 
 
-def row_measures(dof_names, harmonic_columns: int, H: int, model=None) -> list[str]:
-    """The measure columns of a row of ``branches.csv``: those of every dof, then the model's own."""
-    own = list(getattr(model, "observable_names", ()) if getattr(model, "observables", None) else ())
-    return measure_names(list(dof_names), harmonic_columns, H) + own
+def _wants_tori(scene) -> bool:
+    """Whether any start of the scene switches at Neimark-Sacker points (then the torus columns are written)."""
+    return any("ns" in (s.get("switch") or ()) for s in [scene.analysis, *(scene.analysis.get("starts") or ())])
 
 
 def plot_measures(scene, model, hb) -> list[str]:
     """The columns ``output.measure`` can name: the row measures and stability's."""
-    return row_measures(model.dof_names, scene.output["harmonic_columns"], hb.H, model) + ["max_multiplier",
-                                                                                            "n_unstable"]
+    torus = torus_measure_names(model.dof_names) if _wants_tori(scene) else []
+    return row_measures(model.dof_names, scene.output["harmonic_columns"], hb.H, model) + torus + [
+        "max_multiplier", "n_unstable"]
 
 
 @register_analysis("frequency_response", check=check)
@@ -407,7 +204,7 @@ def run(ctx) -> dict:
     previous = _restore(ctx.outdir, hb.parameter) if ctx.resume else {}
     try:
         rec = BranchRecorder(ctx.outdir, model.dof_names, hb.parameter, scene.output["harmonic_columns"], hb.H,
-                             append=bool(previous), model=model)
+                             append=bool(previous), model=model, torus=_wants_tori(scene))
     except ValueError as exc:  # the files to continue have other columns
         raise SceneError("--resume", "result files of this scene", str(exc),
                          hint="; run again without --resume, or use another -o") from None
@@ -436,7 +233,7 @@ def run(ctx) -> dict:
             "branch": bid, "nu": meta.get("nu", hb.nu), "points": len(branch), "status": branch.status.value,
             "message": branch.message, "parent": meta.get("parent"), "origin": meta.get("origin"),
             "special_points": {k: sum(1 for s in branch.special_points if s.kind.value == k)
-                               for k in ("fold", "bp", "pd", "ns", "kink", "stability")},
+                               for k in ("fold", "bp", "pd", "ns", "kink", "stability", "locking")},
             "min_rcond": branch.info.get("min_rcond"),
             "condition": _condition_summary(branch),
             "rejected_steps": branch.info.get("n_rejected_steps"),
@@ -445,6 +242,7 @@ def run(ctx) -> dict:
             "rescalings": [list(r) for r in branch.info.get("rescalings", [])],
             "stability": _stability_summary(branch),
             "uncovered": _interval_or_none(branch.info.get("uncovered")),
+            "torus": meta.get("torus"),
         })
     ctx.timings["continuation"] = time.perf_counter() - t0
     interrupted = any(b.status == BranchStatus.INTERRUPTED for b, _ in results)
@@ -465,13 +263,6 @@ def run(ctx) -> dict:
         "failed_switches": rec.failed_switches,
         "shortfalls": shortfalls(branches_info, hb.parameter, rec.failed_switches),
     }
-
-
-def _flag(value) -> bool | None:
-    """A ``stable`` cell read back: True, False, or None where it is empty (no verdict)."""
-    if isinstance(value, (bool, np.bool_)):
-        return bool(value)
-    return {"true": True, "false": False}.get(value)
 
 
 def _interval_or_none(gap):
@@ -566,7 +357,7 @@ def diagram_branches(rec: BranchRecorder, measure: str) -> tuple[list, list]:
             special.append({"x": float(s[rec.parameter]), "y": sy, "kind": s["kind"], "branch": bid})
         evaluate, U, directions = None, np.zeros((x.size, 0)), None
         if measure in rec.measures and len(c.get("u", ())) == x.size and x.size > 1:  # a function of u
-            evaluate, U = _evaluator(rec, measure, c["nu"]), np.array(c["u"])
+            evaluate, U = _evaluator(rec, measure, c["nu"], rec.problems.get(bid)), np.array(c["u"])
             if all(d is not None for d in c["direction"]):
                 directions = np.array(c["direction"])
         kept = kept_indices(c.get("kept"), n, c.get("H") or 0) if c.get("kept") is not None else None
@@ -574,15 +365,16 @@ def diagram_branches(rec: BranchRecorder, measure: str) -> tuple[list, list]:
                          special=points, node_xy=(x, y))
         # both halves of a branch followed both ways start at one point
         group = ("start", c["nu"], float(f"{x[0]:.10g}"), float(f"{y[0]:.8g}")) if x.size else ("branch", bid)
-        branches.append({"x": d["x"], "y": d["y"], "stable": d["stable"], "nu": c["nu"], "id": bid, "group": group})
+        branches.append({"x": d["x"], "y": d["y"], "stable": d["stable"], "nu": c["nu"], "id": bid, "group": group,
+                         "torus": bool(c.get("torus"))})
     return branches, special
 
 
-def _evaluator(rec: BranchRecorder, measure: str, nu: int):
+def _evaluator(rec: BranchRecorder, measure: str, nu: int, problem=None):
     """``evaluate(lam (K,), U (K, M)) -> (lam, measure (K,))`` with the function of the CSV columns."""
     n = len(rec.dof_names)
 
     def evaluate(lam, U):
-        return lam, np.array([as_number(rec._measures(u, n, nu).get(measure)) for u in U])
+        return lam, np.array([as_number(rec._measures(u, n, nu, problem, lv).get(measure)) for u, lv in zip(U, lam)])
 
     return evaluate

@@ -5,6 +5,7 @@ from __future__ import annotations
 from contin.scene.parse import SceneError
 from contin.stability import StabilityOptions
 from contin.bifurcation.diagram import follow as follow_diagram
+from contin.bifurcation.torus_branch import TorusSettings
 
 __all__ = ["stability_setup"]
 
@@ -36,9 +37,14 @@ def stability_setup(analysis: dict, hb):
     """
     stab = stability_options(analysis)
     switch = tuple(analysis["switch"])
-    if "pd" in switch and analysis["stability"] == "none":
-        raise SceneError("analysis.switch", "a stability method (analysis.stability) to detect period doubling",
-                         "stability: none")
+    for kind, what in (("pd", "period doubling"), ("ns", "Neimark-Sacker points")):
+        if kind in switch and analysis["stability"] == "none":
+            raise SceneError("analysis.switch", f"a stability method (analysis.stability) to detect {what}",
+                             "stability: none")
+    try:
+        torus = TorusSettings.from_dict(analysis.get("torus") or {}, hb.H)
+    except ValueError as exc:
+        raise SceneError("analysis.torus", "valid torus settings", analysis.get("torus"), hint=f": {exc}") from None
 
     def follow(hb, u0, lam0, lam_range, options, rec, ctx, previous=None, first_id=0):
         def factory(index, problem):
@@ -69,7 +75,7 @@ def stability_setup(analysis: dict, hb):
             diagram = follow_diagram(hb, u0, lam0, lam_range, opts, stability=stab, switch=switch,
                                      max_depth=1 if switch else 0, parameter_name=hb.parameter,
                                      max_branches=analysis["max_branches"], callback_factory=shifted,
-                                     checkpoint_factory=shifted_checkpoints, previous=prev)
+                                     checkpoint_factory=shifted_checkpoints, previous=prev, torus=torus)
             pairs += list(zip(diagram.branches, diagram.problems))
             rec.failed_switches.extend({**f, "parent": f["parent"] + offset} for f in diagram.failed_switches)
             offset += len(diagram.branches)
@@ -80,6 +86,7 @@ def stability_setup(analysis: dict, hb):
             rec.special_points(j, br, prob)
             org = br.info.get("origin")
             out.append((br, {"nu": prob.nu, "harmonics": prob.H, "parent": br.info.get("parent"),
+                             "torus": br.info.get("torus"),
                              "origin": None if org is None else {k: org[k] for k in ("kind", "parameter") if k in org}}))
         return out
 

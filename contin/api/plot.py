@@ -65,13 +65,14 @@ def diagram_data(result, measure: str) -> tuple[list, list]:
                 j -= 1  # the stored point before it along the branch
             points.append({"x": s.parameter, "y": sy, "index": j, "changes": s.kind in CHANGES})
             special.append({"x": s.parameter, "y": sy, "kind": s.kind, "branch": b.id})
-        U = _solutions(result, b)
+        U = None if b.torus else _solutions(result, b)  # a torus is drawn through its stored points
         evaluate = _evaluator(result, measure, b.nu) if U is not None and len(b) > 1 else None
         d = dense_branch(x, U if evaluate is not None else np.zeros((x.size, 0)), evaluate, stable=stable,
                          special=points, node_xy=(x, y))
         # both halves of a branch followed both ways start at one point: one colour, one legend entry
         group = ("start", b.nu, float(f"{x[0]:.10g}"), float(f"{y[0]:.8g}")) if x.size else ("branch", b.id)
-        curves.append({"x": d["x"], "y": d["y"], "stable": d["stable"], "nu": b.nu, "id": b.id, "group": group})
+        curves.append({"x": d["x"], "y": d["y"], "stable": d["stable"], "nu": b.nu, "id": b.id, "group": group,
+                       "torus": b.torus})
     return curves, special
 
 

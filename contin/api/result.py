@@ -71,6 +71,8 @@ class BranchResult:
     columns : dict of str to ndarray (P,)
         Every column of its rows.
     special_points : list of LocatedPoint
+    torus : bool
+        A quasi-periodic branch (columns ``frequency2``, ``forced_``, ``free_``, ``comb_``).
     """
 
     id: int
@@ -82,10 +84,11 @@ class BranchResult:
     stable: np.ndarray | None = field(repr=False)
     columns: dict = field(repr=False)
     special_points: list = field(default_factory=list, repr=False)
+    torus: bool = False
 
     @property
     def name(self) -> str:
-        return branch_label(self.nu)
+        return "quasi-periodic" if self.torus else branch_label(self.nu)
 
     def __getitem__(self, column: str) -> np.ndarray:
         try:
@@ -175,7 +178,8 @@ class Result:
             out.append(BranchResult(
                 id=bid, nu=nu, status=str(b.get("status", "")), message=str(b.get("message", "")), rows=rows,
                 parameter=cols.get(self.parameter, np.arange(len(rows), dtype=float)), stable=stable, columns=cols,
-                special_points=[s for s in self.special_points if s.branch == bid]))
+                special_points=[s for s in self.special_points if s.branch == bid],
+                torus=b.get("torus") is not None))
         return out
 
     @property
@@ -225,6 +229,9 @@ class Result:
             ``k = 1..H`` of the base frequency ``w/nu``; columns follow :attr:`dofs`.
         """
         data = self.data
+        if row is not None and "torus_rows" in data and int(row) in data["torus_rows"]:
+            raise IndexError(f"row {row} is a quasi-periodic point: its coefficients are on harmonic pairs, in "
+                             "data['torus_coefficients'] (pairs data['torus_pairs']; contin.hb.qp_basis)")
         if "coefficients" not in data:
             raise ValueError(f"this {self.analysis or 'run'} stored no harmonic coefficients "
                              "(frequency_response and bifurcation_curve runs do)")

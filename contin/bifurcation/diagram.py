@@ -18,6 +18,8 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from contin.bifurcation.switching import BranchStart, _scales, switch_at
+from contin.bifurcation.torus_branch import TorusSettings, run_torus
+from contin.bifurcation.torus_start import torus_start
 from contin.engine.branch import Branch, BranchStatus, SpecialKind, SpecialPoint
 from contin.engine.continuation import ContinuationOptions, continuation
 from contin.hb.grazing import grazing_events
@@ -172,6 +174,16 @@ class BifurcationDiagram:
     monitors: list = dataclasses.field(default_factory=list)
     failed_switches: list = dataclasses.field(default_factory=list)
 
+    def add(self, child: Branch, start: BranchStart, parent: int, point: SpecialPoint, monitor, depth: int) -> None:
+        """Append a branch switched onto at ``point`` of branch ``parent`` from ``start``."""
+        child.info.update(parent=parent, origin=_origin(point, parent, start), depth=depth)
+        _annotate_problem(child, start.problem)
+        self.branches.append(child)
+        self.problems.append(start.problem)
+        self.parents.append(parent)
+        self.origins.append(point)
+        self.monitors.append(monitor)
+
     def __len__(self) -> int:
         return len(self.branches)
 
@@ -221,12 +233,33 @@ def _switch_candidates(br: Branch, kinds: set, origin_lam: float | None, tol: fl
     return sorted(chosen.values(), key=lambda p: (p.s, p.index))
 
 
+def _kind(sp: SpecialPoint) -> SpecialKind:
+    if sp.kind is SpecialKind.STABILITY:
+        return SpecialKind(sp.data.get("classification", "stability"))
+    return sp.kind
+
+
+def _torus_child(prob, br: Branch, sp: SpecialPoint, torus: TorusSettings | None, options, diagram, parent: int):
+    """The first point of the torus branch at ``sp``, or None (the failure recorded in the diagram)."""
+    settings = torus or TorusSettings()
+    try:
+        st = torus_start(prob, br, sp, settings.torus_options(prob.H), tol=options.newton_tol)
+        why = "Newton failed for the self-excited amplitude halved four times"
+    except (ValueError, np.linalg.LinAlgError) as exc:
+        st, why = None, str(exc)
+    if st is None:
+        diagram.failed_switches.append({"parent": parent, "kind": "ns", "parameter": float(sp.parameter), "side": 1,
+                                        "message": f"no first point of the torus branch: {why}"})
+    return st
+
+
 def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | dict | None = None, *,
            stability: StabilityOptions | dict | None = None, switch: Sequence[str] = ("pd", "bp"),
            max_depth: int = 1, parameter_name: str | None = None, problem_factory: Callable | None = None,
            eps: float | None = None, max_branches: int = 16, pd_direction: str = "svd",
            callback: Callable | None = None, callback_factory: Callable | None = None,
-           checkpoint_factory: Callable | None = None, previous: dict | None = None) -> BifurcationDiagram:
+           checkpoint_factory: Callable | None = None, previous: dict | None = None,
+           torus: TorusSettings | None = None) -> BifurcationDiagram:
     """Trace a branch with stability, then switch automatically at its bifurcations.
 
     Parameters
@@ -243,8 +276,9 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
     stability : StabilityOptions or dict, optional
         Method ``none`` disables stability (then only the engine's ``bp``
         points can be switched at).
-    switch : sequence of {'pd', 'bp'}
-        Kinds of special points to switch at.
+    switch : sequence of {'pd', 'bp', 'ns'}
+        Kinds of special points to switch at (``ns``: a quasi-periodic
+        branch, :mod:`contin.bifurcation.torus_branch`).
     max_depth : int
         Switching generations (1: the first branch's bifurcations only).
     parameter_name : str, optional
@@ -271,6 +305,8 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
         (see :mod:`contin.output.checkpoint`). A finished one is reused as it is; an
         unfinished one is continued from its last point with its own scales,
         and its callback is not called again for that point.
+    torus : TorusSettings, optional
+        Discretisation, stability check and ends of the torus branches.
 
     Returns
     -------
@@ -291,8 +327,8 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
     kinds = set()
     for k in switch:
         k = SpecialKind(k).value
-        if k not in ("pd", "bp"):
-            raise ValueError(f"follow: can switch at 'pd' and 'bp' points, not {k!r}")
+        if k not in ("pd", "bp", "ns"):
+            raise ValueError(f"follow: can switch at 'pd', 'bp' and 'ns' points, not {k!r}")
         kinds.add(k)
     if isinstance(max_depth, bool) or not isinstance(max_depth, int) or max_depth < 0:
         raise ValueError(f"follow: max_depth must be an integer >= 0, got {max_depth!r}")
@@ -338,7 +374,24 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
         org = br.info.get("origin")
         origin_lam = org["first_point_parameter"] if org else None
         su, sl = _scales(br, options, br.unknowns[0])
+        if br.info.get("torus") is not None:
+            continue  # no switching from a torus
         for sp in _switch_candidates(br, kinds, origin_lam, options.locate_tol):
+            if _kind(sp) is SpecialKind.NS:
+                if len(diagram) >= max_branches:
+                    return diagram
+                j = len(diagram)
+                st = _torus_child(prob, br, sp, torus, options, diagram, i)
+                if st is None or not lam_range[0] <= st.lam <= lam_range[1]:
+                    continue
+                # the same torus branch of an interrupted run is taken up, not traced anew
+                resume = None if j not in previous else (
+                    lambda qp, opts, mons, prev=previous[j], j=j:
+                    _resume(prev, qp, lam_range, opts, name, [], mons, cb_for(j, qp), ck_for(j, qp)))
+                child = run_torus(st, lam_range, options, name, torus or TorusSettings(), cb_for(j, st.problem),
+                                  ck_for(j, st.problem), resume)
+                diagram.add(child, st, i, sp, None, depth + 1)
+                continue
             if sp.kind is SpecialKind.PD and not hasattr(prob, "with_options") and problem_factory is None:
                 continue
             failed: list = []
@@ -353,14 +406,8 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
                 j = len(diagram)
                 child, mon = _run(st, lam_range, options, stability, name, su, sl, cb_for(j, st.problem),
                                   ck_for(j, st.problem), previous.get(j))
-                child.info.update(parent=i, origin=_origin(sp, i, st), depth=depth + 1)
                 if mon is not None:
                     _record_stability(child, mon)
-                _annotate_problem(child, st.problem)
-                diagram.branches.append(child)
-                diagram.problems.append(st.problem)
-                diagram.parents.append(i)
-                diagram.origins.append(sp)
-                diagram.monitors.append(mon)
+                diagram.add(child, st, i, sp, mon, depth + 1)
                 queue.append(j)
     return diagram

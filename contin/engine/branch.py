@@ -81,6 +81,8 @@ class SpecialKind(str, enum.Enum):
     FOLD_FLIP = "fold_flip"
     #: a two-parameter curve turns in one of its parameters (not a bifurcation)
     EXTREMUM = "extremum"
+    #: a quasi-periodic branch's second frequency reaches a low-order rational ratio to the first (entrainment)
+    LOCKING = "locking"
     END = "end"
     START = "start"
     USER = "user"

@@ -35,6 +35,7 @@ __all__ = [
     "matvec_samples",
     "odd_multiplication_matrix",
     "odd_jacobian",
+    "product_block",
 ]
 
 
@@ -117,6 +118,23 @@ def _cs(Ghat, m, N):
 
 
 @nb.njit(cache=True)
+def product_block(T, rc, rs, cc, cs, row_sine, col_sine, h, Cm, Sm, Cp, Sp):
+    """Add the product-to-sum entries of one (row harmonic, column harmonic) pair, weighted by ``h``.
+
+    Rows ``rc``/``rs`` (cosine/sine of the row harmonic; no sine row for the mean), columns ``cc``/``cs``;
+    ``Cm, Sm`` at the difference and ``Cp, Sp`` at the sum of the two harmonics (vector indices on a torus,
+    :mod:`contin.hb.aft2d`).
+    """
+    T[rc, cc] += h * (Cm + Cp)
+    if col_sine:
+        T[rc, cs] += h * (Sp - Sm)
+    if row_sine:
+        T[rs, cc] += h * (Sp + Sm)
+        if col_sine:
+            T[rs, cs] += h * (Cm - Cp)
+
+
+@nb.njit(cache=True)
 def _fill_block(Ghat, N, H, n, a, b, T, scale):
     # Block of "multiply by G_ab" between dof a (rows) and dof b (columns).
     for k in range(H + 1):
@@ -128,13 +146,7 @@ def _fill_block(Ghat, N, H, n, a, b, T, scale):
             cs = 2 * l * n + b
             Cm, Sm = _cs(Ghat, k - l, N)
             Cp, Sp = _cs(Ghat, k + l, N)
-            T[rc, cc] += wk * 0.5 * (Cm + Cp)
-            if l > 0:
-                T[rc, cs] += wk * 0.5 * (Sp - Sm)
-            if k > 0:
-                T[rs, cc] += wk * 0.5 * (Sp + Sm)
-                if l > 0:
-                    T[rs, cs] += wk * 0.5 * (Cm - Cp)
+            product_block(T, rc, rs, cc, cs, k > 0, l > 0, 0.5 * wk, Cm, Sm, Cp, Sp)
 
 
 @nb.njit(cache=True)

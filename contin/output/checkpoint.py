@@ -231,6 +231,8 @@ def rebuild_branches(records: list[dict], parameter_name: str) -> dict[int, Bran
         h = headers.get(j, {})
         br.info.update(unknown_scale=h.get("unknown_scale"), parameter_scale=h.get("parameter_scale"),
                        subharmonic=h.get("nu"), harmonics=h.get("H"), resumed_points=len(br))
+        if h.get("torus") is not None:  # a quasi-periodic branch (contin.hb.torus): its discretisation
+            br.info["torus"] = h["torus"]
         if j in ends:
             end = ends[j]
             br.info.update(decode(end.get("info") or {}))

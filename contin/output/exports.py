@@ -14,8 +14,13 @@ name                      content
                           :mod:`contin.hb.harmonics`: mean, then cosine and sine of each k);
                           ``H`` is the largest count of the run, rows of fewer are zero-padded
 ``harmonics``             (rows,): each row's own harmonic count
-``coefficient_rows``      (rows,): the ``branches.csv`` row of each ``coefficients`` entry
+``coefficient_rows``      (rows,): the ``branches.csv`` row of each ``coefficients`` entry (the
+                          periodic rows)
 ``base_frequency``        (rows,): the base frequency ``w/nu`` of each row (rad per time unit)
+``torus_coefficients``    (rows_t, 2P-1, n): the coefficients of the quasi-periodic rows on the
+                          harmonic pairs ``torus_pairs`` (P, 2) of :mod:`contin.hb.qp_basis`
+                          (the largest truncation of the run, zero-padded); ``torus_rows``
+                          their ``branches.csv`` rows, ``frequency2`` their second frequency
 ``dofs``, ``parameter``   the dof names, the continued parameter's name
 ``H``, ``status``         harmonics; the run's status
 ========================  ====================================================================
@@ -34,6 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
+from contin.hb.qp_basis import QPBasis
 from contin.output.checkpoint import read_records
 from contin.output.results import read_csv
 
@@ -115,14 +121,21 @@ def collect_run(outdir: str | Path, summary: dict | None = None) -> RunData:
     path = outdir / "state.jsonl"
     if not path.is_file():
         return data
-    points = {}
+    points, tori = {}, {}
     for rec in read_records(path):
         if rec.get("type", "point") == "point":
             points[int(rec["row"])] = rec  # a resumed run rewrites its last rows: the latest wins
+        elif rec.get("type") == "branch" and rec.get("torus") is not None:
+            tori[int(rec["branch"])] = rec["torus"]
     if not points:
         return data
-    rows = sorted(points)
     n = len(data["dofs"])
+    torus_rows = sorted(r for r, p in points.items() if int(p["branch"]) in tori)
+    if torus_rows and n:
+        _torus_coefficients(data, points, torus_rows, tori, n)
+    rows = sorted(r for r in points if int(points[r]["branch"]) not in tori)
+    if not rows:
+        return data
     Hs = [int(points[r].get("H") or 0) for r in rows]
     if n == 0 or any(len(points[r]["u"]) != n * (2 * h + 1) for r, h in zip(rows, Hs)):
         return data  # solutions of another form (a frequency among the unknowns): left in state.jsonl
@@ -138,6 +151,26 @@ def collect_run(outdir: str | Path, summary: dict | None = None) -> RunData:
     data["nu"] = np.array([int(points[r].get("nu") or 1) for r in rows], dtype=np.int64)
     data["base_frequency"] = _base_frequency(data, points, rows)
     return data
+
+
+def _torus_coefficients(data: RunData, points: dict, rows: list, tori: dict, n: int) -> None:
+    """The torus rows' coefficients on the pairs of the largest truncation (zeros where a branch has none)."""
+    H1 = max(int(t["harmonics"]) for t in tori.values())
+    H2 = max(int(t["harmonics2"]) for t in tori.values())
+    big = QPBasis(H1, H2)
+    out = np.zeros((len(rows), big.rows, n))
+    for i, r in enumerate(rows):
+        t = tori[int(points[r]["branch"])]
+        own = QPBasis(int(t["harmonics"]), int(t["harmonics2"]))
+        U = np.reshape(points[r]["u"][:-1], (own.rows, n))
+        out[i, 0] = U[0]
+        for j, (k1, k2) in enumerate(own.pairs[1:], start=1):
+            J = big.pair(int(k1), int(k2))[0]
+            out[i, 2 * J - 1], out[i, 2 * J] = U[2 * j - 1], U[2 * j]
+    data["torus_coefficients"] = out
+    data["torus_pairs"] = big.pairs.copy()
+    data["torus_rows"] = np.array(rows, dtype=np.int64)
+    data["frequency2"] = np.array([float(points[r]["u"][-1]) for r in rows])
 
 
 def _base_frequency(data: RunData, points: dict, rows: list) -> np.ndarray:
@@ -177,7 +210,8 @@ def write_coefficients_csv(outdir: str | Path, data: RunData | None = None) -> s
 def _flat(data: RunData) -> dict:
     out = {f"branches/{k}": v for k, v in data["branches"].items()}
     out.update({f"special/{k}": v for k, v in data["special"].items()})
-    for key in ("coefficients", "harmonics", "coefficient_rows", "nu", "base_frequency"):
+    for key in ("coefficients", "harmonics", "coefficient_rows", "nu", "base_frequency", "torus_coefficients",
+                "torus_pairs", "torus_rows", "frequency2"):
         if key in data:
             out[key] = data[key]
     out["dofs"] = np.array(data["dofs"], dtype=str)

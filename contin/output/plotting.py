@@ -30,7 +30,7 @@ __all__ = ["bifurcation_diagram", "draw_bifurcation_diagram", "branch_label", "a
 SPECIAL = {"fold": ("o", "fold", "fold"), "pd": ("s", "period doubling", "PD"), "ns": ("D", "Neimark-Sacker", "NS"),
            "bp": ("^", "branch point", "BP"), "kink": ("v", "corner", "corner"),
            "stability": ("X", "stability change", "stab."), "grazing": ("*", "grazing", "grazing"),
-           "frequency_min": ("<", "frequency minimum", "min."), "frequency_max": (">", "frequency maximum", "max.")}
+           "locking": ("P", "locking", "lock"), "frequency_min": ("<", "frequency minimum", "min."), "frequency_max": (">", "frequency maximum", "max.")}
 #: kinds at which the stability of a branch changes
 CHANGES = ("fold", "pd", "ns", "bp", "stability")
 
@@ -76,10 +76,13 @@ def _groups(branches) -> list:
         br = branches[g[0]]
         if "label" in br:
             labels.append(br["label"] or None)
+        elif br.get("torus"):
+            shared = sum(bool(branches[h[0]].get("torus")) for h in out) > 1
+            labels.append("quasi-periodic" + (f" (branch {br.get('id', g[0])})" if shared else ""))
         elif br.get("nu") is None:
             labels.append(f"branch {br.get('id', g[0])}")
         else:
-            shared = nus.count(br["nu"]) > 1
+            shared = sum(branches[h[0]].get("nu") == br["nu"] and not branches[h[0]].get("torus") for h in out) > 1
             labels.append(branch_label(br["nu"]) + (f" (branch {br.get('id', g[0])})" if shared else ""))
     return list(zip(labels, out))
 
@@ -137,6 +140,10 @@ def draw_bifurcation_diagram(ax, branches, special, parameter: str, measure: str
         color = colors[gi % len(colors)]
         for i in members:
             br = branches[i]
+            if br.get("torus"):  # quasi-periodic: a light band under the line
+                ax.plot(br["x"], br["y"], linewidth=5 * styles[True][1], alpha=0.22, color=color,
+                        solid_capstyle="round")
+                seen_styles.add("torus")
             for xs, ys, st in _segments(np.asarray(br["x"], float), np.asarray(br["y"], float), br.get("stable")):
                 ls, lw = styles[st]
                 ax.plot(xs, ys, linestyle=ls, linewidth=lw, color=color)
@@ -148,6 +155,9 @@ def draw_bifurcation_diagram(ax, branches, special, parameter: str, measure: str
         if st in seen_styles:  # the styles drawn (none for branches without stability)
             handles.append(Line2D([], [], linestyle=styles[st][0], linewidth=styles[st][1], color=key_color,
                                   label=text))
+    if "torus" in seen_styles:
+        handles.append(Line2D([], [], linewidth=5 * styles[True][1], alpha=0.22, color=key_color,
+                              label="quasi-periodic (torus)"))
     points = [dict(sp) for sp in special
               if sp.get("kind") in SPECIAL and np.isfinite(sp["x"]) and np.isfinite(sp["y"])]
     ms = 0.9 * float(matplotlib.rcParams["lines.markersize"])

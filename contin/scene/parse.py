@@ -129,6 +129,18 @@ def _start_simulation_ok(v) -> bool:
 START_SIMULATION = Key("a mapping with keys among transient (revolutions, a number > 0) and steps_per_period "
                        "(an integer from 4 to 2**20)", _start_simulation_ok, {})
 
+def _torus_ok(v) -> bool:
+    if not isinstance(v, dict) or set(v) - {"harmonics", "harmonics2", "samples", "samples2", "stability", "periods",
+                                           "steps_per_period", "locking_tol"}:
+        return False
+    ints = all(v.get(k) is None or (is_int(v[k]) and 1 <= v[k] <= 2**16)
+               for k in ("harmonics", "harmonics2", "samples", "samples2"))
+    return (ints and v.get("stability", "simulation") in ("simulation", "none")
+            and (v.get("periods") is None or (is_number(v["periods"]) and v["periods"] > 0))
+            and (v.get("steps_per_period") is None or (is_int(v["steps_per_period"]) and 4 <= v["steps_per_period"] <= 2**20))
+            and (v.get("locking_tol") is None or (is_number(v["locking_tol"]) and 0 < v["locking_tol"] < 0.25)))
+
+
 FREQUENCY_RESPONSE = {
     "type": string(required=True),
     "parameter": string(),
@@ -146,7 +158,11 @@ FREQUENCY_RESPONSE = {
     "condense": Key("'auto', true or false", lambda v: v == "auto" or isinstance(v, bool), "auto"),
     "stability": string("both", ("hill", "floquet", "both", "none")),
     "stability_options": mapping(),
-    "switch": listing([], lambda x: x in ("pd", "bp"), "a list of bifurcation kinds among 'pd', 'bp'"),
+    "switch": listing([], lambda x: x in ("pd", "bp", "ns"), "a list of bifurcation kinds among 'pd', 'bp', 'ns'"),
+    # quasi-periodic branches started at 'ns' points (contin.hb.torus, contin.bifurcation.torus_branch)
+    "torus": Key("a mapping with keys among harmonics, harmonics2, samples, samples2 (integers or null), stability "
+                 "('simulation' or 'none'), periods (a number > 0), steps_per_period (an integer >= 4), "
+                 "locking_tol (a number in (0, 0.25))", lambda v: _torus_ok(v), {}),
     "max_branches": integer(8, 1),
     "continuation": CONTINUATION_KEYS,
     "start_from": string("model", ("model", "linear", "simulation")),

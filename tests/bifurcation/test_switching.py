@@ -227,8 +227,8 @@ def test_follow_depth_and_validation():
     hb = HarmonicBalance(model, "delta", HBOptions(harmonics=3))
     dg = follow(hb, np.zeros(hb.size), 0.0, (0.0, 0.5), {"ds": 0.02, "ds_max": 0.05}, switch=("pd",), max_depth=0)
     assert len(dg) == 1 and dg[0].info["parent"] is None and dg.children(0) == []
-    with pytest.raises(ValueError, match="switch at 'pd' and 'bp'"):
-        follow(hb, np.zeros(hb.size), 0.0, (0.0, 0.5), switch=("ns",))
+    with pytest.raises(ValueError, match="switch at 'pd', 'bp' and 'ns' points, not 'fold'"):
+        follow(hb, np.zeros(hb.size), 0.0, (0.0, 0.5), switch=("fold",))
     with pytest.raises(ValueError, match="unknown option 'tolerence'.*did you mean 'tolerance'"):
         follow(hb, np.zeros(hb.size), 0.0, (0.0, 0.5), stability={"tolerence": 1e-6})
 

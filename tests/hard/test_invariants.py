@@ -29,6 +29,7 @@ from contin.output.checkpoint import read_records, rebuild_branches
 from contin.output.exports import coefficient_names
 from contin.engine.continuation import connection_report, continuation
 from contin.hb.problem import HarmonicBalance, HBOptions
+from contin.hb.torus import QuasiPeriodicBalance, TorusOptions
 from contin.models.polynomial import polynomial_model
 from contin.scene.build import build_model as scene_model
 from contin.scene.parse import load_scene
@@ -71,6 +72,12 @@ def scene_branches(name, scene_run):
     branches = rebuild_branches(read_records(out / "state.jsonl"), hb.parameter)
     for j, br in sorted(branches.items()):
         nu = int(br.info["subharmonic"])
+        if br.info.get("torus") is not None:  # a quasi-periodic branch: its own problem
+            t = br.info["torus"]
+            opts = TorusOptions(t["harmonics"], t["harmonics2"], t["samples"], t["samples2"], nu, t["crossings"])
+            yield j, QuasiPeriodicBalance(model, hb.parameter, opts, hb.parameters(), hb.frequency,
+                                          pin=tuple(t["pin"])), br
+            continue
         problem = hb if nu == hb.nu else doubled_problem(hb, nu // hb.nu)
         assert problem.H == br.info["harmonics"]
         # the branches hold the engine's unknowns: those of the condensed problem where it was condensed

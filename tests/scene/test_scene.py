@@ -41,7 +41,10 @@ def test_unknown_key_with_suggestion_and_line():
     ("analysis.range=[2, 2]", r"analysis.range.*two different numbers"),
     ("analysis.range=[0, .inf]", r"analysis.range"),
     ("analysis.stability=maybe", r"analysis.stability.*'hill', 'floquet', 'both', 'none'"),
-    ("analysis.switch=[hopf]", r"analysis.switch.*'pd', 'bp'"),
+    ("analysis.switch=[hopf]", r"analysis.switch.*'pd', 'bp', 'ns'"),
+    ("analysis.torus={harmonics2: 0}", r"analysis.torus.*harmonics, harmonics2.*found \{'harmonics2': 0\}"),
+    ("analysis.torus={stability: hill}", r"analysis.torus.*stability \('simulation' or 'none'\)"),
+    ("analysis.torus={harmonic2: 3}", r"analysis.torus.*keys among harmonics, harmonics2"),
     ("analysis.type=frequency", r"analysis.type.*did you mean 'frequency_response'"),
     ("output.plots=yes please", r"output.plots.*true or false"),
     ("model.effects=cubic", r"model.effects.*list of effect names"),
@@ -98,3 +101,18 @@ def test_further_starts_are_checked_with_the_scene():
         parse_scene(base % "[{start: 1.0}, {subharmonic: 0}]")
     with pytest.raises(SceneError, match=r"analysis.starts.*expected a list of mappings"):
         parse_scene(base % "[1.2]")
+
+
+def test_torus_settings_are_checked_against_their_harmonics(tmp_path):
+    """A grid too small for the torus' harmonics, and ns switching without stability, are refused before
+    anything is written."""
+    from contin.app.runner import run_scene
+
+    text = GOOD + "  switch: [ns]\n"
+    for extra, pattern in (({"analysis.torus": "{harmonics2: 4, samples2: 5}"}, r"analysis.torus.*samples2"),
+                           ({"analysis.stability": "none"}, r"analysis.switch.*Neimark-Sacker")):
+        scene = parse_scene(text, overrides=[f"{k}={v}" for k, v in extra.items()])
+        out = tmp_path / "out"
+        with pytest.raises(SceneError, match=pattern):
+            run_scene(scene, out, progress=False)
+        assert not (out / "branches.csv").exists()

@@ -102,6 +102,10 @@ class TestTwoDofFigures(_Folder):
     folder = "figures/two_dof"
 
 
+class TestVanDerPolFigures(_Folder):
+    folder = "figures/van_der_pol"
+
+
 class TestDocsGenerators(_Folder):
     folder = "docs"
 

@@ -189,3 +189,31 @@ def test_a_second_ctrl_c_still_says_how_to_resume(tmp_path, capsys, monkeypatch)
     assert f"\n  {command}\n" in capsys.readouterr().err
     assert json.loads((out / "summary.json").read_text())["message"].endswith(command)
 
+
+
+@pytest.mark.slow
+def test_killed_run_inside_a_torus_branch_resumes_to_the_same_result(tmp_path):
+    """Killed while a quasi-periodic branch is traced: the resumed run takes that branch up from its last
+    point (not anew) and ends as the uninterrupted run does."""
+    scene = str(ROOT / "scenes/van_der_pol.yaml")
+    sets = ["--set", "analysis.torus={harmonics: 8, harmonics2: 8, stability: none}"]
+    ref = tmp_path / "ref"
+    assert main(["run", scene, "-o", str(ref), "-q", *sets]) == 0
+    first_torus_row = int(np.flatnonzero(read_csv(ref / "branches.csv")["branch"] == 1)[0])
+    out = tmp_path / "run"
+    proc = subprocess.Popen([sys.executable, "-m", "contin", "run", scene, "-o", str(out), "-q", *sets],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    t0 = time.time()
+    while rows_of(out / "branches.csv") < first_torus_row + 8 and proc.poll() is None and time.time() - t0 < 120:
+        time.sleep(0.005)
+    assert proc.poll() is None, "the run finished before it could be killed"
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    assert main(["run", scene, "-o", str(out), "-q", "--resume", *sets]) == 0
+    a, b = read_csv(ref / "branches.csv"), read_csv(out / "branches.csv")
+    assert len(a["branch"]) == len(b["branch"])
+    for col in ("w", "frequency2", "free_x", "amp_x"):
+        np.testing.assert_allclose(b[col], a[col], rtol=1e-9, atol=1e-12, err_msg=col)
+    summary = [json.loads((p / "summary.json").read_text())["analysis"]["branches"] for p in (ref, out)]
+    assert [(s["status"], s["points"], s["torus"]) for s in summary[0]] == \
+        [(s["status"], s["points"], s["torus"]) for s in summary[1]]

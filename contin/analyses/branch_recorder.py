@@ -1,0 +1,249 @@
+"""The rows of ``branches.csv`` and ``special_points.csv`` and the checkpoint, written as branches are traced."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import numpy as np
+
+from contin.hb.measures import measure_names, point_measures
+from contin.hb.torus import QuasiPeriodicBalance, torus_measure_names, torus_measures
+from contin.output.checkpoint import encode, read_records, special_record
+from contin.output.dense import checkpoint_solutions
+from contin.output.results import CsvStream, read_csv
+
+__all__ = ["BranchRecorder", "SPECIAL_EXTRA", "row_measures"]
+
+SPECIAL_EXTRA = ["interval_lo", "interval_hi", "located", "detail"]
+#: what a finished branch's ``info`` keeps in its checkpoint (what the summary reports of it)
+_END_INFO = ("unknown_scale", "parameter_scale", "lam_range", "min_rcond", "min_rcond_index", "max_condition",
+             "max_condition_parameter", "last_condition", "n_rejected_steps", "n_newton_iterations", "n_backtracked",
+             "rescalings", "n_linearizations", "last_failure", "uncovered")
+
+
+def row_measures(dof_names, harmonic_columns: int, H: int, model=None) -> list[str]:
+    """The measure columns of a row of ``branches.csv``: those of every dof, then the model's own."""
+    own = list(getattr(model, "observable_names", ()) if getattr(model, "observables", None) else ())
+    return measure_names(list(dof_names), harmonic_columns, H) + own
+
+
+class BranchRecorder:
+    """Streams the rows of ``branches.csv`` and ``special_points.csv``.
+
+    Parameters
+    ----------
+    outdir : Path
+    dof_names : sequence of str
+    parameter : str
+    harmonic_columns, H : int
+        Number of ``hK`` columns is ``min(H, harmonic_columns) + 1``.
+    """
+
+    def __init__(self, outdir, dof_names, parameter, harmonic_columns, H, append=False, model=None, torus=False):
+        self.failed_switches: list = []  # sides of a switch with no first point
+        self.dof_names = list(dof_names)
+        self.parameter = parameter
+        self.harmonic_columns = harmonic_columns
+        self.observables = getattr(model, "observables", None)
+        self.measures = row_measures(self.dof_names, harmonic_columns, H, model)
+        if torus:  # quasi-periodic branches: their second frequency and main components
+            self.measures += torus_measure_names(self.dof_names)
+        head = ["branch", "nu", parameter, "stable", "n_unstable", "max_multiplier"]
+        self.branch_columns = head + self.measures + ["newton_iterations", "residual_norm"]
+        self.special_columns = ["branch", "kind", parameter, "index"] + self.measures + SPECIAL_EXTRA
+        self.rows = CsvStream(outdir / "branches.csv", self.branch_columns, append)
+        self.special = CsvStream(outdir / "special_points.csv", self.special_columns, append)
+        # full solutions (coefficients and tangent) for plots of any row and for --resume
+        self.state = open(outdir / "state.jsonl", "a" if append else "w")
+        self.n_rows = self.rows.rows
+        self._written_special: dict[int, int] = {}
+        self._headers: set = set()
+        self.offsets: dict[int, int] = {}  # branch id -> its first row (of this run or a resumed one)
+        self._engine_offsets: dict[int, int] = {}  # branch id -> row of the engine's index 0 in this run
+        self.curves: dict[int, dict] = {}
+        self.special_list: list[dict] = []
+        self.problems: dict = {}  # branch id -> its problem, to expand condensed unknowns
+
+    def _full(self, branch_id: int, u, lam: float, problem=None):
+        """Full coefficients of the engine's ``u`` (expanded when the branch's problem is condensed)."""
+        problem = self.problems.get(branch_id) if problem is None else problem
+        if problem is None or not hasattr(problem, "expand"):
+            return np.asarray(u)
+        return problem.expand(u, lam)
+
+    def _measures(self, u, n, nu, problem=None, lam=None):
+        if isinstance(problem, QuasiPeriodicBalance):
+            return torus_measures(problem, u, lam, self.dof_names, self.harmonic_columns)
+        out = point_measures(u, n, self.dof_names, self.harmonic_columns)
+        if self.observables is not None:
+            out.update(self.observables(u, n, nu))
+        return out
+
+    def point(self, branch_id: int, nu: int, branch, i: int, H: int | None = None, problem=None) -> None:
+        self.offsets.setdefault(branch_id, self.n_rows - i)
+        self._engine_offsets.setdefault(branch_id, self.n_rows - i)
+        if problem is not None:
+            self.problems[branch_id] = problem
+        lam = float(branch.parameter[i])
+        u = self._full(branch_id, branch.unknowns[i], lam)
+        row = {"branch": branch_id, "nu": nu, self.parameter: lam}
+        pd = branch.point_data
+        if "stable" in pd and bool(pd["evaluated"][i] if "evaluated" in pd else True):
+            row["stable"] = bool(pd["stable"][i])
+            row["n_unstable"] = int(pd["n_unstable"][i])
+            row["max_multiplier"] = float(pd["max_multiplier"][i])
+        elif "stable" in pd:  # no verdict at this point: empty cells, not the monitor's placeholders
+            row.update(stable=None, n_unstable=None, max_multiplier=None)
+        row.update(self._measures(u, len(self.dof_names), nu, self.problems.get(branch_id), lam))
+        row["newton_iterations"] = int(branch.newton_iterations[i])
+        row["residual_norm"] = float(branch.residual_norms[i])
+        self.rows.write(row)
+        if branch_id not in self._headers:
+            self._headers.add(branch_id)
+            su = branch.info.get("unknown_scale")
+            kept = getattr(self.problems.get(branch_id), "dofs", None)
+            self.state.write(json.dumps(encode({"type": "branch", "branch": branch_id, "nu": nu, "H": H,
+                                                "unknown_scale": None if su is None else np.asarray(su),
+                                                "parameter_scale": branch.info.get("parameter_scale"),
+                                                "dofs": None if kept is None else [int(d) for d in kept],
+                                                "torus": _torus_header(self.problems.get(branch_id))})) + "\n")
+        self.state.write(json.dumps({
+            "type": "point", "row": self.n_rows, "branch": branch_id, "nu": nu, "H": H, "lam": lam, "u": u.tolist(),
+            "tangent": branch.tangents[i].tolist(), "s": float(branch.arclength[i]),
+            "step": float(branch.step_sizes[i]), "iterations": int(branch.newton_iterations[i]),
+            "residual": float(branch.residual_norms[i]),
+            "data": encode({k: v[i] for k, v in pd.items()})}) + "\n")
+        self.state.flush()
+        self.n_rows += 1
+        self.special_points(branch_id, branch)
+        c = self.curves.setdefault(branch_id, {"x": [], "rows": [], "stable": [], "nu": nu,
+                                               "torus": isinstance(self.problems.get(branch_id), QuasiPeriodicBalance)})
+        c["x"].append(lam)
+        c["rows"].append(row)
+        c["stable"].append(row.get("stable"))
+        kept = getattr(self.problems.get(branch_id), "dofs", None)
+        self._keep_solution(c, u, branch.tangents[i], branch.info.get("unknown_scale"),
+                            branch.info.get("parameter_scale"), kept, H)
+
+    def _keep_solution(self, c: dict, u, tangent, su, sl, kept, H) -> None:
+        """Keep a point's full coefficients ``u`` and its tangent in the unknowns' units (for the dense curves).
+
+        ``tangent`` (m+1,) is the engine's, scaled by ``su`` (m,) and ``sl``, over the coefficients of
+        the ``kept`` dofs (all when None); ``c`` gets ``u``, ``direction``, ``scale``, ``kept`` and ``H``.
+        """
+        c.setdefault("u", []).append(np.asarray(u, dtype=float))
+        t = np.asarray(tangent, dtype=float)
+        direction = None
+        if su is not None and sl is not None and t.size >= 2:
+            scale = np.append(np.broadcast_to(np.asarray(su, dtype=float), (t.size - 1,)), float(sl))
+            direction = t * scale
+            c["scale"] = scale
+        c.setdefault("direction", []).append(direction)
+        c["kept"] = None if kept is None else [int(d) for d in kept]
+        c["H"] = H
+
+    def special_points(self, branch_id: int, branch, problem=None) -> None:
+        if problem is not None:
+            self.problems[branch_id] = problem
+        off = self._engine_offsets.get(branch_id, self.offsets.get(branch_id, self.n_rows - len(branch)))
+        done = self._written_special.get(branch_id, 0)
+        self._written_special[branch_id] = len(branch.special_points)
+        for sp in branch.special_points[done:]:
+            if sp.kind.value == "start" or self._duplicate(branch_id, sp):
+                # kept in the checkpoint all the same: a resumed branch holds every special point
+                self.state.write(json.dumps(special_record(branch_id, self._full_point(branch_id, sp), csv=False)) + "\n")
+                continue
+            i = min(max(sp.index, 0), len(branch) - 1)
+            if i + 1 < len(branch) and abs(branch.parameter[i + 1] - sp.parameter) < abs(branch.parameter[i] - sp.parameter):
+                i += 1
+            row = {"branch": branch_id, "kind": sp.kind.value, self.parameter: float(sp.parameter), "index": off + i}
+            sp = self._full_point(branch_id, sp)
+            row.update(self._measures(sp.unknowns, len(self.dof_names), self.curves.get(branch_id, {}).get("nu", 1),
+                                      self.problems.get(branch_id), float(sp.parameter)))
+            lo, hi = sp.bracket
+            row.update({"interval_lo": float(lo), "interval_hi": float(hi), "located": bool(sp.located),
+                        "detail": _detail(sp)})
+            self.special.write(row)
+            self.special_list.append(dict(row, _before=off + min(max(sp.index, 0), len(branch) - 1)))
+            self.state.write(json.dumps(special_record(branch_id, sp)) + "\n")
+            self.state.flush()
+
+    def _full_point(self, branch_id: int, sp):
+        """``sp`` with full coefficients (expanded when the branch's problem is condensed)."""
+        u_full = self._full(branch_id, sp.unknowns, float(sp.parameter))
+        return sp if u_full is sp.unknowns else dataclasses.replace(sp, unknowns=u_full)
+
+    def checkpoint(self, branch_id: int, branch, state: dict) -> None:
+        """The engine's state after a step (or its monitors' at the branch's end): see :mod:`contin.output.checkpoint`."""
+        self.special_points(branch_id, branch)  # the state holds them: write them first
+        if "points" in state:
+            rec = {"type": "engine", "branch": branch_id, "state": encode(state)}
+        else:
+            info = {k: v for k, v in branch.info.items() if k in _END_INFO}
+            rec = {"type": "end", "branch": branch_id, "status": branch.status.value, "message": branch.message,
+                   "info": encode(info), "monitors": encode(state.get("monitors") or [])}
+        self.state.write(json.dumps(rec) + "\n")
+        self.state.flush()
+
+    def restore(self, previous: dict) -> None:
+        """Take up the rows and special points of an interrupted run (``--resume``)."""
+        rows = read_csv(self.rows.path)
+        self.n_rows = len(rows.get("branch", []))  # the rows of this run continue the numbering
+        solutions = checkpoint_solutions(read_records(self.state.name))
+        for r in range(len(rows.get("branch", []))):
+            bid = int(rows["branch"][r])
+            self.offsets.setdefault(bid, r)
+            row = {c: rows[c][r] for c in self.branch_columns if c in rows}
+            st = _flag(rows["stable"][r]) if "stable" in rows else None
+            c = self.curves.setdefault(bid, {"x": [], "rows": [], "stable": [], "nu": int(rows["nu"][r])})
+            c["x"].append(float(rows[self.parameter][r]))
+            c["rows"].append(row)
+            c["stable"].append(st)
+            if r in solutions:
+                self._keep_solution(c, *solutions[r])
+        sp = read_csv(self.special.path)
+        for r in range(len(sp.get("branch", []))):
+            row = {c: sp[c][r] for c in self.special_columns if c in sp}
+            row["branch"], row["index"] = int(row["branch"]), int(row["index"])
+            self.special_list.append(dict(row, _before=row["index"]))
+        self._headers = set(previous)
+        self._engine_offsets = dict(self.offsets)  # a resumed branch holds its points from the first
+        self._written_special = {j: len(b.special_points) for j, b in previous.items()}
+
+    def _duplicate(self, branch_id, sp) -> bool:
+        """The same bifurcation found by two tests (the bordered determinant and a multiplier at +1)."""
+        tol = 1e-6 * max(1.0, abs(sp.parameter))
+        return any(r["branch"] == branch_id and r["kind"] == sp.kind.value
+                   and abs(r[self.parameter] - sp.parameter) <= tol for r in self.special_list)
+
+    def close(self) -> None:
+        self.rows.close()
+        self.special.close()
+        self.state.close()
+
+
+def _torus_header(problem) -> dict | None:
+    """What rebuilds a torus branch's problem from the checkpoint (None for a periodic branch)."""
+    if not isinstance(problem, QuasiPeriodicBalance):
+        return None
+    return {"harmonics": problem.H1, "harmonics2": problem.H2, "samples": problem.N1, "samples2": problem.N2,
+            "crossings": problem.options.crossings, "pin": list(problem.pin)}
+
+
+def _detail(sp) -> str:
+    d = sp.data or {}
+    parts = []
+    if "multiplier" in d:
+        z = complex(d["multiplier"])
+        parts.append(f"multiplier {z.real:.6g}{z.imag:+.6g}j")
+    if sp.message:
+        parts.append(sp.message)
+    return "; ".join(parts)
+
+
+def _flag(value) -> bool | None:
+    """A ``stable`` cell read back: True, False, or None where it is empty (no verdict)."""
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    return {"true": True, "false": False}.get(value)

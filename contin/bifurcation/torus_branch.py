@@ -1,0 +1,189 @@
+"""Following a quasi-periodic (torus) branch from its first point, with stability and its ends told.
+
+The branch is traced by the same continuation engine as the periodic ones
+(the problem is :class:`contin.hb.torus.QuasiPeriodicBalance`). Its stability
+comes from a time simulation started on each point
+(:func:`contin.timedomain.torus_check.check_torus`), reported in the
+columns of the periodic branches (``stable``; ``max_multiplier`` is the
+distance's growth over one forcing period; ``n_unstable`` is 1 where the
+trajectory left the torus).
+
+A torus branch ends where its parametrisation by two frequencies breaks
+down, and the engine's step control meets that as steps that fail:
+
+- **locking**: the ratio ``w2 / (w/nu)`` reaches a rational ``p/q`` of small
+  ``q`` (for the rotor ``1/2``: the self-excited whirl entrained into the
+  ``+w/2`` subharmonic). The two frequencies then generate the same
+  spectrum and the torus carries periodic orbits (Arnold tongue); the
+  branch ends with status ``boundary`` and a ``locking`` special point.
+- **collapse**: the self-excited line shrinks to zero at another
+  Neimark-Sacker point of the periodic branch (``w2`` is no longer
+  determined); status ``boundary`` and an ``ns`` special point.
+
+Any other failure keeps the engine's status and message.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from fractions import Fraction
+
+import numpy as np
+
+from contin.engine.branch import Branch, BranchStatus, SpecialKind, SpecialPoint
+from contin.engine.continuation import ContinuationOptions, continuation
+from contin.hb.torus import TorusOptions
+from contin.timedomain.integrator import SimulationError
+from contin.timedomain.torus_check import check_torus
+
+__all__ = ["TorusSettings", "TorusStabilityMonitor", "run_torus", "classify_end"]
+
+#: a branch ending with the self-excited line below this fraction of its largest size has collapsed
+COLLAPSED = 1e-2
+
+
+@dataclasses.dataclass(frozen=True)
+class TorusSettings:
+    """How torus branches are discretised, checked and ended.
+
+    Parameters
+    ----------
+    options : TorusOptions or None
+        Harmonics and grid; None: ``H1`` = the periodic branch's ``H``, ``H2 = 3``.
+    stability : {'simulation', 'none'}
+    periods : float
+        Forcing periods simulated by the stability check.
+    steps_per_period : int
+        RK4 steps per forcing period of the check.
+    locking_tol : float
+        ``|w2/(w/nu) - p/q|`` below which a branch that stops is said to lock.
+    max_denominator : int
+        Largest ``q`` of the locking ratios.
+    """
+
+    options: TorusOptions | None = None
+    stability: str = "simulation"
+    periods: float = 200.0
+    steps_per_period: int = 256
+    locking_tol: float = 0.02
+    max_denominator: int = 4
+
+    def __post_init__(self):
+        if self.stability not in ("simulation", "none"):
+            raise ValueError(f"TorusSettings.stability must be 'simulation' or 'none', got {self.stability!r}")
+        if not self.periods > 0:
+            raise ValueError(f"TorusSettings.periods must be > 0, got {self.periods!r}")
+        if not (isinstance(self.steps_per_period, int) and self.steps_per_period >= 4):
+            raise ValueError(f"TorusSettings.steps_per_period must be an integer >= 4, got {self.steps_per_period!r}")
+        if not 0 < self.locking_tol < 0.25:
+            raise ValueError(f"TorusSettings.locking_tol must be in (0, 0.25), got {self.locking_tol!r}")
+
+    @classmethod
+    def from_dict(cls, d: dict, harmonics: int) -> "TorusSettings":
+        """From a scene's ``analysis.torus`` mapping; ``harmonics`` is the periodic branch's ``H``."""
+        d = dict(d or {})
+        opts = TorusOptions(harmonics=d.pop("harmonics", None) or harmonics, harmonics2=d.pop("harmonics2", None) or 3,
+                            samples=d.pop("samples", None), samples2=d.pop("samples2", None))
+        return cls(options=opts, **{k: v for k, v in d.items() if v is not None})
+
+    def torus_options(self, harmonics: int) -> TorusOptions:
+        return self.options if self.options is not None else TorusOptions(harmonics=harmonics)
+
+
+class TorusStabilityMonitor:
+    """Engine monitor: the verdict of a simulation started on each point (see :mod:`contin.timedomain.torus_check`)."""
+
+    def __init__(self, problem, settings: TorusSettings):
+        self.problem = problem
+        self.settings = settings
+        self.failures: list[tuple[float, str]] = []  # (lambda, why) of the points without a verdict
+
+    def __call__(self, u, lam, Ju=None, Jlam=None) -> dict:
+        s = self.settings
+        try:
+            v = check_torus(self.problem, u, lam, periods=s.periods, steps_per_period=s.steps_per_period)
+        except SimulationError as exc:
+            self.failures.append((float(lam), f"simulation failed: {exc}"))
+            return {"evaluated": False, "stable": False, "n_unstable": 0, "max_multiplier": 0.0}
+        if v.stable is None:
+            self.failures.append((float(lam), v.message))
+            return {"evaluated": False, "stable": False, "n_unstable": 0, "max_multiplier": 0.0}
+        return {"evaluated": True, "stable": bool(v.stable), "n_unstable": 0 if v.stable else 1,
+                "max_multiplier": float(v.multiplier)}
+
+
+def _ratio(problem, u, lam) -> float:
+    return float(u[-1]) / problem.base_frequency(problem.params_at(lam))
+
+
+def _nearest_rational(r: float, qmax: int) -> Fraction:
+    return min((Fraction(p, q) for q in range(1, qmax + 1) for p in range(0, int(r * q) + 2)),
+               key=lambda f: abs(r - float(f)))
+
+
+def classify_end(branch: Branch, problem, settings: TorusSettings) -> None:
+    """Tell a torus branch's end: locking or collapse onto the periodic branch (see the module docstring).
+
+    Changes ``branch.status``, ``branch.message`` and appends the special
+    point in place; a branch that reached its range end is left as it is.
+    """
+    if not len(branch) or branch.status in (BranchStatus.RANGE_END, BranchStatus.INTERRUPTED,
+                                            BranchStatus.MAX_POINTS, BranchStatus.CLOSED_LOOP):
+        return
+    u, lam = branch.unknowns[-1], float(branch.parameter[-1])
+    name = branch.parameter_name
+    r = _ratio(problem, u, lam)
+    f = _nearest_rational(r, settings.max_denominator)
+    j, i = problem.pin
+    amp = np.array([abs(v[problem.n * (2 * j - 1) + i]) for v in branch.unknowns])
+    prev = float(branch.parameter[-2]) if len(branch) > 1 else lam
+    kind = None
+    if f.numerator > 0 and abs(r - float(f)) < settings.locking_tol:
+        kind = SpecialKind.LOCKING
+        why = (f"the torus locks: w2/(w/nu) = {r:.6g} approaches {f} at {name}={lam:.10g} (entrainment into the "
+               f"motion of period {f.denominator} x 2 pi nu/w)")
+    elif amp[-1] < COLLAPSED * amp.max():
+        kind = SpecialKind.NS
+        why = (f"the torus shrinks onto the periodic branch at a Neimark-Sacker point near {name}={lam:.10g} "
+               f"(self-excited line {amp[-1]:.3g}, {amp.max():.3g} at most)")
+    if kind is None:
+        return
+    if not any(sp.event == "torus end" for sp in branch.special_points):  # a resumed branch holds it already
+        branch.special_points.append(SpecialPoint(
+            kind=kind, parameter=lam, unknowns=np.array(u), interval=(prev, lam), index=len(branch) - 1,
+            s=float(branch.arclength[-1]), located=False, data={"ratio": r, "rational": str(f)},
+            message=why, event="torus end"))
+    branch.message = f"{why}; the engine stopped there: {branch.message}"
+    branch.status = BranchStatus.BOUNDARY
+
+
+def run_torus(start, lam_range, options: ContinuationOptions, parameter_name: str, settings: TorusSettings,
+              callback=None, checkpoint=None, resume=None) -> Branch:
+    """Trace the torus branch from ``start`` (:func:`contin.bifurcation.torus_start.torus_start`).
+
+    ``resume(problem, options, monitors) -> Branch`` takes up the same branch of an interrupted run
+    instead (:func:`contin.bifurcation.diagram.follow` passes it).
+
+    Returns
+    -------
+    Branch
+        Its ``info`` holds ``torus`` (harmonics, grid, pin) besides the engine's.
+    """
+    qp = start.problem
+    monitors = [] if settings.stability == "none" else [TorusStabilityMonitor(qp, settings)]
+    opts = options.replace(unknown_scale=None, parameter_scale=None)
+    if resume is not None:
+        br = resume(qp, opts, monitors)
+    else:
+        br = continuation(qp, start.u, start.lam, lam_range, opts, parameter_name=parameter_name, monitors=monitors,
+                          tangent=start.tangent, solve_start=False, callback=callback, checkpoint=checkpoint)
+    if br.status is not BranchStatus.BOUNDARY:
+        classify_end(br, qp, settings)
+    for mon in monitors:
+        if mon.failures:
+            lam, why = mon.failures[0]
+            br.message = (f"{br.message}; no stability verdict at {len(mon.failures)} point(s) (first at "
+                          f"{parameter_name}={lam:.10g}: {why})")
+    br.info["torus"] = {"harmonics": qp.H1, "harmonics2": qp.H2, "samples": qp.N1, "samples2": qp.N2,
+                        "pin": list(qp.pin)}
+    return br
