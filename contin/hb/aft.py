@@ -117,7 +117,7 @@ def _cs(Ghat, m, N):
     return z.real / N, z.imag / N
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")  # in the innermost loop of every Jacobian: no call
 def product_block(T, rc, rs, cc, cs, row_sine, col_sine, h, Cm, Sm, Cp, Sp):
     """Add the product-to-sum entries of one (row harmonic, column harmonic) pair, weighted by ``h``.
 

@@ -75,6 +75,7 @@ def rotor():
     return build_model("bearing_rotor", {"f0": 0.5})
 
 
+@pytest.mark.slow  # 8 s: a rotor run to its entrained steady state (the verdict logic is tested below cheaply)
 def test_entrained_into_the_half_order_forward_whirl(rotor):
     """f0 = 0.5, from rest at w = 2.16 and on to 2.18 (the stable subharmonic branch, 2.1498..2.1950):
     entrained, the +w/2 radius that of the harmonic balance; the sweep continues the entrained state."""
