@@ -95,6 +95,7 @@ def test_resume_refuses_a_different_scene(tmp_path, reference):
     assert main(["run", SCENE, "-o", str(out), "-q", "--resume", "--set", "analysis.harmonics=7"]) == 2
 
 
+@pytest.mark.slow  # 14 s; in the default tier the handler's path runs in-process (the two ctrl-c tests below)
 def test_ctrl_c_stops_cleanly_with_what_was_computed(tmp_path, reference):
     out = tmp_path / "int"
     proc = subprocess.Popen([sys.executable, "-m", "contin", "run", SCENE, "-o", str(out), *SETS],
