@@ -111,19 +111,42 @@ def _cs2(Ghat, m1, m2, N1, N2):
 
 
 @nb.njit(cache=True)
+def _cs_table(Ghat, pairs, N1, N2):
+    """``C(m), S(m)`` for every ``m = k -+ l`` of two pairs, as tables indexed ``[m1 + 2 H1, m2 + 2 H2]``."""
+    H1 = 0
+    H2 = 0
+    for j in range(pairs.shape[0]):
+        H1 = max(H1, pairs[j, 0])
+        H2 = max(H2, abs(pairs[j, 1]))
+    C = np.empty((4 * H1 + 1, 4 * H2 + 1))
+    S = np.empty((4 * H1 + 1, 4 * H2 + 1))
+    for a in range(4 * H1 + 1):
+        for b in range(4 * H2 + 1):
+            C[a, b], S[a, b] = _cs2(Ghat, a - 2 * H1, b - 2 * H2, N1, N2)
+    return C, S, 2 * H1, 2 * H2
+
+
+@nb.njit(cache=True)
 def _fill_block2(Ghat, pairs, N1, N2, n, a, b, T, scale, freqs, velocity):
     # Block of "multiply by G_ab" between dof a (rows) and dof b (columns); with velocity, the
     # columns of pair l act through d/dt: (a_l, b_l) <- f_l (-b_l, a_l) with f_l = freqs[l].
     P = pairs.shape[0]
+    C, S, o1, o2 = _cs_table(Ghat, pairs, N1, N2)
     for k in range(P):
         wk = scale if k == 0 else 2.0 * scale
         rc = (0 if k == 0 else 2 * k - 1) * n + a
         rs = 2 * k * n + a
+        k1 = pairs[k, 0]
+        k2 = pairs[k, 1]
         for l in range(P):
             if velocity and l == 0:
                 continue
-            Cm, Sm = _cs2(Ghat, pairs[k, 0] - pairs[l, 0], pairs[k, 1] - pairs[l, 1], N1, N2)
-            Cp, Sp = _cs2(Ghat, pairs[k, 0] + pairs[l, 0], pairs[k, 1] + pairs[l, 1], N1, N2)
+            d1 = k1 - pairs[l, 0] + o1
+            d2 = k2 - pairs[l, 1] + o2
+            s1 = k1 + pairs[l, 0] + o1
+            s2 = k2 + pairs[l, 1] + o2
+            Cm, Sm = C[d1, d2], S[d1, d2]
+            Cp, Sp = C[s1, s2], S[s1, s2]
             cc = (0 if l == 0 else 2 * l - 1) * n + b
             cs = 2 * l * n + b
             if velocity:
