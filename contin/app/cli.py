@@ -139,6 +139,14 @@ def cmd_check(args) -> int:
         if problem is not hb:
             print(f"  {problem.describe()}")
         print(f"  stability: {a['stability']}; switching at: {', '.join(a['switch']) or 'none'}")
+        if "ns" in a["switch"]:
+            from contin.bifurcation.torus_branch import TorusSettings
+
+            t = TorusSettings.from_dict(a.get("torus") or {}, hb.H)
+            o = t.options
+            print(f"  tori: H1={o.harmonics}, H2={o.harmonics2}, crossings {o.crossings}; stability "
+                  + (f"by simulation ({t.periods:g} periods, {t.steps_per_period} steps each)"
+                     if t.stability == "simulation" else "none"))
     elif a["type"] == "modes":
         what = f"versus {a['parameter']}" if a["parameter"] else "at the model's parameters"
         print(f"  natural frequencies and modes about the static equilibrium {what}"
