@@ -68,6 +68,9 @@ def test_python_session_from_model_to_mat_file(user_backend, tmp_path):
     assert np.allclose(mat["branches"].amp_x1, df["amp_x1"].to_numpy())
     assert np.allclose(mat["coefficients"], result.coefficients())
     assert ax.get_xlabel() and "w" != ax.get_xlabel()
+    import matplotlib.pyplot as plt
+
+    plt.close(ax.figure)  # the user's pyplot figure: the tests after this one expect none open
 
     # truth from outside: scipy integrates the hand-written equations over one period from a
     # subharmonic point and lands on the harmonic-balance orbit
