@@ -219,9 +219,7 @@ def _switch_candidates(br: Branch, kinds: set, origin_lam: float | None, tol: fl
     """
     chosen: dict[tuple, SpecialPoint] = {}
     for sp in br.special_points:
-        kind = sp.kind
-        if kind is SpecialKind.STABILITY:
-            kind = SpecialKind(sp.data.get("classification", "stability"))
+        kind = _kind(sp)
         if kind.value not in kinds or not sp.located:
             continue
         scale = tol * max(1.0, abs(sp.parameter))
