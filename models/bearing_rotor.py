@@ -29,6 +29,7 @@ from scipy.integrate import quad
 from contin.model.catalog import ModelSpec, register_model
 from contin.model.elements import HarmonicExcitation, RadialGapForce
 from contin.model.base import Model, Monomial, ParametricMatrix
+from contin.model.whirl import WHIRL_COLUMNS, WHIRL_SYMBOLS, whirl_radii
 
 __all__ = ["stable_subharmonic_interval", "bearing_rotor", "hertz_cylinder_stiffness", "contact_damping", "restitution_coefficient"]
 
@@ -110,48 +111,15 @@ def _build(params: dict, effects: tuple, clip: bool = False) -> Model:
     return model
 
 
-WHIRL_COLUMNS = tuple(f"whirl_{d}_{f}_{part}" for part in ("disc", "bearing") for f in ("half", "1")
-                      for d in ("fwd", "bwd"))
-
 #: how figures write the rotor speed, the parameters and the whirl columns (:mod:`contin.output.labels`)
-SYMBOLS = {"w": r"\Omega", "ks2": r"k_{s2}", "ip": r"i_p", "kbn": r"k_{bn}", "cbn": r"c_{bn}",
-           **{f"whirl_{d}_{f}_{part}": f"{word} whirl of the {part} at ${speed}$"
-              for d, word in (("fwd", "forward"), ("bwd", "backward"))
-              for f, speed in (("half", r"\Omega/2"), ("1", r"\Omega")) for part in ("disc", "bearing")}}
+SYMBOLS = {"w": r"\Omega", "ks2": r"k_{s2}", "ip": r"i_p", "kbn": r"k_{bn}", "cbn": r"c_{bn}", **WHIRL_SYMBOLS}
 
 
 def whirl_components(u: np.ndarray, n_dof: int, nu: int) -> dict:
-    """Forward and backward whirl radii of the disc and the bearing at w/2 and at w.
-
-    With ``x = a cos(k theta) + b sin(k theta)`` and ``y = c cos(k theta) + d sin(k theta)``,
-    ``x + i y = F e^{i k theta} + B e^{-i k theta}`` with
-    ``|F| = |(a + d) + i(c - b)|/2`` (forward) and ``|B| = |(a - d) + i(c + b)|/2``
-    (backward). The ``w/2`` component is harmonic ``k = nu/2`` of the base
-    frequency ``w/nu`` (zero for ``nu = 1``: the harmonic solution has none,
-    the zero-amplitude solution of the paper's Fig. 4); the ``w`` component is
-    ``k = nu``.
-
-    Returns
-    -------
-    dict
-        ``whirl_{fwd,bwd}_{half,1}_{disc,bearing}``.
-    """
-    U = np.asarray(u).reshape(-1, n_dof)
-    H = (U.shape[0] - 1) // 2
-    out = {}
-    for part, (ix, iy) in (("disc", (0, 1)), ("bearing", (2, 3))):
-        for label, num in (("half", 1), ("1", 2)):
-            k2 = nu * num  # 2k: the component is k = nu*num/2
-            fwd = bwd = 0.0
-            if k2 % 2 == 0 and 1 <= k2 // 2 <= H:
-                k = k2 // 2
-                a, b = U[2 * k - 1, ix], U[2 * k, ix]
-                c, d = U[2 * k - 1, iy], U[2 * k, iy]
-                fwd = 0.5 * float(np.hypot(a + d, c - b))
-                bwd = 0.5 * float(np.hypot(a - d, c + b))
-            out[f"whirl_fwd_{label}_{part}"] = fwd
-            out[f"whirl_bwd_{label}_{part}"] = bwd
-    return out
+    """Forward and backward whirl radii of the disc (x1, y1) and the bearing (x2, y2) at w/2 and at w
+    (:func:`contin.model.whirl.whirl_radii`; zero at w/2 for ``nu = 1``, the zero-amplitude solution of the
+    paper's Fig. 4)."""
+    return whirl_radii(u, n_dof, nu, {"disc": (0, 1), "bearing": (2, 3)})
 
 
 #: Harmonics of the homotopy in the contact stiffness (the start at full H follows by Newton).

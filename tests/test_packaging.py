@@ -8,6 +8,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -60,6 +62,20 @@ def test_dask_is_the_sweep_extra_not_a_dependency():
     assert "dask" not in install and "distributed" not in install
     assert requirements(cfg["options.extras_require"]["sweep"]) == {"dask": "2024.1"}
     assert "dask[distributed]>=2024.1" in cfg["options.extras_require"]["sweep"]
+
+
+def test_ross_is_an_extra_and_its_absence_is_told(monkeypatch):
+    """ROSS (1.2 GB) is the `ross` extra, never a dependency; the bridge imports without it and says what to
+    install when it is asked for."""
+    cfg = setup_cfg()
+    assert "ross-rotordynamics" not in requirements(cfg["options"]["install_requires"])
+    extra = cfg["options.extras_require"]["ross"].split()
+    assert extra == ["ross-rotordynamics>=2.3", "plotly<6"]
+    from contin.model.fem.ross_bridge import import_ross
+
+    monkeypatch.setitem(sys.modules, "ross", None)
+    with pytest.raises(ImportError, match=r"pip install 'contin\[ross\]'"):
+        import_ross()
 
 
 def test_lower_bounds_are_the_documented_ones():

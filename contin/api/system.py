@@ -18,6 +18,7 @@ import numpy as np
 
 from contin.model.base import Model
 from contin.scene.build import build_model
+from contin.scene.fe_model import rotor_path
 from contin.scene.parse import Scene, SceneError, check_model_section, load_scene, parse_scene
 
 __all__ = ["System", "plain"]
@@ -123,7 +124,11 @@ class System:
         """The model of a scene: a path to a scene file, its YAML text, or a dict (a whole scene or its
         ``model`` section)."""
         if isinstance(scene, (str, Path)) and not (isinstance(scene, str) and "\n" in scene):
-            return cls(section=load_scene(scene).model)
+            loaded = load_scene(scene)
+            section = loaded.model
+            if "from" in section:  # a rotor file named relative to the scene file: kept so when the model moves
+                section["file"] = str(rotor_path(section, loaded.source).resolve())
+            return cls(section=section)
         if isinstance(scene, str):
             return cls(section=parse_scene(scene).model)
         if isinstance(scene, Mapping):

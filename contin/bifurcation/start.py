@@ -18,11 +18,12 @@ import dataclasses
 import numpy as np
 
 from contin.engine.continuation import ContinuationOptions, continuation
+from contin.hb.condensation import condense
 from contin.hb.problem import HarmonicBalance
 from contin.engine.newton import solve_at_parameter
 from contin.model.base import Model
 
-__all__ = ["HomotopyFailed", "homotopy_start", "simulation_start", "integrated_model"]
+__all__ = ["HomotopyFailed", "homotopy_start", "contact_start", "simulation_start", "integrated_model"]
 
 
 class HomotopyFailed(RuntimeError):
@@ -31,7 +32,7 @@ class HomotopyFailed(RuntimeError):
 
 def homotopy_start(hb: HarmonicBalance, lam0: float, parameter: str, soft_value: float, guess: np.ndarray,
                    at: float | None = None, options: ContinuationOptions | None = None,
-                   harmonics: int | None = None) -> np.ndarray:
+                   harmonics: int | None = None, condensed: bool = False) -> np.ndarray:
     """A converged solution of ``hb`` at ``lam = lam0`` by homotopy in ``parameter``.
 
     Parameters
@@ -55,6 +56,10 @@ def homotopy_start(hb: HarmonicBalance, lam0: float, parameter: str, soft_value:
         Do the homotopy with this many harmonics (fewer than ``hb.H``: each
         step is cheaper), then solve ``hb`` by Newton from its solution padded
         with zeros; if either fails, the homotopy is done with ``hb.H``.
+    condensed : bool
+        Follow the problems condensed onto the dofs that carry nonlinear forces
+        (:func:`contin.hb.condensation.condense`; a finite-element model); ``guess``
+        and the result are full coefficient vectors all the same.
 
     Returns
     -------
@@ -68,16 +73,18 @@ def homotopy_start(hb: HarmonicBalance, lam0: float, parameter: str, soft_value:
         coarse = hb.with_options(harmonics=int(harmonics))
         try:
             u = homotopy_start(coarse, lam0, parameter, soft_value, np.asarray(guess, float)[:coarse.size], at,
-                               options)
+                               options, condensed=condensed)
         except HomotopyFailed:
             u = None
         if u is not None:
             padded = np.zeros(hb.size)
             padded[:u.size] = u  # harmonic-major coefficients: the higher harmonics come last
-            res = solve_at_parameter(hb, padded, lam0, options or ContinuationOptions(newton_max_iter=30))
+            target_hb = condense(hb, require=True) if condensed else hb
+            start = target_hb.restrict(padded) if condensed else padded
+            res = solve_at_parameter(target_hb, start, lam0, options or ContinuationOptions(newton_max_iter=30))
             if res.converged:
-                return res.x
-        return homotopy_start(hb, lam0, parameter, soft_value, guess, at, options)
+                return target_hb.expand(res.x, lam0) if condensed else res.x
+        return homotopy_start(hb, lam0, parameter, soft_value, guess, at, options, condensed=condensed)
     opts = options or ContinuationOptions(ds=0.01, ds_max=0.1, newton_max_iter=30)
     at = lam0 if at is None else at
     model = hb.model
@@ -87,11 +94,15 @@ def homotopy_start(hb: HarmonicBalance, lam0: float, parameter: str, soft_value:
     params[parameter] = soft_value
     easy = HarmonicBalance(model, parameter, hb.options, params, hb.frequency)
     guess = np.asarray(guess, float)
+    if condensed:
+        easy = condense(easy, require=True)
+        guess = easy.restrict(guess)
     if hb.options.crossings != "none":
         # Newton's path from a rough guess wanders through states with many contact switches; the plain
         # sampled law gets there as reliably, and its solution is within O(1/N) of the resolved one
         plain = HarmonicBalance(model, parameter, dataclasses.replace(hb.options, crossings="none"), params,
                                 hb.frequency)
+        plain = condense(plain, require=True) if condensed else plain
         first = solve_at_parameter(plain, guess, soft_value, opts)
         if first.converged:
             guess = first.x
@@ -107,18 +118,98 @@ def homotopy_start(hb: HarmonicBalance, lam0: float, parameter: str, soft_value:
                              f"{br.parameter[-1] if len(br) else soft_value:g} before {target:g}: {br.message}")
     u = br.unknowns[-1]
     if at == lam0:
-        return u
+        return easy.expand(u, target) if condensed else u
     params[parameter] = target
     lo, hi = sorted((at, lam0))
-    path = continuation(hb, u, at, (lo, hi), opts.replace(direction=1 if lam0 > at else -1),
+    follow = condense(hb, require=True) if condensed else hb
+    path = continuation(follow, u, at, (lo, hi), opts.replace(direction=1 if lam0 > at else -1),
                         parameter_name=hb.parameter)
     if not len(path) or path.parameter[-1] != lam0:
         raise HomotopyFailed(f"continuing the start from {hb.parameter}={at:g} to {lam0:g} stopped: {path.message}")
-    return path.unknowns[-1]
+    return follow.expand(path.unknowns[-1], lam0) if condensed else path.unknowns[-1]
+
+
+def contact_start(hb: HarmonicBalance, lam0: float, *, stiffness: str = "kbn", clearance: str = "delta",
+                  soft=(20.0, 5.0, 80.0), direction=(0.0, 1.0), harmonics: int = 8,
+                  simulation: float = 400.0) -> np.ndarray:
+    """A start for a model whose one radial contact is what its dofs are condensed onto (a finite-element rotor).
+
+    The guess is exact for a *linear* spring of stiffness ``soft`` pulling the
+    contact dofs towards the clearance circle at ``clearance * direction``:
+    with the condensed linear operator ``S`` (the Schur complement, the
+    residual's Jacobian at ``u = 0`` where the contact is open) and its
+    residual ``R(0)``, ``(S + soft I) u = -R(0) + soft * clearance * direction``
+    on the mean. From it the soft contact is solved by Newton and its
+    stiffness raised to the model's value by continuation, on the condensed
+    problem (:func:`homotopy_start` with ``condensed=True``).
+
+    Parameters
+    ----------
+    hb : HarmonicBalance
+    lam0 : float
+    stiffness, clearance : str
+        The contact's stiffness and clearance parameters.
+    soft : float or sequence of float
+        The homotopy's first stiffness; with several, each is tried in turn until one leads to a solution
+        (a soft contact lets the orbit swing wide, a stiffer one starts nearer a resonance).
+    direction : (float, float)
+        Where the contact node rests, in its ``(x, y)`` (the side load's direction).
+    harmonics : int
+        Harmonics of the homotopy (fewer than ``hb.H`` is cheaper).
+    simulation : float
+        When every homotopy fails: revolutions of a time simulation to start from
+        (:func:`simulation_start`, a stable orbit only); 0 to skip.
+
+    Raises
+    ------
+    HomotopyFailed
+    """
+    failures = []
+    for value in np.atleast_1d(np.asarray(soft, float)):
+        try:
+            return _contact_start(hb, lam0, stiffness, clearance, float(value), direction, harmonics)
+        except HomotopyFailed as exc:
+            failures.append(f"{stiffness}={value:g}: {exc}")
+    if simulation:
+        from contin.timedomain.simulation import SimulationError, compile_model
+
+        # RK4's limit for the stiffest mode with the contact closed (its step is refused beyond it)
+        p = hb.params_at(lam0)
+        rate = compile_model(integrated_model(hb)).fastest_rate(p)
+        steps = max(1024, int(np.ceil(1.1 * rate * hb.period(p) / hb.nu / 2.78)))
+        try:
+            return simulation_start(hb, lam0, transient=simulation, steps_per_period=steps)
+        except (HomotopyFailed, SimulationError) as exc:
+            failures.append(f"from a time simulation ({steps} steps per period): {exc}")
+    raise HomotopyFailed("; ".join(failures))
+
+
+def _contact_start(hb, lam0, stiffness, clearance, soft, direction, harmonics):
+    params = hb.parameters()
+    params[hb.parameter] = lam0
+    params[stiffness] = soft
+    H = min(hb.H, int(harmonics))
+    easy = condense(HarmonicBalance(hb.model, hb.parameter, dataclasses.replace(hb.options, harmonics=H), params,
+                                    hb.frequency), require=True)
+    if easy.n != 2:
+        raise HomotopyFailed(f"contact_start needs the two dofs of one radial contact to condense onto, found "
+                             f"{easy.dof_names}")
+    R0, S, _ = easy.linearize(np.zeros(easy.size), lam0)
+    rhs = -R0
+    d = np.asarray(direction, float)
+    rhs[:2] += soft * params[clearance] * d / np.hypot(*d)
+    try:
+        uc = np.linalg.solve(S + soft * np.eye(easy.size), rhs)
+    except np.linalg.LinAlgError:
+        raise HomotopyFailed("contact_start: the linear guess with the soft spring is singular") from None
+    guess = np.zeros(hb.size)
+    full = easy.expand(uc, lam0)
+    guess[:full.size] = full  # harmonic-major: the higher harmonics come last
+    return homotopy_start(hb, lam0, stiffness, soft, guess, harmonics=H, condensed=True)
 
 
 def simulation_start(hb: HarmonicBalance, lam0: float, *, transient: float = 500, steps_per_period: int = 4096,
-                     x0=None, v0=None, options: ContinuationOptions | None = None) -> np.ndarray:
+                     x0=None, v0=None, options: ContinuationOptions | None = None, run_up=()) -> np.ndarray:
     """A converged solution at ``lam = lam0`` started from a time simulation.
 
     The model is integrated (:func:`contin.timedomain.simulation.simulate`) for
@@ -127,6 +218,12 @@ def simulation_start(hb: HarmonicBalance, lam0: float, *, transient: float = 500
     how a stable subharmonic is reached without switching at a period doubling,
     where a guess from one or two harmonics would fall back onto the harmonic
     solution.
+
+    With ``run_up`` the model is first integrated ``transient`` revolutions
+    at each of those values of ``lambda`` in turn, each started from the
+    last state of the one before (a slow sweep up to ``lam0``): an attractor
+    that a start from rest misses (an entrained subharmonic that coexists
+    with a self-excited whirl) is reached as a speed sweep reaches it.
 
     Raises
     ------
@@ -140,8 +237,13 @@ def simulation_start(hb: HarmonicBalance, lam0: float, *, transient: float = 500
     params[hb.parameter] = lam0
     n, nu, H = hb.n, hb.nu, hb.H
     model = integrated_model(hb)
+    mode = None
+    for value in run_up:
+        before = simulate(model, {**params, hb.parameter: float(value)}, x0, v0, periods=transient,
+                          steps_per_period=steps_per_period, record_every=steps_per_period, mode0=mode)
+        x0, v0, mode = before.final_state[:n], before.final_state[n:], before.final_mode
     run = simulate(model, params, x0, v0, periods=transient, steps_per_period=steps_per_period,
-                   record_every=steps_per_period)
+                   record_every=steps_per_period, mode0=mode)
     xs, vs = run.final_state[:n], run.final_state[n:]
     last = simulate(model, params, xs, vs, periods=nu, steps_per_period=steps_per_period, record_every=1,
                     mode0=run.final_mode)
@@ -156,7 +258,8 @@ def simulation_start(hb: HarmonicBalance, lam0: float, *, transient: float = 500
     res = solve_at_parameter(hb, u, lam0, options or ContinuationOptions(newton_max_iter=30))
     if not res.converged:
         r0 = float(np.abs(hb.residual(u, lam0)).max())
-        raise HomotopyFailed(f"the simulated motion at {hb.parameter}={lam0:g} after {transient:g} revolutions is not "
+        raise HomotopyFailed(f"the simulated motion at {hb.parameter}={lam0:g} after {transient:g} revolutions"
+                             f"{' (and a run-up)' if len(run_up) else ''} is not "
                              f"close to a solution of order nu={nu} (residual {r0:.2e}); Newton: {res.message}")
     return res.x
 

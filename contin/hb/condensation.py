@@ -38,6 +38,8 @@ The real block of harmonic ``k`` acting on ``(a_k, b_k)`` is the complex
 matrix ``Z_k = K - (k Omega)^2 M + i k Omega C`` acting on ``z_k = a_k - i
 b_k`` (residual rows map alike), so the elimination is done on ``n_l x
 n_l`` complex blocks, one per harmonic ``k = 0..H``, by a compiled kernel.
+Narrow blocks (finite-element models ordered node by node) are factored in
+band storage (:mod:`contin.hb.block_lu`), at a cost linear in ``n_l``.
 The blocks depend on ``lambda`` through ``Omega = w/nu`` when ``lambda`` is
 the frequency and through any matrix term that depends on it (the rotor's
 gyroscopic ``ip*w``); they are rebuilt for each ``lambda`` and kept for the
@@ -57,12 +59,16 @@ import collections
 import numba as nb
 import numpy as np
 
+from contin.hb.block_lu import bandwidths, factor, solve
+from contin.hb.force_submodel import force_submodel_problem
 from contin.hb.problem import HarmonicBalance
 
 __all__ = ["CondensedHarmonicBalance", "condense", "condensation_dofs", "nonlinear_dofs", "restrict_coefficients"]
 
 #: values of lambda whose blocks are kept (corrector, recorder and monitor at the same point)
 _CACHE = 4
+#: the eliminated blocks are factored in band storage when its ``2 kl + ku + 1`` rows times this are at most ``n_l``
+_BAND_RATIO = 4
 
 
 def restrict_coefficients(u_full, n_dof: int, dofs) -> np.ndarray:
@@ -203,78 +209,15 @@ def _to_real(z: np.ndarray) -> np.ndarray:
 
 
 @nb.njit(cache=True)
-def _lu(A, perm) -> bool:
-    """LU with partial pivoting of the square complex ``A`` in place (``PA = LU``, ``perm`` the row order).
-
-    Returns False on a zero or non-finite pivot.
-    """
-    n = A.shape[0]
-    for i in range(n):
-        perm[i] = i
-    for j in range(n):
-        r = j
-        big = abs(A[j, j])
-        for i in range(j + 1, n):
-            if abs(A[i, j]) > big:
-                r, big = i, abs(A[i, j])
-        if not (big > 0.0 and np.isfinite(big)):
-            return False
-        if r != j:
-            for q in range(n):
-                A[j, q], A[r, q] = A[r, q], A[j, q]
-            perm[j], perm[r] = perm[r], perm[j]
-        for i in range(j + 1, n):
-            m = A[i, j] / A[j, j]
-            A[i, j] = m
-            for q in range(j + 1, n):
-                A[i, q] -= m * A[j, q]
-    return True
-
-
-@nb.njit(cache=True)
-def _lu_solve(A, perm, r, out):
-    """``out = Z^-1 r`` from the factors of :func:`_lu`."""
-    n = A.shape[0]
-    for i in range(n):
-        s = r[perm[i]]
-        for q in range(i):
-            s -= A[i, q] * out[q]
-        out[i] = s
-    for i in range(n - 1, -1, -1):
-        s = out[i]
-        for q in range(i + 1, n):
-            s -= A[i, q] * out[q]
-        out[i] = s / A[i, i]
-
-
-@nb.njit(cache=True)
-def _lu_solve_t(A, perm, r, out):
-    """``out = Z^-T r`` (plain transpose) from the factors of :func:`_lu`: ``U^T L^T P out = r``."""
-    n = A.shape[0]
-    w = np.empty(n, dtype=np.complex128)
-    for i in range(n):
-        s = r[i]
-        for q in range(i):
-            s -= A[q, i] * w[q]
-        w[i] = s / A[i, i]
-    for i in range(n - 1, -1, -1):
-        s = w[i]
-        for q in range(i + 1, n):
-            s -= A[q, i] * w[q]
-        w[i] = s
-    for i in range(n):
-        out[perm[i]] = w[i]
-
-
-@nb.njit(cache=True)
-def _eliminate(M, C, K, Omega, c, l, f, LU, perm, P, Q, g, S) -> bool:
+def _eliminate(M, C, K, Omega, c, l, f, kl, ku, LU, perm, P, Q, g, S) -> bool:
     """The blocks of :class:`_Blocks` for harmonics ``k = 0..H`` (``H + 1 = f.shape[0]``).
 
     ``Z_k = K - (k Omega)^2 M + i k Omega C`` split on the kept dofs ``c`` and
     the eliminated ``l``; ``f`` (H+1, n) the complex excitation. Writes the
-    factors of ``Z_ll`` (``LU``, ``perm``), ``P = Z_ll^-1 Z_lc``,
-    ``Q = Z_cl Z_ll^-1``, ``g = Z_ll^-1 f_l`` and ``S = Z_cc - Z_cl P``.
-    Returns False when some ``Z_ll`` is singular.
+    factors of ``Z_ll`` (``LU``, ``perm``: dense when ``kl < 0``, else in the
+    band storage of :func:`contin.hb.block_lu.band_lu`, which ``Z_ll`` must
+    fit), ``P = Z_ll^-1 Z_lc``, ``Q = Z_cl Z_ll^-1``, ``g = Z_ll^-1 f_l`` and
+    ``S = Z_cc - Z_cl P``. Returns False when some ``Z_ll`` is singular.
     """
     nc, nl = c.shape[0], l.shape[0]
     col = np.empty(nl, dtype=np.complex128)
@@ -282,29 +225,36 @@ def _eliminate(M, C, K, Omega, c, l, f, LU, perm, P, Q, g, S) -> bool:
     for k in range(f.shape[0]):
         w = k * Omega
         A = LU[k]
-        for i in range(nl):
+        if kl < 0:
+            for i in range(nl):
+                for j in range(nl):
+                    a, b = l[i], l[j]
+                    A[i, j] = complex(K[a, b] - w * w * M[a, b], w * C[a, b])
+        else:
+            A[:, :] = 0.0
             for j in range(nl):
-                a, b = l[i], l[j]
-                A[i, j] = complex(K[a, b] - w * w * M[a, b], w * C[a, b])
-        if not _lu(A, perm[k]):
+                for i in range(max(0, j - ku), min(nl, j + kl + 1)):
+                    a, b = l[i], l[j]
+                    A[kl + ku + i - j, j] = complex(K[a, b] - w * w * M[a, b], w * C[a, b])
+        if not factor(A, kl, ku, perm[k]):
             return False
         for j in range(nc):
             for i in range(nl):
                 a, b = l[i], c[j]
                 col[i] = complex(K[a, b] - w * w * M[a, b], w * C[a, b])
-            _lu_solve(A, perm[k], col, sol)
+            solve(A, kl, ku, perm[k], col, sol)
             for i in range(nl):
                 P[k, i, j] = sol[i]
         for i in range(nl):
             col[i] = f[k, l[i]]
-        _lu_solve(A, perm[k], col, sol)
+        solve(A, kl, ku, perm[k], col, sol)
         for i in range(nl):
             g[k, i] = sol[i]
         for i in range(nc):
             for j in range(nl):
                 a, b = c[i], l[j]
                 col[j] = complex(K[a, b] - w * w * M[a, b], w * C[a, b])
-            _lu_solve_t(A, perm[k], col, sol)
+            solve(A, kl, ku, perm[k], col, sol, True)
             for j in range(nl):
                 Q[k, i, j] = sol[j]
         for i in range(nc):
@@ -319,11 +269,11 @@ def _eliminate(M, C, K, Omega, c, l, f, LU, perm, P, Q, g, S) -> bool:
 
 
 @nb.njit(cache=True)
-def _solve_all(LU, perm, r):
-    """``Z_ll,k^-1 r_k`` for every harmonic; ``r`` of shape (H+1, n_l)."""
+def _solve_all(LU, kl, ku, perm, r):
+    """``Z_ll,k^-1 r_k`` for every harmonic from the factors of :func:`_eliminate`; ``r`` of shape (H+1, n_l)."""
     out = np.empty_like(r)
     for k in range(r.shape[0]):
-        _lu_solve(LU[k], perm[k], r[k], out[k])
+        solve(LU[k], kl, ku, perm[k], r[k], out[k])
     return out
 
 
@@ -337,8 +287,10 @@ class _Blocks:
     ----------
     p : ndarray
         Parameter vector.
-    LU : (H+1, n_l, n_l);  perm : (H+1, n_l) int
-        The factors of ``Z_ll`` (:func:`_lu`).
+    band : tuple of int
+        ``(kl, ku)`` when ``LU`` is in band storage, ``(-1, -1)`` when it is dense.
+    LU : (H+1, n_l, n_l) or (H+1, 2 kl + ku + 1, n_l);  perm : (H+1, n_l) int
+        The factors of ``Z_ll`` (:func:`contin.hb.block_lu.factor`).
     P : (H+1, n_l, n_c)
         ``Z_ll^-1 Z_lc``.
     Q : (H+1, n_c, n_l)
@@ -347,9 +299,11 @@ class _Blocks:
         ``Z_ll^-1 f_l``, the eliminated dofs at ``u_c = 0``.
     S : (H+1, n_c, n_c)
         The Schur complement ``Z_cc - Z_cl Z_ll^-1 Z_lc``.
+    fc : (H+1, n_c)
+        The condensed excitation ``f_c - Z_cl Z_ll^-1 f_l``.
     """
 
-    __slots__ = ("p", "LU", "perm", "P", "Q", "g", "S")
+    __slots__ = ("p", "band", "LU", "perm", "P", "Q", "g", "S", "fc")
 
 
 class CondensedHarmonicBalance:
@@ -366,6 +320,9 @@ class CondensedHarmonicBalance:
     dofs : sequence of int
         The dofs to keep; they must include every dof a force element acts on
         or depends on.
+    banded : bool
+        False: factor the eliminated blocks densely even when they are narrow
+        (to compare the two eliminations).
 
     Attributes
     ----------
@@ -375,6 +332,10 @@ class CondensedHarmonicBalance:
     eliminated : ndarray of int
     n : int
         ``len(dofs)``.
+    band : tuple of int or None
+        ``(kl, ku)``, the bandwidths of the eliminated blocks when they are
+        factored in band storage (fixed at construction from the nonzeros of
+        every term of ``M``, ``C``, ``K``), None when they are factored densely.
     H, nu, N : int
     size : int
         ``n (2H+1)``, the length of the condensed ``u``.
@@ -384,7 +345,7 @@ class CondensedHarmonicBalance:
         Condensed residual and Jacobian evaluations.
     """
 
-    def __init__(self, hb: HarmonicBalance, dofs):
+    def __init__(self, hb: HarmonicBalance, dofs, banded: bool = True):
         if isinstance(hb, CondensedHarmonicBalance):
             raise ValueError("CondensedHarmonicBalance: the problem is condensed already")
         d = np.unique(np.asarray(dofs, dtype=int).reshape(-1))
@@ -402,6 +363,7 @@ class CondensedHarmonicBalance:
         self.dofs = d
         self.eliminated = np.array([i for i in range(hb.n) if i not in set(d.tolist())], dtype=int)
         self.n = int(d.size)
+        self.band = self._bandwidths() if banded else None
         self.H, self.nu, self.N = hb.H, hb.nu, hb.N
         self.size = self.n * (2 * self.H + 1)
         self.parameter, self.k, self.kw = hb.parameter, hb.k, hb.kw
@@ -409,10 +371,26 @@ class CondensedHarmonicBalance:
         self.model, self.p0, self.options = hb.model, hb.p0, hb.options
         self.evaluations = 0
         self._cache: collections.OrderedDict = collections.OrderedDict()
+        # the blocks change with lambda only through Omega, the matrices or the excitation (not in a homotopy in
+        # a contact stiffness)
+        self._varies = bool(hb.frequency_moves or hb._lin.depends
+                            or any(el.depends_on(hb.k) for el in hb.model.excitations))
+        #: the forces on the kept dofs alone (None: evaluated on the full model, sliced)
+        self._forces = force_submodel_problem(hb, d)
 
     def __repr__(self) -> str:
         return (f"CondensedHarmonicBalance({self.model.name!r}, dofs={self.dof_names}, "
                 f"{self.size} of {self.full.size} unknowns)")
+
+    def _bandwidths(self):
+        """``(kl, ku)`` of the eliminated blocks if band storage pays off for them, else None."""
+        l, nl = self.eliminated, self.eliminated.size
+        pattern = np.zeros((nl, nl), dtype=bool)
+        for mat in (self.full.model.mass, self.full.model.damping, self.full.model.stiffness):
+            for _, A in mat.terms:
+                pattern |= np.asarray(A)[np.ix_(l, l)] != 0
+        kl, ku = bandwidths(pattern)
+        return (kl, ku) if (2 * kl + ku + 1) * _BAND_RATIO <= nl else None
 
     @property
     def dof_names(self) -> list:
@@ -440,11 +418,11 @@ class CondensedHarmonicBalance:
 
     def with_options(self, **changes) -> "CondensedHarmonicBalance":
         """The condensed problem of ``full.with_options(**changes)`` (the same dofs)."""
-        return CondensedHarmonicBalance(self.full.with_options(**changes), self.dofs)
+        return CondensedHarmonicBalance(self.full.with_options(**changes), self.dofs, self.band is not None)
 
     # -- linear blocks ------------------------------------------------------------
     def _at(self, lam: float) -> _Blocks:
-        key = float(lam)
+        key = float(lam) if self._varies else 0.0
         b = self._cache.get(key)
         if b is not None:
             self._cache.move_to_end(key)
@@ -452,19 +430,22 @@ class CondensedHarmonicBalance:
         hb = self.full
         c, l = self.dofs, self.eliminated
         nc, nl, K1 = c.size, l.size, self.H + 1
-        p = hb.params_at(key)
+        p = hb.params_at(float(lam))
         M, C, K = hb._linear_mck(p)
         fext, _ = hb.excitation(p)
         b = _Blocks()
         b.p = p
-        b.LU = np.empty((K1, nl, nl), dtype=complex)
+        b.band = kl, ku = self.band or (-1, -1)
+        b.LU = np.empty((K1, nl, nl) if kl < 0 else (K1, 2 * kl + ku + 1, nl), dtype=complex)
         b.perm = np.empty((K1, nl), dtype=np.int64)
         b.P = np.empty((K1, nl, nc), dtype=complex)
         b.Q = np.empty((K1, nc, nl), dtype=complex)
         b.g = np.empty((K1, nl), dtype=complex)
         b.S = np.empty((K1, nc, nc), dtype=complex)
         ok = _eliminate(M, C, K, hb.base_frequency(p), c, l, _to_complex(fext.reshape(2 * self.H + 1, hb.n)),
-                        b.LU, b.perm, b.P, b.Q, b.g, b.S)
+                        kl, ku, b.LU, b.perm, b.P, b.Q, b.g, b.S)
+        F = _to_complex(fext.reshape(2 * self.H + 1, hb.n))
+        b.fc = F[:, c] - (b.Q @ F[:, l][:, :, None])[:, :, 0]  # f_c - A_cl A_ll^-1 f_l
         if not (ok and np.all(np.isfinite(b.S)) and np.all(np.isfinite(b.g))):
             raise np.linalg.LinAlgError(
                 f"the blocks of the eliminated dofs are singular at {self.parameter}={key:.10g}")
@@ -516,16 +497,14 @@ class CondensedHarmonicBalance:
                              f"H={self.H}), got {u_full.size}")
         return restrict_coefficients(u_full, self.full.n, self.dofs)
 
-    def _lam_linear_l(self, b: _Blocks, u_full) -> np.ndarray:
-        """``[(dA/dlambda) u - df_ext/dlambda]_l``, shape (2H+1, n_l)."""
+    def _lam_linear(self, b: _Blocks, u_full) -> np.ndarray:
+        """``(dA/dlambda) u - df_ext/dlambda``, shape (2H+1, n)."""
         hb = self.full
         U = u_full.reshape(2 * self.H + 1, hb.n)
         _, dfext = hb.excitation(b.p)
-        out = -dfext.reshape(2 * self.H + 1, hb.n)[:, self.eliminated]
+        out = -dfext.reshape(2 * self.H + 1, hb.n)
         dAu = hb._linear_dp_times(b.p, np.ascontiguousarray(U))
-        if dAu is not None:
-            out = out + dAu.reshape(2 * self.H + 1, hb.n)[:, self.eliminated]
-        return out
+        return out if dAu is None else out + dAu.reshape(2 * self.H + 1, hb.n)
 
     def expand_direction(self, u: np.ndarray, lam: float, du: np.ndarray, dlam: float) -> np.ndarray:
         """Derivative of :meth:`expand` along ``(du, dlam)``, shape (full.size,).
@@ -535,8 +514,8 @@ class CondensedHarmonicBalance:
         """
         b = self._at(lam)
         dUc = self._split(du, "du")
-        r = _to_complex(self._lam_linear_l(b, self.expand(u, lam)))
-        zl = -float(dlam) * _solve_all(b.LU, b.perm, r)
+        r = _to_complex(self._lam_linear(b, self.expand(u, lam))[:, self.eliminated])
+        zl = -float(dlam) * _solve_all(b.LU, *b.band, b.perm, r)
         zl -= (b.P @ _to_complex(dUc)[:, :, None])[:, :, 0]
         return self._assemble(dUc, _to_real(zl))
 
@@ -548,10 +527,17 @@ class CondensedHarmonicBalance:
 
     # -- residual and Jacobian ----------------------------------------------------
     def residual(self, u: np.ndarray, lam: float) -> np.ndarray:
-        """``R_c(u, lambda)``, shape (size,)."""
-        R = self.full.residual(self.expand(u, lam), lam)
+        """``R_c(u, lambda)``, shape (size,): ``S u_c - (f_c - A_cl A_ll^-1 f_l) + F_nl,c(u_c)``."""
         self.evaluations += 1
+        if self._forces is not None:
+            return self._linear_rows(self._at(lam), u) + self._forces.residual(u, lam)
+        R = self.full.residual(self.expand(u, lam), lam)
         return R.reshape(2 * self.H + 1, self.full.n)[:, self.dofs].reshape(-1)
+
+    def _linear_rows(self, b: _Blocks, u) -> np.ndarray:
+        """The linear part of ``R_c``, ``S u_c - (f_c - A_cl A_ll^-1 f_l)``, shape (size,)."""
+        z = (b.S @ _to_complex(self._split(u))[:, :, None])[:, :, 0] - b.fc
+        return _to_real(z).reshape(-1)
 
     def linearize(self, u: np.ndarray, lam: float):
         """Condensed residual and analytic Jacobians.
@@ -566,8 +552,11 @@ class CondensedHarmonicBalance:
         b = self._at(lam)
         uf = self.expand(u, lam)
         J = self._schur_matrix(b)
-        R, Jlam = self.full.linearize_into(uf, lam, J, self.dofs)
         self.evaluations += 1
+        if self._forces is not None:
+            Rn, Jn = self._forces.linearize_into(u, lam, J)
+            return self._linear_rows(b, u) + Rn, J, self._condense_rows(b, self._lam_linear(b, uf).reshape(-1)) + Jn
+        R, Jlam = self.full.linearize_into(uf, lam, J, self.dofs)
         Rc = R.reshape(2 * self.H + 1, self.full.n)[:, self.dofs].reshape(-1)
         return Rc, J, self._condense_rows(b, Jlam)
 

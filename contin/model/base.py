@@ -246,6 +246,20 @@ class ForceElement:
         """
         return None
 
+    def remapped(self, kept: tuple) -> "ForceElement | None":
+        """A copy acting on the model of the dofs ``kept`` alone, or None if the element cannot be moved.
+
+        Dof ``kept[j]`` becomes dof ``j``; ``kept`` holds every dof of
+        :meth:`active_dofs`. The condensed harmonic balance evaluates its
+        forces on that small model, so that no sampled array has the full
+        model's size (:mod:`contin.hb.condensation`).
+
+        Parameters
+        ----------
+        kept : tuple of int, sorted
+        """
+        return None
+
     def switching_functions(self, x, xd, tau, p) -> "Switching | None":
         """Switching surfaces of a piecewise-defined law, or None for a smooth one.
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 from contin.model.base import Model
 from contin.model.catalog import get_spec
 from contin.scene.custom_model import build_custom_model
+from contin.scene.fe_model import build_fe_model
 from contin.scene.parse import Scene, SceneError
 from contin.scene.schema import is_number
 
@@ -32,4 +33,6 @@ def build_model(scene: Scene) -> Model:
             return spec.build(params, m["effects"], **m["options"])
         except ValueError as exc:
             raise SceneError("model", "a valid built-in model setup", None, hint=f": {exc}") from None
+    if "from" in m:
+        return build_fe_model(scene)
     return build_custom_model(scene)

@@ -119,15 +119,17 @@ START_KEYS = ("start", "start_from", "start_simulation", "subharmonic", "harmoni
 
 
 def _start_simulation_ok(v) -> bool:
-    if not isinstance(v, dict) or set(v) - {"transient", "steps_per_period"}:
+    if not isinstance(v, dict) or set(v) - {"transient", "steps_per_period", "run_up"}:
         return False
-    t, s = v.get("transient"), v.get("steps_per_period")
-    return (t is None or (is_number(t) and t > 0)) and (s is None or (is_int(s) and 4 <= s <= 2**20))
+    t, s, r = v.get("transient"), v.get("steps_per_period"), v.get("run_up")
+    return ((t is None or (is_number(t) and t > 0)) and (s is None or (is_int(s) and 4 <= s <= 2**20))
+            and (r is None or (isinstance(r, list) and len(r) <= 100 and all(is_number(x) and x > 0 for x in r))))
 
 
 #: ``start_simulation``: how :func:`contin.bifurcation.start.simulation_start` integrates to its start
-START_SIMULATION = Key("a mapping with keys among transient (revolutions, a number > 0) and steps_per_period "
-                       "(an integer from 4 to 2**20)", _start_simulation_ok, {})
+START_SIMULATION = Key("a mapping with keys among transient (revolutions, a number > 0), steps_per_period "
+                       "(an integer from 4 to 2**20) and run_up (a list of at most 100 positive parameter values "
+                       "integrated first, in turn)", _start_simulation_ok, {})
 
 def _torus_ok(v) -> bool:
     if not isinstance(v, dict) or set(v) - {"harmonics", "harmonics2", "samples", "samples2", "stability", "periods",
@@ -295,6 +297,10 @@ def parameter_rule(model: dict, name: str, analysis: dict | None = None):
             return None  # the model's build names it
         options = model.get("options") if isinstance(model.get("options"), dict) else {}
         rules = spec.parameter_constraints(options)
+    elif "from" in model:
+        from contin.scene.fe_model import FE_RULES
+
+        rules = FE_RULES
     freq = model_frequency(model, analysis)
     if name in rules:
         return rules[name]
@@ -368,6 +374,8 @@ def model_frequency(model: dict, analysis: dict | None = None) -> str | None:
     """
     if analysis is not None and isinstance(analysis.get("frequency"), str):
         return analysis["frequency"]
+    if "from" in model:
+        return "w"  # a finite-element rotor (contin.scene.fe_model)
     if "builtin" not in model:
         return model.get("frequency")
     from contin.model.catalog import get_spec
@@ -555,6 +563,10 @@ def check_model_section(model: dict, lines: dict | None = None) -> dict:
     if not isinstance(model, dict):
         raise SceneError("model", "a mapping (required section)", model, lines.get("model"))
     check_names({"model": model}, lines)
+    if "from" in model:
+        from contin.scene.fe_model import check_fe_section
+
+        return check_fe_section(model, lines)
     model = check_section(model, BUILTIN_MODEL if "builtin" in model else CUSTOM_MODEL, "model", lines)
     if "builtin" in model:
         _check_builtin_parameters(model, lines)

@@ -144,7 +144,7 @@ def summary_line(module) -> str:
 
 def render() -> str:
     """The page's text."""
-    from contin.scene import parse
+    from contin.scene import fe_model, parse
     from contin.scene.registry import ANALYSIS_MODULES, ANALYSIS_RUNNERS, load_all
 
     load_all()
@@ -178,6 +178,16 @@ def render() -> str:
         "A section with `dofs` instead of `builtin` ([Custom models](../howto/custom-models.md)).",
         "",
         *schema_table(parse.CUSTOM_MODEL),
+        "",
+        "## model: a finite-element rotor",
+        "",
+        "A section with `from: ross` ([Finite-element rotors](../howto/fe-rotors.md)): a rotor file and the",
+        "items placed at its nodes, in SI.",
+        "",
+        *schema_table(fe_model.FE_MODEL),
+        *[line for key, schema in fe_model.ITEMS.items()
+          for line in ("", f"`{key}`" + (" (each item)" if key == "unbalance" else "") + ":", "",
+                       *schema_table(schema))],
         "",
         "## output",
         "",

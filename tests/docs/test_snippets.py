@@ -143,7 +143,8 @@ def _check_yaml(block: Block) -> None:
         data = {**base, **data}
     if not isinstance(data, dict) or "analysis" not in data:
         return
-    scene = scene_from_data(data, block.where)
+    # an excerpt of a scene file is read as that file (its relative paths, such as a rotor file, are its own)
+    scene = scene_from_data(data, str(ROOT / block.options["scene"]) if "scene" in block.options else block.where)
     check_scene(scene, build_model(scene))
 
 

@@ -10,6 +10,8 @@ compiled time-domain form (:class:`GapForm`, with the frozen-mode kernels
 
 from __future__ import annotations
 
+import copy
+
 import numba as nb
 import numpy as np
 
@@ -140,6 +142,11 @@ class GapForce(ContactForce):
 
     def active_dofs(self):
         return (int(self.dof),)
+
+    def remapped(self, kept):
+        new = copy.copy(self)
+        new.dof = kept.index(int(self.dof))
+        return new
 
     def describe(self, dof_names, param_names):
         return (f"{self.label}: contact on {dof_names[self.dof]} beyond clearance (sides {self.sides}), "

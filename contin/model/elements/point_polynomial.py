@@ -15,6 +15,8 @@ scene keys.
 
 from __future__ import annotations
 
+import copy
+
 from typing import Sequence
 
 import numba as nb
@@ -106,6 +108,11 @@ class PointForce(ForceElement):
 
     def active_dofs(self):
         return tuple(np.flatnonzero(self.shape != 0.0).tolist())  # s_i = 0: neither pushed nor part of y
+
+    def remapped(self, kept):
+        new = copy.copy(self)
+        new.shape = np.ascontiguousarray(self.shape[np.asarray(kept, dtype=int)])
+        return new
 
     def describe(self, dof_names, param_names):
         terms = " + ".join(f"{c.text(param_names)}*y^{k}" for k, c in self.coefficients)

@@ -9,6 +9,8 @@ expression forces (:mod:`contin.model.elements.expression`).
 
 from __future__ import annotations
 
+import copy
+
 from typing import Sequence
 
 import numba as nb
@@ -118,6 +120,15 @@ class PolynomialForce(ForceElement):
         used = set(int(t) for t in self.target)
         used |= set(np.flatnonzero((self.ex != 0).any(axis=0) | (self.ev != 0).any(axis=0)).tolist())
         return tuple(sorted(used))
+
+    def remapped(self, kept):
+        new = copy.copy(self)
+        cols = np.asarray(kept, dtype=np.int64)
+        new.n_dof = len(kept)
+        new.target = np.array([kept.index(int(t)) for t in self.target], dtype=np.int64)
+        new.ex = np.ascontiguousarray(self.ex[:, cols])
+        new.ev = np.ascontiguousarray(self.ev[:, cols])
+        return new
 
     def describe(self, dof_names, param_names):
         parts = []

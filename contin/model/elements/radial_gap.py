@@ -10,6 +10,8 @@ kernels :func:`_radial_force` and :func:`_radial_switch`) and its scene keys
 
 from __future__ import annotations
 
+import copy
+
 import numba as nb
 import numpy as np
 
@@ -175,6 +177,11 @@ class RadialGapForce(ContactForce):
 
     def active_dofs(self):
         return tuple(sorted((self.ix, self.iy)))
+
+    def remapped(self, kept):
+        new = copy.copy(self)
+        new.ix, new.iy = kept.index(self.ix), kept.index(self.iy)
+        return new
 
     def describe(self, dof_names, param_names):
         return (f"{self.label}: radial contact of ({dof_names[self.ix]}, {dof_names[self.iy]}) beyond a clearance, "
