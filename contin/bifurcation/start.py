@@ -132,7 +132,7 @@ def homotopy_start(hb: HarmonicBalance, lam0: float, parameter: str, soft_value:
 def contact_start(hb: HarmonicBalance, lam0: float, *, stiffness: str = "kbn", clearance: str = "delta",
                   soft=(20.0, 5.0, 80.0), direction=(0.0, 1.0), harmonics: int = 8,
                   simulation: float = 400.0) -> np.ndarray:
-    """A start for a model whose one radial contact is what its dofs are condensed onto (a finite-element rotor).
+    """A start for a model whose one contact is what its dofs are condensed onto (a finite-element rotor).
 
     The guess is exact for a *linear* spring of stiffness ``soft`` pulling the
     contact dofs towards the clearance circle at ``clearance * direction``:
@@ -152,8 +152,9 @@ def contact_start(hb: HarmonicBalance, lam0: float, *, stiffness: str = "kbn", c
     soft : float or sequence of float
         The homotopy's first stiffness; with several, each is tried in turn until one leads to a solution
         (a soft contact lets the orbit swing wide, a stiffer one starts nearer a resonance).
-    direction : (float, float)
-        Where the contact node rests, in its ``(x, y)`` (the side load's direction).
+    direction : sequence of float
+        Where the contact rests, in the dofs condensed onto: ``(x, y)`` of a radial contact (the side
+        load's direction), ``(+-1,)`` for a one-directional gap.
     harmonics : int
         Harmonics of the homotopy (fewer than ``hb.H`` is cheaper).
     simulation : float
@@ -171,12 +172,12 @@ def contact_start(hb: HarmonicBalance, lam0: float, *, stiffness: str = "kbn", c
         except HomotopyFailed as exc:
             failures.append(f"{stiffness}={value:g}: {exc}")
     if simulation:
-        from contin.timedomain.simulation import SimulationError, compile_model
+        from contin.timedomain.simulation import RK4_STABILITY, SimulationError, compile_model
 
         # RK4's limit for the stiffest mode with the contact closed (its step is refused beyond it)
         p = hb.params_at(lam0)
         rate = compile_model(integrated_model(hb)).fastest_rate(p)
-        steps = max(1024, int(np.ceil(1.1 * rate * hb.period(p) / hb.nu / 2.78)))
+        steps = max(1024, int(np.ceil(1.1 * rate * hb.period(p) / hb.nu / RK4_STABILITY)))
         try:
             return simulation_start(hb, lam0, transient=simulation, steps_per_period=steps)
         except (HomotopyFailed, SimulationError) as exc:
@@ -191,13 +192,13 @@ def _contact_start(hb, lam0, stiffness, clearance, soft, direction, harmonics):
     H = min(hb.H, int(harmonics))
     easy = condense(HarmonicBalance(hb.model, hb.parameter, dataclasses.replace(hb.options, harmonics=H), params,
                                     hb.frequency), require=True)
-    if easy.n != 2:
-        raise HomotopyFailed(f"contact_start needs the two dofs of one radial contact to condense onto, found "
-                             f"{easy.dof_names}")
+    d = np.asarray(direction, float).reshape(-1)
+    if easy.n != d.size:
+        raise HomotopyFailed(f"contact_start: the direction {tuple(d)} is not one of the contact's dofs "
+                             f"{easy.dof_names} it condenses onto")
     R0, S, _ = easy.linearize(np.zeros(easy.size), lam0)
     rhs = -R0
-    d = np.asarray(direction, float)
-    rhs[:2] += soft * params[clearance] * d / np.hypot(*d)
+    rhs[:d.size] += soft * params[clearance] * d / np.linalg.norm(d)
     try:
         uc = np.linalg.solve(S + soft * np.eye(easy.size), rhs)
     except np.linalg.LinAlgError:

@@ -27,7 +27,8 @@ FE_MODEL = {
     "from": string(required=True, choices=("ross",)),
     "file": string(required=True),
     "name": string("fe_rotor"),
-    "contact": Key("a mapping {node, clearance, stiffness, damping, clip}", lambda v: isinstance(v, dict)),
+    "contact": Key("a mapping {node, clearance, stiffness, damping, clip, type, direction, sides}",
+                   lambda v: isinstance(v, dict)),
     "unbalance": listing([], expected="a list of {node, magnitude, phase} items"),
     "side_load": Key("a mapping {node, force}", lambda v: isinstance(v, dict)),
     "units": mapping(),
@@ -40,7 +41,9 @@ _NODE = integer(required=True, minimum=0)
 ITEMS = {
     "contact": {"node": _NODE, "clearance": number(required=True, min_value=0), "stiffness": number(required=True,
                                                                                                      positive=True),
-                "damping": number(0.0, min_value=0), "clip": flag(False)},
+                "damping": number(0.0, min_value=0), "clip": flag(False),
+                "type": string("radial_gap", choices=("radial_gap", "gap")),
+                "direction": string("y", choices=("x", "y")), "sides": string("both", choices=("both", "+", "-"))},
     "unbalance": {"node": _NODE, "magnitude": number(required=True, positive=True), "phase": number(0.0)},
     "side_load": {"node": _NODE, "force": Key("[fx, fy] in N, not both zero",
                                               lambda v: isinstance(v, list) and len(v) == 2
@@ -134,5 +137,9 @@ def build_fe_model(scene) -> Model:
     model.symbols.update(m["symbols"])
     if m["contact"]:
         direction = tuple(m["side_load"]["force"]) if m["side_load"] else (0.0, 1.0)
+        if m["contact"]["type"] == "gap":  # the gap's own dof: towards the side the load pushes it
+            along = direction["xy".index(m["contact"]["direction"])]
+            sides = m["contact"]["sides"]
+            direction = (-1.0,) if sides == "-" or (sides == "both" and along < 0) else (1.0,)
         model.start = functools.partial(contact_start, direction=direction)
     return model

@@ -79,7 +79,10 @@ def main(argv=None) -> None:
     ap.add_argument("--harmonics", type=int, default=10, help="H")
     ap.add_argument("--band", type=int, default=1, help="neighbours each mass is coupled to on either side")
     ap.add_argument("--min-time", type=float, default=1.0, help="seconds of timed rounds per size, at least one")
+    ap.add_argument("--quick", action="store_true", help="50 and 200 masses, one short round each (CI)")
     args = ap.parse_args(argv)
+    if args.quick:
+        args.sizes, args.min_time = "50,200", 0.05
     print(f"one elimination (CondensedHarmonicBalance._at at a new w), H = {args.harmonics}, "
           f"coupling to {args.band} neighbours, condensed onto the last mass; median of the rounds")
     # "(kl, ku)" dense: the block is too wide for band storage, the "banded" problem factors it densely too

@@ -39,7 +39,7 @@ import numpy as np
 import scipy.linalg as sl
 
 from contin.model.base import Model, Monomial, ParametricMatrix
-from contin.model.elements import HarmonicExcitation, RadialGapForce
+from contin.model.elements import GapForce, HarmonicExcitation, RadialGapForce
 from contin.model.fem.coefficients import SplineCoefficient
 from contin.model.fem.matrices import RotorMatrices
 from contin.model.fem.reduction import craig_bampton
@@ -81,16 +81,31 @@ class Units:
 
 @dataclass(frozen=True)
 class Contact:
-    """The clearance contact (law of :class:`contin.model.elements.RadialGapForce`) at ``node``: SI values."""
+    """The clearance contact at ``node``: SI values.
+
+    ``type`` ``radial_gap``: a circular clearance of the node's ``(x, y)``
+    (:class:`contin.model.elements.RadialGapForce`, the rotor paper's eq. 3);
+    ``gap``: a clearance along one direction ``x`` or ``y`` on ``sides``
+    ``both``, ``+`` or ``-`` (:class:`contin.model.elements.GapForce`).
+    """
 
     node: int
     clearance: float
     stiffness: float
     damping: float = 0.0
     clip: bool = False
+    type: str = "radial_gap"
+    direction: str = "y"
+    sides: str = "both"
 
     def __post_init__(self):
         _node("contact", self.node)
+        if self.type not in ("radial_gap", "gap"):
+            raise ValueError(f"contact.type: expected 'radial_gap' or 'gap', found {self.type!r}")
+        if self.direction not in ("x", "y"):
+            raise ValueError(f"contact.direction: expected 'x' or 'y', found {self.direction!r}")
+        if self.sides not in ("both", "+", "-"):
+            raise ValueError(f"contact.sides: expected 'both', '+' or '-', found {self.sides!r}")
         _positive("contact", "clearance", self.clearance, allow_zero=True)
         _positive("contact", "stiffness", self.stiffness)
         _positive("contact", "damping", self.damping, allow_zero=True)
@@ -219,10 +234,13 @@ def fe_rotor_model(rotor: RotorMatrices, contact: Contact | None = None, unbalan
                                                                           enumerate(unbalance)]:
         if item is not None and item.node >= rotor.n_nodes:
             raise ValueError(f"{what}.node: expected a node in 0..{rotor.n_nodes - 1}, found {item.node}")
-    if contact is not None and any(b.node == contact.node for b in rotor.bearings if
-                                   any(k[0] == "k" for k in b.splines)):
-        raise ValueError(f"contact.node: node {contact.node} has a bearing stiffness; the clearance contact replaces "
-                         "a bearing, so the rotor file must have none there (a mass or damping is fine)")
+    if contact is not None:
+        axes = "xy" if contact.type == "radial_gap" else contact.direction
+        if any(b.node == contact.node and any(k[0] == "k" and (k[1] in axes or k[2] in axes) for k in b.splines)
+               for b in rotor.bearings):
+            raise ValueError(f"contact.node: node {contact.node} has a bearing stiffness along the contact's "
+                             f"{' and '.join(axes)}; the clearance contact replaces that bearing, so the rotor file "
+                             "must have none there (a mass or damping is fine)")
     n = rotor.n_dof
     Mb0, Cb0, Kb0 = rotor.bearing_matrices(0.0)
     held = rotor.node_dofs(contact.node) if contact is not None else ()
@@ -290,9 +308,13 @@ def fe_rotor_model(rotor: RotorMatrices, contact: Contact | None = None, unbalan
 
     if contact is not None:
         ix, iy = (where[i] for i in rotor.node_dofs(contact.node))
-        forces.append(RadialGapForce((ix, iy), mono("delta"), mono("kbn"),
-                                     mono("cbn") if contact.damping > 0 else Monomial(0.0), clip=contact.clip,
-                                     label="contact"))
+        damping = mono("cbn") if contact.damping > 0 else Monomial(0.0)
+        if contact.type == "radial_gap":
+            forces.append(RadialGapForce((ix, iy), mono("delta"), mono("kbn"), damping, clip=contact.clip,
+                                         label="contact"))
+        else:
+            forces.append(GapForce(ix if contact.direction == "x" else iy, mono("delta"), mono("kbn"), damping,
+                                   sides=contact.sides, clip=contact.clip, label="contact"))
     for u in unbalance:
         ix, iy = (where[i] for i in rotor.node_dofs(u.node))
         amp = mono("e", u.magnitude / unbalance[0].magnitude, ((iw, 2),))
