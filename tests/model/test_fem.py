@@ -155,19 +155,33 @@ def test_craig_bampton_converges_to_the_full_natural_frequencies():
         craig_bampton(np.eye(2), np.zeros((2, 2)), [0], 1)
 
 
-def test_a_one_directional_gap_at_the_disc_starts_and_solves_the_full_problem():
+def _gap_model():
     """A stop on one side of the disc (a gap along y) of the rotor with speed-dependent bearings."""
+    rotor = load_matrices(DATA / "spline_rotor.npz")
+    return fe_rotor_model(rotor, contact=Contact(3, 2e-5, 1e7, 50.0, type="gap", direction="y", sides="+"),
+                          unbalance=[Unbalance(3, 2e-4)], side_load=SideLoad(3, (0.0, 20.0)), units=Units(1e-5))
+
+
+def test_a_one_directional_gap_is_a_gap_element_on_its_dof():
+    model = _gap_model()
+    assert [el.kind for el in model.forces] == ["gap"] and model.forces[0].active_dofs() == (13,)
+    assert model.forces[0].remapped((13,)).dof == 0
+    with pytest.raises(ValueError, match="contact.type: expected 'radial_gap' or 'gap'"):
+        Contact(18, 1e-4, 1e8, type="ring")
+    with pytest.raises(ValueError, match="contact.sides: expected 'both', '\\+' or '-'"):
+        Contact(18, 1e-4, 1e8, type="gap", sides="up")
+
+
+# the solve costs a compilation of the gap's kernels (10 s on a cold cache); the element and its dof are checked
+# by test_a_one_directional_gap_is_a_gap_element_on_its_dof in the default run
+@pytest.mark.slow
+def test_a_one_directional_gap_at_the_disc_starts_and_solves_the_full_problem():
     from contin.bifurcation.start import contact_start
 
-    rotor = load_matrices(DATA / "spline_rotor.npz")
-    model = fe_rotor_model(rotor, contact=Contact(3, 2e-5, 1e7, 50.0, type="gap", direction="y", sides="+"),
-                           unbalance=[Unbalance(3, 2e-4)], side_load=SideLoad(3, (0.0, 20.0)), units=Units(1e-5))
-    assert [el.kind for el in model.forces] == ["gap"] and model.forces[0].active_dofs() == (13,)
+    model = _gap_model()
     hb = HarmonicBalance(model, "w", HBOptions(harmonics=12, crossings="interval", samples=256), {"w": 1.0})
     u = contact_start(hb, 1.0, direction=(1.0,))
     assert np.abs(hb.residual(u, 1.0)).max() < 1e-8
     U = u.reshape(-1, model.n_dof)
     y = U[0, 13] + np.hypot(U[1, 13], U[2, 13])
     assert y > model.parameters["delta"]  # it reaches the stop
-    with pytest.raises(ValueError, match="contact.type: expected 'radial_gap' or 'gap'"):
-        Contact(18, 1e-4, 1e8, type="ring")
