@@ -42,8 +42,9 @@ Narrow blocks (finite-element models ordered node by node) are factored in
 band storage (:mod:`contin.hb.block_lu`), at a cost linear in ``n_l``.
 The blocks depend on ``lambda`` through ``Omega = w/nu`` when ``lambda`` is
 the frequency and through any matrix term that depends on it (the rotor's
-gyroscopic ``ip*w``); they are rebuilt for each ``lambda`` and kept for the
-last few values.
+gyroscopic ``ip*w``) or the excitation; they are rebuilt for each ``lambda``
+that enters them (once only otherwise, e.g. in a homotopy in a contact
+stiffness) and kept for the last few values.
 
 The elimination needs every ``A_ll^(k)`` regular. :func:`condense` with
 ``require=False`` (a scene's ``analysis.condense: auto``) condenses only when
@@ -442,13 +443,12 @@ class CondensedHarmonicBalance:
         b.Q = np.empty((K1, nc, nl), dtype=complex)
         b.g = np.empty((K1, nl), dtype=complex)
         b.S = np.empty((K1, nc, nc), dtype=complex)
-        ok = _eliminate(M, C, K, hb.base_frequency(p), c, l, _to_complex(fext.reshape(2 * self.H + 1, hb.n)),
-                        kl, ku, b.LU, b.perm, b.P, b.Q, b.g, b.S)
         F = _to_complex(fext.reshape(2 * self.H + 1, hb.n))
+        ok = _eliminate(M, C, K, hb.base_frequency(p), c, l, F, kl, ku, b.LU, b.perm, b.P, b.Q, b.g, b.S)
         b.fc = F[:, c] - (b.Q @ F[:, l][:, :, None])[:, :, 0]  # f_c - A_cl A_ll^-1 f_l
         if not (ok and np.all(np.isfinite(b.S)) and np.all(np.isfinite(b.g))):
             raise np.linalg.LinAlgError(
-                f"the blocks of the eliminated dofs are singular at {self.parameter}={key:.10g}")
+                f"the blocks of the eliminated dofs are singular at {self.parameter}={float(lam):.10g}")
         self._cache[key] = b
         if len(self._cache) > _CACHE:
             self._cache.popitem(last=False)
@@ -550,13 +550,14 @@ class CondensedHarmonicBalance:
         Jlam : ndarray, shape (size,)
         """
         b = self._at(lam)
-        uf = self.expand(u, lam)
         J = self._schur_matrix(b)
         self.evaluations += 1
         if self._forces is not None:
-            Rn, Jn = self._forces.linearize_into(u, lam, J)
-            return self._linear_rows(b, u) + Rn, J, self._condense_rows(b, self._lam_linear(b, uf).reshape(-1)) + Jn
-        R, Jlam = self.full.linearize_into(uf, lam, J, self.dofs)
+            Rn, Jlam = self._forces.linearize_into(u, lam, J)
+            if self._varies:  # else (dA/dlambda) u - df_ext/dlambda is zero
+                Jlam = Jlam + self._condense_rows(b, self._lam_linear(b, self.expand(u, lam)).reshape(-1))
+            return self._linear_rows(b, u) + Rn, J, Jlam
+        R, Jlam = self.full.linearize_into(self.expand(u, lam), lam, J, self.dofs)
         Rc = R.reshape(2 * self.H + 1, self.full.n)[:, self.dofs].reshape(-1)
         return Rc, J, self._condense_rows(b, Jlam)
 

@@ -13,7 +13,7 @@ import functools
 from pathlib import Path
 
 from contin.model.base import Model
-from contin.scene.schema import Key, SceneError, check_section, flag, integer, is_int, is_number, listing, mapping, \
+from contin.scene.schema import Key, SceneError, check_section, flag, integer, is_number, listing, mapping, \
     number, string
 
 __all__ = ["FE_MODEL", "FE_RULES", "check_fe_section", "build_fe_model", "rotor_path"]

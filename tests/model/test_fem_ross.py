@@ -29,7 +29,7 @@ def test_rig_from_ross_matches_its_unbalance_response_and_the_stored_file(ross):
     from contin.model.fem.builder import Unbalance, Units, fe_rotor_model
     from contin.model.fem.matrices import load_matrices
     from contin.model.fem.rig import RIG_NODES, rig_rotor
-    from contin.model.fem.ross_bridge import from_ross
+    from contin.model.fem.ross_bridge import from_ross, lateral_dofs
 
     rotor = rig_rotor()
     mats = from_ross(rotor)
@@ -44,7 +44,7 @@ def test_rig_from_ross_matches_its_unbalance_response_and_the_stored_file(ross):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         resp = rotor.run_unbalance_response(RIG_NODES["disc"], 3.9e-3, 0.7, frequency=speeds).forced_resp
-    lat = [6 * i + d for i in range(len(rotor.nodes)) for d in (0, 1, 3, 4)]
+    lat = lateral_dofs(rotor.number_dof, len(rotor.nodes))
     for j, W in enumerate(speeds):
         u = hb.linear_solution(W / units.frequency).reshape(3, model.n_dof)
         X = model.fe.physical(u[1] - 1j * u[2])
@@ -52,7 +52,7 @@ def test_rig_from_ross_matches_its_unbalance_response_and_the_stored_file(ross):
 
 
 def test_speed_dependent_bearings_and_rotor_files(ross, tmp_path):
-    from contin.model.fem.ross_bridge import from_ross, load_rotor
+    from contin.model.fem.ross_bridge import from_ross, lateral_dofs, load_rotor
 
     import importlib.util
 
@@ -61,7 +61,7 @@ def test_speed_dependent_bearings_and_rotor_files(ross, tmp_path):
     spec.loader.exec_module(rig_data)
     rotor = rig_data.spline_rotor()
     mats = from_ross(rotor)
-    lat = [6 * i + d for i in range(len(rotor.nodes)) for d in (0, 1, 3, 4)]
+    lat = lateral_dofs(rotor.number_dof, len(rotor.nodes))
     for W in (0.0, 55.0, 250.0, 480.0, 650.0):  # inside the tables, between their points and beyond
         M, C, K = mats.linear(W)
         assert np.allclose(K, rotor.K(W)[np.ix_(lat, lat)], rtol=1e-12, atol=1e-12 * np.abs(K).max())

@@ -20,7 +20,7 @@ import numpy as np
 from contin.model.fem.coefficients import spline_of
 from contin.model.fem.matrices import COEFFICIENTS, BearingTable, RotorMatrices, load_matrices
 
-__all__ = ["from_ross", "load_rotor", "import_ross", "ROSS_MISSING"]
+__all__ = ["from_ross", "load_rotor", "import_ross", "lateral_dofs", "ROSS_MISSING"]
 
 ROSS_MISSING = ("this needs ROSS (ross-rotordynamics), which is not installed: pip install 'contin[ross]' "
                 "(or read a rotor .npz file written by contin, which needs no ROSS)")
@@ -45,7 +45,8 @@ def import_ross():
     return ross
 
 
-def _lateral(n_dof_node: int, n_nodes: int) -> np.ndarray:
+def lateral_dofs(n_dof_node: int, n_nodes: int) -> np.ndarray:
+    """ROSS's indices of the lateral dofs ``x, y, alpha, beta`` of every node (``n_dof_node`` 6 or 4)."""
     per = {6: (0, 1, 3, 4), 4: (0, 1, 2, 3)}[n_dof_node]
     return np.array([n_dof_node * i + d for i in range(n_nodes) for d in per], dtype=int)
 
@@ -81,7 +82,7 @@ def from_ross(rotor, source: str = "ross.Rotor") -> RotorMatrices:
     if rotor.M0.shape[0] != nd * n_nodes:
         raise ValueError(f"ross.Rotor: {rotor.M0.shape[0]} dofs for {n_nodes} nodes of {nd} dofs: extra nodes "
                          "are not taken by the bridge")
-    lat = _lateral(nd, n_nodes)
+    lat = lateral_dofs(nd, n_nodes)
     other = np.setdiff1d(np.arange(nd * n_nodes), lat)
     mats = {}
     for name, A in (("mass", rotor.M0), ("damping", rotor.C0), ("stiffness", rotor.K0), ("gyroscopic", rotor.G0)):

@@ -24,7 +24,7 @@ import numpy as np
 
 from contin.model.fem.matrices import load_matrices
 from contin.model.fem.rig import RIG_NODES, rig_rotor, rig_scales
-from contin.model.fem.ross_bridge import from_ross, import_ross
+from contin.model.fem.ross_bridge import from_ross, import_ross, lateral_dofs
 
 ROOT = Path(__file__).resolve().parents[3]
 RIG_FILE = ROOT / "scenes" / "data" / "rig_001.npz"
@@ -56,11 +56,6 @@ def _responses(rotor, node: int, magnitude: float, phase: float) -> np.ndarray:
     return np.asarray(res.forced_resp)
 
 
-def _lateral(rotor) -> np.ndarray:
-    nd = rotor.number_dof
-    return np.array([nd * i + d for i in range(len(rotor.nodes)) for d in (0, 1, 3, 4)])
-
-
 def write():
     rig = rig_rotor()
     from_ross(rig, "ROSS 2.3: the seed-001 test rig (contin.model.fem.rig)").save(RIG_FILE)
@@ -69,9 +64,10 @@ def write():
     s = rig_scales()
     rig_u = (RIG_NODES["disc"], s["m1"] * 0.5 * s["d0"], 0.3)
     spl_u = (3, 2e-4, -1.0)
+    rig_lat, spl_lat = (lateral_dofs(r.number_dof, len(r.nodes)) for r in (rig, spl))
     np.savez_compressed(REFERENCE, speeds=SPEEDS,
-                        rig_unbalance=np.array(rig_u), rig=_responses(rig, *rig_u)[_lateral(rig)],
-                        spline_unbalance=np.array(spl_u), spline=_responses(spl, *spl_u)[_lateral(spl)])
+                        rig_unbalance=np.array(rig_u), rig=_responses(rig, *rig_u)[rig_lat],
+                        spline_unbalance=np.array(spl_u), spline=_responses(spl, *spl_u)[spl_lat])
     print(f"wrote {RIG_FILE.relative_to(ROOT)}, {SPLINE_FILE.relative_to(ROOT)}, {REFERENCE.relative_to(ROOT)}")
 
 

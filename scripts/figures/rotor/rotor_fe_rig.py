@@ -70,7 +70,7 @@ def natural_frequencies(speeds, modes: int = 8) -> dict:
         ``fe``, ``fe_cb``; conditions ``held``, ``pressed``. With speed the upper one is the forward whirl.
     """
     s = rig_scales()
-    wn, ks1, m1 = s["wn"], s["ks1"], s["m1"]
+    wn, ks1 = s["wn"], s["ks1"]
     kbn = RIG["kbn"] * ks1
     fn = RIG["f0"] * ks1 * s["d0"] * RIG["a"] / RIG["length"]  # the bearing's share of the side load [N]
     conditions = {"held": (kbn, kbn), "pressed": (kbn, fn / (RIG["delta"] * s["d0"]))}
