@@ -3,15 +3,15 @@
 from __future__ import annotations
 
 import dataclasses
-import json
 
 import numpy as np
 
 from contin.hb.measures import measure_names, point_measures
 from contin.hb.torus import QuasiPeriodicBalance, torus_measure_names, torus_measures
-from contin.output.checkpoint import encode, read_records, special_record
+from contin.output.checkpoint import dumps, encode, read_records, special_record
 from contin.output.dense import checkpoint_solutions
 from contin.output.results import CsvStream, read_csv
+from contin.util.safe_files import append_stream, create_stream
 
 __all__ = ["BranchRecorder", "SPECIAL_EXTRA", "row_measures"]
 
@@ -55,7 +55,8 @@ class BranchRecorder:
         self.rows = CsvStream(outdir / "branches.csv", self.branch_columns, append)
         self.special = CsvStream(outdir / "special_points.csv", self.special_columns, append)
         # full solutions (coefficients and tangent) for plots of any row and for --resume
-        self.state = open(outdir / "state.jsonl", "a" if append else "w")
+        # (never through a link, appended only to a regular file; every line strict JSON: checkpoint.dumps)
+        self.state = (append_stream if append else create_stream)(outdir / "state.jsonl")
         self.n_rows = self.rows.rows
         self._written_special: dict[int, int] = {}
         self._headers: set = set()
@@ -103,17 +104,17 @@ class BranchRecorder:
             self._headers.add(branch_id)
             su = branch.info.get("unknown_scale")
             kept = getattr(self.problems.get(branch_id), "dofs", None)
-            self.state.write(json.dumps(encode({"type": "branch", "branch": branch_id, "nu": nu, "H": H,
-                                                "unknown_scale": None if su is None else np.asarray(su),
-                                                "parameter_scale": branch.info.get("parameter_scale"),
-                                                "dofs": None if kept is None else [int(d) for d in kept],
-                                                "torus": _torus_header(self.problems.get(branch_id))})) + "\n")
-        self.state.write(json.dumps({
+            self.state.write(dumps({"type": "branch", "branch": branch_id, "nu": nu, "H": H,
+                                    "unknown_scale": None if su is None else np.asarray(su),
+                                    "parameter_scale": branch.info.get("parameter_scale"),
+                                    "dofs": None if kept is None else [int(d) for d in kept],
+                                    "torus": _torus_header(self.problems.get(branch_id))}) + "\n")
+        self.state.write(dumps({
             "type": "point", "row": self.n_rows, "branch": branch_id, "nu": nu, "H": H, "lam": lam, "u": u.tolist(),
             "tangent": branch.tangents[i].tolist(), "s": float(branch.arclength[i]),
             "step": float(branch.step_sizes[i]), "iterations": int(branch.newton_iterations[i]),
             "residual": float(branch.residual_norms[i]),
-            "data": encode({k: v[i] for k, v in pd.items()})}) + "\n")
+            "data": {k: v[i] for k, v in pd.items()}}) + "\n")
         self.state.flush()
         self.n_rows += 1
         self.special_points(branch_id, branch)
@@ -152,7 +153,7 @@ class BranchRecorder:
         for sp in branch.special_points[done:]:
             if sp.kind.value == "start" or self._duplicate(branch_id, sp):
                 # kept in the checkpoint all the same: a resumed branch holds every special point
-                self.state.write(json.dumps(special_record(branch_id, self._full_point(branch_id, sp), csv=False)) + "\n")
+                self.state.write(dumps(special_record(branch_id, self._full_point(branch_id, sp), csv=False)) + "\n")
                 continue
             i = min(max(sp.index, 0), len(branch) - 1)
             if i + 1 < len(branch) and abs(branch.parameter[i + 1] - sp.parameter) < abs(branch.parameter[i] - sp.parameter):
@@ -166,7 +167,7 @@ class BranchRecorder:
                         "detail": _detail(sp)})
             self.special.write(row)
             self.special_list.append(dict(row, _before=off + min(max(sp.index, 0), len(branch) - 1)))
-            self.state.write(json.dumps(special_record(branch_id, sp)) + "\n")
+            self.state.write(dumps(special_record(branch_id, sp)) + "\n")
             self.state.flush()
 
     def _full_point(self, branch_id: int, sp):
@@ -183,14 +184,14 @@ class BranchRecorder:
             info = {k: v for k, v in branch.info.items() if k in _END_INFO}
             rec = {"type": "end", "branch": branch_id, "status": branch.status.value, "message": branch.message,
                    "info": encode(info), "monitors": encode(state.get("monitors") or [])}
-        self.state.write(json.dumps(rec) + "\n")
+        self.state.write(dumps(rec) + "\n")
         self.state.flush()
 
     def restore(self, previous: dict) -> None:
         """Take up the rows and special points of an interrupted run (``--resume``)."""
         rows = read_csv(self.rows.path)
         self.n_rows = len(rows.get("branch", []))  # the rows of this run continue the numbering
-        solutions = checkpoint_solutions(read_records(self.state.name))
+        solutions = checkpoint_solutions(read_records(self.state.path))
         for r in range(len(rows.get("branch", []))):
             bid = int(rows["branch"][r])
             self.offsets.setdefault(bid, r)

@@ -16,7 +16,6 @@ tangents are the engine's, in the kept dofs' coefficients, listed as
 from __future__ import annotations
 
 import inspect
-import json
 import time
 
 import numpy as np
@@ -29,7 +28,7 @@ from contin.hb.condensation import condensation_dofs, condense
 # the recorder's names are part of this analysis' interface (bifurcation_curve, convergence_plan use them)
 from contin.analyses.branch_recorder import SPECIAL_EXTRA, BranchRecorder, row_measures  # noqa: F401
 from contin.hb.torus import torus_measure_names
-from contin.output.checkpoint import read_records, rebuild_branches, resumable_prefix
+from contin.output.checkpoint import read_records, rebuild_branches, resumable_prefix, write_records
 from contin.output.dense import as_number
 from contin.output.results import truncate_to_valid_rows
 from contin.output.model_figures import model_figures
@@ -118,10 +117,8 @@ def _restore(outdir, parameter: str) -> dict:
     records, rows, special_rows = resumable_prefix(read_records(outdir / "state.jsonl"), n_rows)
     truncate_to_valid_rows(outdir / "branches.csv", rows)
     truncate_to_valid_rows(outdir / "special_points.csv", special_rows)
-    # rewrite the checkpoint without what the cut dropped
-    with open(outdir / "state.jsonl", "w") as fh:
-        for r in records:
-            fh.write(json.dumps(r) + "\n")
+    # rewrite the checkpoint without what the cut dropped (atomically, strict JSON, never through a link)
+    write_records(outdir / "state.jsonl", records)
     return rebuild_branches(records, parameter)
 
 
@@ -222,7 +219,8 @@ def run(ctx) -> dict:
                 u0 = np.array(a["guess"], dtype=float) if a["guess"] is not None else _start(sc, model, hb_i, lam0)
                 if problem is not hb_i:  # the starts are full coefficients
                     u0 = problem.restrict(u0)
-            results += follow(problem, u0, lam0, (lo, hi), opts, rec, ctx, previous, first_id=len(results))
+            first = len(results)
+            results += follow(problem, u0, lam0, (lo, hi), opts, rec, ctx, previous, first_id=first)
             if ctx.stop_requested or any(b.status == BranchStatus.INTERRUPTED for b, _ in results):
                 break
     finally:
@@ -247,6 +245,13 @@ def run(ctx) -> dict:
     ctx.timings["continuation"] = time.perf_counter() - t0
     interrupted = any(b.status == BranchStatus.INTERRUPTED for b, _ in results)
     ctx.interrupted = ctx.interrupted or interrupted
+    # a grazing end is an end as asked only where the orbit itself grazes and goes no further
+    from contin.bifurcation.end_check import branch_end_checks
+
+    t_ends = time.perf_counter()
+    end_shortfalls = [] if ctx.interrupted or ctx.stop_requested else branch_end_checks(
+        results, rec.problems, branches_info, (lo, hi), max(s[4].newton_tol for s in setups), hb.parameter)
+    ctx.timings["end_checks"] = time.perf_counter() - t_ends
     ctx.plot = lambda: _plot(ctx, rec, hb) + model_figures(ctx.model, "frequency_response", hb.parameter, rec.curves,
                                                            rec.special_list, ctx.outdir, ctx.scene.output)
     return {
@@ -261,7 +266,7 @@ def run(ctx) -> dict:
         "rows": rec.n_rows,
         "special_points": len(rec.special_list),
         "failed_switches": rec.failed_switches,
-        "shortfalls": shortfalls(branches_info, hb.parameter, rec.failed_switches),
+        "shortfalls": shortfalls(branches_info, hb.parameter, rec.failed_switches) + end_shortfalls,
     }
 
 

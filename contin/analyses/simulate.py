@@ -16,6 +16,12 @@ figures ``simulation_<i>.<format>`` (time history of the observed pair over the 
 revolutions, orbit, amplitude spectrum in units of ``w`` down to
 :data:`SPECTRUM_FLOOR` of its largest line, the main lines named as multiples
 of ``w``) and, for several values, ``simulation_summary.<format>``.
+
+A value whose response is not *settled* (an amplitude growing over the
+record, a result that depends on the step, a ``period-1`` response still
+converging: :func:`contin.timedomain.poincare.steady_state`) says so in its
+row (``settled`` false, ``unsettled`` the reason) and is a shortfall of the
+run, which ends ``incomplete``.
 """
 
 from __future__ import annotations
@@ -65,7 +71,9 @@ SIMULATE = {
 }
 
 COLUMNS_HEAD = ["class", "period", "settled", "spread", "mismatch_1", "mismatch_2", "pattern_ratio",
-                "subharmonic_dominance"]
+                "subharmonic_dominance", "growth", "step_change", "unsettled"]
+#: the text columns (not measures a plot can show)
+TEXT_COLUMNS = ("class", "lines", "unsettled")
 N_LINES = 4
 WHIRL_COLUMNS = {"+w/2": "whirl_fwd_half", "-w/2": "whirl_bwd_half", "+w": "whirl_fwd_1", "-w": "whirl_bwd_1"}
 
@@ -84,9 +92,11 @@ def _columns(parameter: str, dof_names) -> list:
 def _row(parameter, value, res, cls, dof_names) -> dict:
     row = {parameter: float(value), "class": cls.label, "period": cls.period, "settled": cls.settled,
            "spread": cls.spread, "mismatch_1": cls.mismatch.get(1), "mismatch_2": cls.mismatch.get(2),
-           "pattern_ratio": cls.pattern_ratio, "subharmonic_dominance": cls.subharmonic_dominance}
-    if row["subharmonic_dominance"] is not None and not math.isfinite(row["subharmonic_dominance"]):
-        row["subharmonic_dominance"] = 1e300
+           "pattern_ratio": cls.pattern_ratio, "subharmonic_dominance": cls.subharmonic_dominance,
+           "growth": cls.growth, "step_change": cls.step_change, "unsettled": cls.unsettled}
+    for key in ("subharmonic_dominance", "growth", "step_change"):  # inf as the largest float (CSV, strict JSON)
+        if row[key] is not None and not math.isfinite(row[key]):
+            row[key] = 1e300
     for j, (f, a) in enumerate(cls.lines[:N_LINES], start=1):
         row[f"line{j}_freq"], row[f"line{j}_amp"] = f, a
     row["lines"] = " ".join(f"{f:+.4f}:{a:.4g}" for f, a in cls.lines)
@@ -216,7 +226,7 @@ def check(scene, model) -> dict:
         check_time_step(model, {param: float(value)}, S, "analysis.steps_per_period", scene.lines,
                         "analysis.values" if a["values"] is not None else f"model.parameters.{param}")
     cols = _columns(param, names)
-    check_output(scene, [c for c in cols if c not in ("class", "lines")])
+    check_output(scene, [c for c in cols if c not in TEXT_COLUMNS])
     return {"param": param, "values": values, "obs": obs, "dofs": [names.index(d) for d in obs]}
 
 
@@ -225,6 +235,7 @@ def run(ctx) -> dict:
     """Run a ``simulate`` scene; returns its part of ``summary.json``."""
     from contin.timedomain.poincare import steady_state
     from contin.output.results import CsvStream
+    from contin.util.safe_files import replace_file
     from contin.scene.registry import RunError
     from contin.timedomain.simulation import SimulationError
 
@@ -269,11 +280,13 @@ def run(ctx) -> dict:
             row = _row(param, value, res, cls, names)
             out.write(row)
             rows.append(row)
-            np.savez_compressed(ctx.outdir / f"simulation_{i}.npz", t=res.t, x=res.x, v=res.v,
-                                section=res.section, section_t=np.arange(res.section.shape[0]) * res.period,
-                                dof_names=np.array(names), parameter=param, value=float(value))
+            replace_file(ctx.outdir / f"simulation_{i}.npz", lambda fh: np.savez_compressed(  # noqa: B023 (called now)
+                fh, t=res.t, x=res.x, v=res.v, section=res.section,
+                section_t=np.arange(res.section.shape[0]) * res.period, dof_names=np.array(names), parameter=param,
+                value=float(value)), binary=True)
             records.append({"index": i, "value": float(value), "class": cls.label, "period": cls.period,
-                            "settled": cls.settled, "note": cls.note, "events": res.events,
+                            "settled": cls.settled, "unsettled": cls.unsettled, "growth": cls.growth,
+                            "step_change": cls.step_change, "note": cls.note, "events": res.events,
                             "unresolved_events": res.unresolved_events, "wall_time": res.wall_time,
                             "compile_time": res.compile_time, "cost_per_period_us": res.cost_per_period_us,
                             "notes": res.notes,
@@ -293,6 +306,9 @@ def run(ctx) -> dict:
         "dofs": obs,
         "results": [{k: v for k, v in r.items() if not k.startswith("_")} for r in records],
         "classes": {c: sum(1 for r in records if r["class"] == c) for c in sorted({r["class"] for r in records})},
+        # a response that is no steady state is not what the scene asked for
+        "shortfalls": [f"simulation at {param} = {r['value']:.10g} not settled: {r['unsettled']}"
+                       for r in records if not r["settled"]],
     }
 
 
@@ -403,7 +419,7 @@ def _plot(ctx, param, obs, records) -> list:
             axs = fig.subplots(1, 3)
             draw_simulation(axs, r["_plot"], obs, model, n_plot, units=units, labels=labels, symbols=sym, w=wsym)
             fig.suptitle(out["title"] or f"{model.name}: {math(param, sym)} = {r['value']:.6g}: "
-                         f"{r['class']}" + ("" if r["settled"] else " (converging)"))
+                         f"{r['class']}" + ("" if r["settled"] else " (not settled)"))
             files += save_figure(fig, ctx.outdir / f"simulation_{r['index']}", out["formats"], out["dpi"])
         if len(records) > 1:
             fig = new_figure((7.0, 4.8))

@@ -87,7 +87,8 @@ def stability_setup(analysis: dict, hb):
             org = br.info.get("origin")
             out.append((br, {"nu": prob.nu, "harmonics": prob.H, "parent": br.info.get("parent"),
                              "torus": br.info.get("torus"),
-                             "origin": None if org is None else {k: org[k] for k in ("kind", "parameter") if k in org}}))
+                             "origin": None if org is None else {k: org[k] for k in ("kind", "parameter", "located",
+                                                                                     "note") if k in org}}))
         return out
 
     return follow

@@ -5,7 +5,10 @@ short or failed for numerical reasons (a branch that ended ``start_failed``,
 ``newton_failed``, ``step_too_small``, ...; the reasons are printed and
 recorded in ``summary.json``; for ``sweep``: when at least one grid point fell
 short or failed; the sweep still runs every other point and lists them in
-``sweep.csv``), 2 on bad input, 130 when interrupted.
+``sweep.csv``) or when a result file could not be written (a full disk: the
+file and the command that resumes the run are named), 2 on bad input (an
+output directory that is not contin's, or that another run is writing,
+included), 130 when interrupted (Ctrl-C, SIGTERM, SIGHUP).
 
 Each command imports its machinery when it runs, so that ``contin --help`` and
 ``contin models`` answer without loading numba and the compiled kernels.
@@ -32,6 +35,9 @@ def _parser() -> argparse.ArgumentParser:
     r = sub.add_parser("run", help="run a scene and write result files and plots")
     r.add_argument("scene", help="scene file (YAML)")
     r.add_argument("-o", "--outdir", default=None, help="output directory (default: results/<scene name>)")
+    r.add_argument("--force", action="store_true",
+                   help="write into an output directory that holds files and is not contin's (files of the names "
+                   "contin writes are replaced)")
     r.add_argument("--set", dest="overrides", action="append", default=[], metavar="dotted.key=value",
                    help="override a scene value; the value is parsed as YAML (repeatable)")
     r.add_argument("-q", "--quiet", action="store_true", help="no progress display")
@@ -54,6 +60,8 @@ def _parser() -> argparse.ArgumentParser:
                     help="a grid axis: a list v1,v2,... or a range start:stop:count (inclusive); "
                     "several --grid give the outer product")
     sw.add_argument("-o", "--outdir", default=None, help="sweep directory (default: results/<scene name>-sweep)")
+    sw.add_argument("--force", action="store_true",
+                    help="write into a sweep directory that holds files and is not contin's")
     sw.add_argument("--set", dest="overrides", action="append", default=[], metavar="dotted.key=value",
                     help="override a scene value at every point (repeatable)")
     sw.add_argument("--scheduler", default=None, metavar="ADDRESS",
@@ -97,7 +105,9 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _fail(message: str, code: int = EXIT_BAD_INPUT) -> int:
-    sys.stderr.write("contin: error: " + "\n".join(textwrap.wrap(message, 100)) + "\n")
+    # paths stay whole: never broken at a hyphen or inside a long word
+    lines = textwrap.wrap(message, 100, break_long_words=False, break_on_hyphens=False)
+    sys.stderr.write("contin: error: " + "\n".join(lines) + "\n")
     return code
 
 
@@ -188,23 +198,9 @@ def _resume_command(args, outdir) -> str:
     return shlex.join(cmd)
 
 
-def _interrupted(args, outdir, summary: dict | None) -> int:
-    """Say how to resume an interrupted run, in summary.json's ``message`` and on stderr; exit status 130."""
-    import json
-
-    from contin.output.results import write_json_atomic
-
+def _interrupted(args, outdir) -> int:
+    """Say how to resume an interrupted run on stderr (the runner put it in summary.json); exit status 130."""
     command = _resume_command(args, outdir)
-    message = f"interrupted; to resume from the last stored point: {command}"
-    path = outdir / "summary.json"
-    if summary is None:  # interrupted before the run could stop by itself: the runner wrote its summary
-        try:
-            summary = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, ValueError):
-            summary = None
-    if isinstance(summary, dict) and summary.get("status") == "interrupted":
-        summary["message"] = message
-        write_json_atomic(path, summary)
     sys.stderr.write(f"contin: the run was interrupted; the results so far are in {outdir}. To resume it from "
                      f"the last stored point:\n  {command}\n")
     return EXIT_INTERRUPTED
@@ -220,7 +216,7 @@ def _branch_line(b: dict) -> str:
 def cmd_run(args) -> int:
     from pathlib import Path
 
-    from contin.app.runner import run_scene
+    from contin.app.runner import WriteFailed, run_scene
     from contin.scene.parse import SceneError, load_scene
 
     overrides = list(args.overrides)
@@ -233,17 +229,24 @@ def cmd_run(args) -> int:
         if kind != "convergence":
             raise SceneError("--budget", "a convergence scene (analysis.type: convergence)", kind)
         overrides.append(f"analysis.budget={args.budget!r}")
+    if args.outdir == "":
+        raise SceneError("-o", "a directory name for the results", "")
     scene = load_scene(args.scene, overrides)
-    outdir = Path(args.outdir) if args.outdir else Path("results") / Path(args.scene).stem
+    outdir = Path(args.outdir) if args.outdir is not None else Path("results") / Path(args.scene).stem
     if outdir.exists() and not outdir.is_dir():
         raise SceneError("-o", "a directory for the results (new or existing)", str(outdir),
                          hint=" (a file of that name exists)")
+    command = _resume_command(args, outdir)
     try:
-        summary = run_scene(scene, outdir, progress=not args.quiet, resume=args.resume)
+        summary = run_scene(scene, outdir, progress=not args.quiet, resume=args.resume, force=args.force,
+                            resume_command=command)
     except KeyboardInterrupt:  # a second Ctrl-C, or one outside the analysis
-        if not outdir.is_dir():
+        if not (outdir / "summary.json").is_file():
             return _fail("interrupted", EXIT_INTERRUPTED)
-        return _interrupted(args, outdir, None)
+        return _interrupted(args, outdir)
+    except WriteFailed as exc:  # the results so far stay, and the run resumes once the file can be written
+        return _fail(f"{exc}. The results so far are in {outdir}; once the file can be written (space freed, "
+                     f"permission given), resume the run from its last stored point with: {command}", EXIT_FAILED)
     a = summary.get("analysis", {})
     for line in a.get("table", []) if scene.analysis["type"] == "convergence" else []:
         print(line)
@@ -256,7 +259,7 @@ def cmd_run(args) -> int:
               + (f"; {found}" if found else ""))
     print(f"results in {outdir} ({summary['timings']['total']:.2f} s)")
     if summary["status"] == "interrupted":
-        return _interrupted(args, outdir, summary)
+        return _interrupted(args, outdir)
     if summary["status"] == "incomplete":
         lines = summary.get("shortfalls") or []
         sys.stderr.write("contin: the run fell short of what the scene asked:\n"
@@ -272,13 +275,15 @@ def cmd_budget(args) -> int:
 
     from contin.analyses.convergence import replot
     from contin.analyses.convergence_errors import read_records, recommend
+    from contin.scene.files import SUMMARY_CAP, read_input
     from contin.scene.parse import SceneError
 
     if not (math.isfinite(args.error) and args.error > 0):
         raise SceneError("ERR", "a positive finite number (the largest error accepted)", args.error)
     out = Path(args.outdir)
     try:
-        summary = json.loads((out / "summary.json").read_text())
+        raw, _ = read_input(out / "summary.json", SUMMARY_CAP)  # a regular file, not a pipe or a device
+        summary = json.loads(raw.decode("utf-8"))
         a = summary["analysis"]
         columns, cost = a["columns"], a.get("cost", "wall_time")
     except (OSError, ValueError, KeyError, TypeError):
@@ -306,29 +311,45 @@ def cmd_absorber(args) -> int:
                          args.max_amplification)
     if args.m2 is not None and args.sizing != "fixed_points":
         raise SceneError("--sizing", "to be used with --max-amplification (with --m2 the mass is given)", args.sizing)
-    d = design_absorber(args.m1, args.k1, args.m2, max_amplification=args.max_amplification, sizing=args.sizing)
+    try:  # values whose ratios the design cannot hold (m2/m1 out of range, an overflow): the message names them
+        d = design_absorber(args.m1, args.k1, args.m2, max_amplification=args.max_amplification, sizing=args.sizing)
+    except ValueError as exc:
+        raise SceneError("absorber", "values whose ratios the design can hold", None, hint=f": {exc}") from None
     print(d.report())
     if args.plot:
         plot_design(d, args.plot)
         print(f"plot: {args.plot}")
     if args.json:
-        from contin.output.results import write_json_atomic
+        import json
 
-        write_json_atomic(args.json, d.as_dict())
+        from contin.output.results import strict_json
+        from contin.util.safe_files import write_user_file
+
+        # a regular file is replaced atomically; a device or pipe (/dev/stdout, a FIFO) is written in place
+        text = json.dumps(strict_json(d.as_dict()), indent=2, allow_nan=False)
+        write_user_file(args.json, lambda fh: fh.write(text + "\n"))
         print(f"json: {args.json}")
     return EXIT_OK
 
 
 def cmd_sweep(args) -> int:
+    import signal
     from pathlib import Path
 
     from contin.app.sweep import SweepOptions, run_sweep, sweep_command
     from contin.app.sweep_grid import parse_grid
 
-    opts = SweepOptions(scene=args.scene, grid=tuple(parse_grid(g) for g in args.grid),
-                        outdir=args.outdir or str(Path("results") / (Path(args.scene).stem + "-sweep")),
+    outdir = args.outdir if args.outdir is not None else str(Path("results") / (Path(args.scene).stem + "-sweep"))
+    opts = SweepOptions(scene=args.scene, grid=tuple(parse_grid(g) for g in args.grid), outdir=outdir,
                         overrides=tuple(args.overrides), scheduler=args.scheduler, workers=args.workers,
-                        serial=args.serial, retries=args.retries, map_plot=args.map_plot, progress=not args.quiet)
+                        serial=args.serial, retries=args.retries, map_plot=args.map_plot, progress=not args.quiet,
+                        force=args.force)
+
+    def stop(signum, frame):  # SIGTERM and SIGHUP end a sweep as Ctrl-C does
+        raise KeyboardInterrupt
+
+    stops = [getattr(signal, n) for n in ("SIGTERM", "SIGHUP") if hasattr(signal, n)]
+    previous = {s: signal.signal(s, stop) for s in stops if signal.getsignal(s) is not signal.SIG_IGN}  # nohup
     try:
         result = run_sweep(opts)
     except KeyboardInterrupt:
@@ -338,6 +359,9 @@ def cmd_sweep(args) -> int:
                          "(sweep.csv). To resume it (the complete points are not run again):\n"
                          f"  {sweep_command(opts)}\n")
         return EXIT_INTERRUPTED
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
     c = result.counts
     print(f"sweep: {len(result.records)} points, {c.get('complete', 0)} complete ({c.get('reused', 0)} from "
           f"before), {len(result.failed)} failed or incomplete; index in {Path(opts.outdir) / 'sweep.csv'} "
@@ -380,8 +404,12 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         return _fail("interrupted", EXIT_INTERRUPTED)
     except OSError as exc:  # a place that cannot be written or read: a message, not a traceback
+        import errno
+
         where = f"{exc.filename}: " if exc.filename else ""
-        return _fail(f"{where}{exc.strerror or exc}", EXIT_BAD_INPUT)
+        # a disk that is full or fails is no bad input: the same command works once there is room
+        code = EXIT_FAILED if exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EIO, errno.EFBIG) else EXIT_BAD_INPUT
+        return _fail(f"{where}{exc.strerror or exc}", code)
 
 
 if __name__ == "__main__":

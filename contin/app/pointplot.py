@@ -14,6 +14,7 @@ from contin.hb.harmonics import coefficient_blocks, harmonic_amplitudes
 from contin.output.checkpoint import CheckpointError, read_records
 from contin.output.figures import figure_style, new_figure, save_figure
 from contin.output.labels import axis_label, math
+from contin.scene.files import SUMMARY_CAP, read_input
 from contin.scene.parse import SceneError, parse_scene
 
 __all__ = ["load_state_row", "plot_point", "draw_point"]
@@ -34,6 +35,23 @@ def load_state_row(outdir: Path, row: int) -> dict:
     raise SceneError("--point", f"a row number of {path.parent / 'branches.csv'} stored in state.jsonl", row)
 
 
+def _check_row_size(path: Path, row: int, rec: dict, model, H: int) -> None:
+    """The stored row's coefficients match its ``H`` and the model, and its problem fits in memory: checked
+    before the problem (and its arrays, which grow with ``H``) is made."""
+    from contin.hb.harmonics import default_samples
+    from contin.scene.budget import Limits, check_demands, harmonic_balance_demands
+
+    n = model.n_dof
+    size = n * (2 * H + 1)
+    u = rec.get("u")
+    if not isinstance(u, list) or len(u) != size:
+        found = f"{len(u)} values" if isinstance(u, list) else type(u).__name__
+        dofs = "1 dof" if n == 1 else f"{n} dofs"
+        raise SceneError(str(path), f"row {row} with {size} coefficients ({dofs} x (2H+1), H = {H})", found)
+    N = max(default_samples(H, model.degree), model.min_samples)
+    check_demands([harmonic_balance_demands(n, H, N, f"{path} row {row} (H = {H})")], Limits.of_machine())
+
+
 def plot_point(outdir: Path, row: int, samples: int = 512) -> Path:
     """Draw the time history, orbit and spectrum of one stored solution.
 
@@ -50,7 +68,11 @@ def plot_point(outdir: Path, row: int, samples: int = 512) -> Path:
     if not (outdir / "summary.json").is_file():
         raise SceneError(str(outdir), "a result directory written by `contin run` (with summary.json)", None)
     try:
-        summary = json.loads((outdir / "summary.json").read_text(encoding="utf-8"))
+        raw, _ = read_input(outdir / "summary.json", SUMMARY_CAP)  # a regular file, not a pipe or a device
+        summary = json.loads(raw.decode("utf-8"))
+    except OSError as exc:
+        raise SceneError(str(outdir / "summary.json"), "a summary written by `contin run`", None,
+                         hint=f" ({exc.strerror})") from None
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise SceneError(str(outdir / "summary.json"), "a summary written by `contin run`", None,
                          hint=f" ({exc})") from None
@@ -64,6 +86,7 @@ def plot_point(outdir: Path, row: int, samples: int = 512) -> Path:
         scene.analysis["harmonics"] = rec["H"]
     scene.analysis["samples"] = None
     model = build_model(scene)
+    _check_row_size(outdir / "state.jsonl", row, rec, model, scene.analysis.get("harmonics", 5))
     hb = build_problem(scene, model)
     u = np.asarray(rec["u"], float)
     if u.shape != (hb.size,) or not np.all(np.isfinite(u)):

@@ -1,4 +1,12 @@
-"""Run a scene: build its model, run its analysis, write the result files and plots."""
+"""Run a scene: build its model, run its analysis, write the result files and plots.
+
+A run owns its output directory while it runs (:class:`contin.app.outdir.OutdirLock`):
+a directory that holds files and is not contin's is refused unless ``force``, a
+second writer is refused while the lock is held, and SIGINT, SIGTERM and SIGHUP
+stop the run at its next point with its files saying ``interrupted``. A file
+that cannot be written during the run ends it as ``failed`` with
+:class:`WriteFailed`, which names the file.
+"""
 
 from __future__ import annotations
 
@@ -19,7 +27,32 @@ from contin.scene.parse import Scene, SceneError, model_frequency
 from contin.scene.build import build_model
 from contin.scene.registry import RunContext, RunError
 
-__all__ = ["run_scene", "versions"]
+__all__ = ["run_scene", "versions", "WriteFailed", "STOP_SIGNALS"]
+
+#: the signals that stop a run at its next point, as Ctrl-C does (what schedulers, ``timeout`` and a closed
+#: terminal send)
+STOP_SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name))
+
+
+class WriteFailed(RunError):
+    """A result file could not be written during a run (a full disk, no permission, a read-only file system).
+
+    Attributes
+    ----------
+    filename : str or None
+        The file.
+    strerror : str
+        Why (the system's words).
+    """
+
+    def __init__(self, exc: OSError):
+        import errno
+
+        self.filename, self.strerror = exc.filename, exc.strerror or str(exc)
+        where = f"{exc.filename}: " if exc.filename else ""
+        # a full disk or a read-only file system fails writes; a permission, either (a resume reads its files)
+        verb = "write" if exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS) else "write or read"
+        super().__init__(f"could not {verb} {where}{self.strerror}")
 
 
 def versions() -> dict:
@@ -30,17 +63,24 @@ def versions() -> dict:
             "scipy": scipy.__version__, "numba": numba.__version__}
 
 
-def run_scene(scene: Scene, outdir: str | Path, progress: bool = True, resume: bool = False) -> dict:
+def run_scene(scene: Scene, outdir: str | Path, progress: bool = True, resume: bool = False, force: bool = False,
+              resume_command: str | None = None) -> dict:
     """Run a validated scene and write its results into ``outdir``.
 
-    Every check of the scene (:func:`contin.scene.registry.check_scene`) is made
-    before anything is written.
+    Every check of the scene (:func:`contin.scene.registry.check_scene`) and of
+    ``outdir`` (:func:`contin.app.outdir.check_outdir`) is made before anything
+    is written. ``outdir`` is locked for the whole run.
 
     Parameters
     ----------
     resume : bool
-        Continue an interrupted run in ``outdir`` (same scene) from its
-        checkpoint instead of starting anew.
+        Continue an interrupted run in ``outdir`` (same scene, same files read,
+        same model) from its checkpoint instead of starting anew.
+    force : bool
+        Write into a directory that holds files and is not contin's.
+    resume_command : str, optional
+        The command that resumes this run, for the ``message`` of an
+        interrupted run's ``summary.json``.
 
     Returns
     -------
@@ -48,36 +88,71 @@ def run_scene(scene: Scene, outdir: str | Path, progress: bool = True, resume: b
         The content of ``summary.json``. Its ``status`` is ``complete`` when
         the analysis did everything the scene asked, ``incomplete`` when it
         fell short (``shortfalls`` says where and why), ``interrupted``, or
-        ``failed`` (a run that could not proceed; :class:`RunError` is raised).
+        ``failed`` (a run that could not proceed; :class:`RunError` is raised,
+        :class:`WriteFailed` when a result file could not be written).
+
+    Raises
+    ------
+    SceneError
+        Bad input, before anything is written: the scene, ``outdir`` (not
+        contin's, a link where a result file goes, locked by another process),
+        or a ``resume`` that cannot go on (another scene, changed files).
     """
-    from contin.scene.registry import check_scene, get_runner
+    from contin.app.outdir import OutdirLock, check_outdir, clean_temporary_files
+    from contin.app.run_inputs import model_fingerprint, scene_inputs
+    from contin.scene.registry import check_scene
 
     t0 = time.perf_counter()
+    if str(outdir) == "":
+        raise SceneError("-o", "a directory name for the results", "")
     outdir = Path(outdir)
     model = build_model(scene)
     plan = check_scene(scene, model)
-    resumed_from = None
-    if resume:
-        resumed_from = _check_resumable(scene, outdir)
+    inputs, fingerprint = scene_inputs(scene), model_fingerprint(model)
+    check_outdir(outdir, force=force)
     outdir.mkdir(parents=True, exist_ok=True)
-    ctx = RunContext(scene, model, outdir, Progress(progress), resume=resumed_from is not None, plan=plan,
-                     run_scene=run_scene)
-    ctx.timings["model"] = time.perf_counter() - t0
-    summary = {"status": "running", "scene": scene.data, "source": scene.source, "versions": versions(),
-               "model": {"name": model.name, "dofs": list(model.dof_names), "effects": list(model.effects),
-                         "terms": model.describe().splitlines()[1:],
-                         "frequency": model_frequency(scene.model, scene.analysis) or model.frequency,
-                         "parameters": dict(zip(model.param_names, map(float, model.parameter_vector()))),
-                         "symbols": model_symbols(model)},
-               "timings": ctx.timings, "resumed": resumed_from}
-    write_json_atomic(outdir / "summary.json", summary)
+    with OutdirLock(outdir):
+        resumed_from = None
+        if resume:
+            resumed_from = _check_resumable(scene, outdir, inputs, fingerprint)
+        clean_temporary_files(outdir)
+        ctx = RunContext(scene, model, outdir, Progress(progress), resume=resumed_from is not None, plan=plan,
+                         run_scene=run_scene)
+        ctx.timings["model"] = time.perf_counter() - t0
+        summary = {"status": "running", "scene": scene.data, "source": scene.source, "versions": versions(),
+                   "inputs": inputs, "fingerprint": fingerprint,
+                   "model": {"name": model.name, "dofs": list(model.dof_names), "effects": list(model.effects),
+                             "terms": model.describe().splitlines()[1:],
+                             "frequency": model_frequency(scene.model, scene.analysis) or model.frequency,
+                             "parameters": dict(zip(model.param_names, map(float, model.parameter_vector()))),
+                             "symbols": model_symbols(model)},
+                   "timings": ctx.timings, "resumed": resumed_from}
+        return _run(ctx, summary, t0, resume_command)
 
-    def on_sigint(signum, frame):
+
+def _run(ctx: RunContext, summary: dict, t0: float, resume_command: str | None) -> dict:
+    """Run the analysis of a locked ``ctx.outdir`` and write its files; returns the summary."""
+    from contin.scene.registry import get_runner
+
+    scene, outdir = ctx.scene, ctx.outdir
+    signals = []
+
+    def on_signal(signum, frame):
         ctx.stop_requested = True
+        signals.append(signal.Signals(signum).name)
+        if signum == getattr(signal, "SIGHUP", None):
+            ctx.progress.enabled = False  # the terminal is gone: writing to it would fail
 
-    previous = signal.signal(signal.SIGINT, on_sigint) if _main_thread() else None
+    # SIGTERM and SIGHUP as Ctrl-C: the run stops at its next point, its files say `interrupted`; a signal the
+    # run was started to ignore (nohup) stays ignored
+    previous = {}
+    if _main_thread():
+        for s in STOP_SIGNALS:
+            if s == signal.SIGINT or signal.getsignal(s) is not signal.SIG_IGN:
+                previous[s] = signal.signal(s, on_signal)
     try:
         try:
+            write_json_atomic(outdir / "summary.json", summary)
             result = get_runner(scene.analysis["type"])(ctx)
             files = []
             if scene.output["plots"] and ctx.plot is not None:
@@ -85,14 +160,19 @@ def run_scene(scene: Scene, outdir: str | Path, progress: bool = True, resume: b
                 files += ctx.plot()
                 ctx.timings["plots"] = time.perf_counter() - tp
         finally:
-            if previous is not None:
-                signal.signal(signal.SIGINT, previous)
+            for s, handler in previous.items():
+                signal.signal(s, handler)
             ctx.progress.close()
     except BaseException as exc:
         # never leave the files saying `running`
         message = str(exc) if isinstance(exc, (RunError, SceneError)) else f"{type(exc).__name__}: {exc}"
-        summary.update({"status": "interrupted" if isinstance(exc, KeyboardInterrupt) else "failed",
-                        "message": message, "timings": ctx.timings})
+        if isinstance(exc, OSError):
+            _failed_write(summary, outdir, WriteFailed(exc), resume_command, ctx.timings)
+        interrupted = isinstance(exc, KeyboardInterrupt)
+        if interrupted and resume_command:
+            message = f"interrupted; to resume from the last stored point: {resume_command}"
+        summary.update({"status": "interrupted" if interrupted else "failed", "message": message,
+                        "timings": ctx.timings})
         write_json_atomic(outdir / "summary.json", summary)
         raise
     ctx.timings["total"] = time.perf_counter() - t0
@@ -105,21 +185,43 @@ def run_scene(scene: Scene, outdir: str | Path, progress: bool = True, resume: b
                     "timings": ctx.timings})
     if status == "incomplete":
         summary["message"] = "; ".join(shortfalls)
-    summary["exports"] = write_exports(outdir, scene.output["exports"], summary)
-    write_json_atomic(outdir / "summary.json", summary)
+    elif status == "interrupted":
+        by = f" by {signals[0]}" if signals and signals[0] != "SIGINT" else ""
+        summary["message"] = f"interrupted{by}" + (f"; to resume from the last stored point: {resume_command}"
+                                                   if resume_command else "")
+    try:
+        summary["exports"] = write_exports(outdir, scene.output["exports"], summary)
+        write_json_atomic(outdir / "summary.json", summary)
+    except OSError as exc:
+        _failed_write(summary, outdir, WriteFailed(exc), resume_command, ctx.timings)
     return summary
 
 
-def _check_resumable(scene: Scene, outdir: Path):
+def _failed_write(summary: dict, outdir: Path, failed: WriteFailed, resume_command: str | None, timings) -> None:
+    """Record a run ended by a file it could not write (``failed``, the file named), and raise ``failed``."""
+    message = str(failed) + (f"; once it can be written, resume the run: {resume_command}" if resume_command else "")
+    summary.update({"status": "failed", "message": message, "timings": timings})
+    try:
+        write_json_atomic(outdir / "summary.json", summary)
+    except OSError:
+        pass  # the disk that failed the run may fail this too: the error that ended it is what counts
+    raise failed from None
+
+
+def _check_resumable(scene: Scene, outdir: Path, inputs: dict, fingerprint: str):
     """The earlier run's summary if ``outdir`` holds an unfinished run of the same scene, else None."""
     import json
+
+    from contin.app.run_inputs import check_same_inputs
+    from contin.util.safe_files import open_regular
 
     path = outdir / "summary.json"
     if not path.exists() or not (outdir / "state.jsonl").exists():
         return None  # nothing to resume: a fresh run
     try:
-        old = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        with open_regular(path) as fh:
+            old = json.loads(fh.read(), parse_constant=_refuse_constant)
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
         raise SceneError("--resume", f"a summary.json written by contin in {outdir}", "a file that does not parse",
                          hint=f" ({exc}); run again without --resume, or use another -o") from None
     if not isinstance(old, dict):
@@ -143,7 +245,12 @@ def _check_resumable(scene: Scene, outdir: Path):
                          hint="; resume with the scene and --set options of that run, or use another -o")
     if old.get("status") == "complete":
         raise SceneError("--resume", f"an unfinished run in {outdir}", "a complete run")
+    check_same_inputs(old, inputs, fingerprint, outdir)
     return {"status": old.get("status"), "timings": old.get("timings")}
+
+
+def _refuse_constant(token: str):
+    raise ValueError(f"{token} is not JSON (contin writes a value that is not finite as null)")
 
 
 def _main_thread() -> bool:

@@ -46,7 +46,6 @@ the workers' warm-up) :mod:`contin.app.sweep_workers`.
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import json
 import os
@@ -57,6 +56,7 @@ from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
 
+from contin.app.outdir import OutdirLock, check_outdir, clean_temporary_files
 from contin.app.progress import Progress
 from contin.app.sweep_grid import GridAxis, grid_points
 from contin.app.sweep_index import _Index, _progress_line, summarize_point
@@ -95,6 +95,8 @@ class SweepOptions:
     progress : bool
         Show the progress on stderr (points done of the total, with the
         remaining time) and a line for each point that failed or fell short.
+    force : bool
+        Write into a directory that holds files and is not contin's (``--force``).
     """
 
     scene: str
@@ -107,6 +109,7 @@ class SweepOptions:
     retries: int = 2
     map_plot: bool = True
     progress: bool = True
+    force: bool = False
 
     def __post_init__(self):
         if not isinstance(self.scene, (str, Path)) or not str(self.scene):
@@ -143,35 +146,9 @@ class SweepOptions:
             raise SceneError("--serial", "no --scheduler or --workers with --serial (it runs in this process)", True)
         if isinstance(self.retries, bool) or not isinstance(self.retries, int) or not 0 <= self.retries <= 100:
             raise SceneError("--retries", "an integer from 0 to 100", self.retries)
+        if not isinstance(self.force, bool):
+            raise SceneError("--force", "true or false", self.force)
 
-
-
-@contextlib.contextmanager
-def _file_lock(path: Path, blocking: bool):
-    """An exclusive ``flock`` on ``path`` (released when the process dies); a no-op where unsupported."""
-    try:
-        import fcntl
-    except ImportError:  # pragma: no cover  (not POSIX)
-        yield True
-        return
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fh = open(path, "a+")
-    except OSError:
-        yield True
-        return
-    try:
-        try:
-            fcntl.flock(fh.fileno(), fcntl.LOCK_EX | (0 if blocking else fcntl.LOCK_NB))
-        except BlockingIOError:
-            yield False
-            return
-        except OSError:
-            yield True  # a file system without locks: go on unlocked
-            return
-        yield True
-    finally:
-        fh.close()
 
 
 # ---------------------------------------------------------------- the sweep
@@ -280,7 +257,8 @@ def run_sweep(options: SweepOptions, echo=None) -> SweepResult:
     SceneError
         Bad input: the scene (with the ``--set`` options) is invalid, every
         grid point is refused by the scene's schema (a wrong ``--grid`` key),
-        another sweep is writing ``outdir``, the scheduler cannot be reached,
+        another process is writing ``outdir`` (its lock, :class:`~contin.app.outdir.OutdirLock`, names it),
+        ``outdir`` holds files and is not contin's (without ``force``), the scheduler cannot be reached,
         or Dask is not installed and ``serial`` is false
         (:class:`~contin.app.sweep_workers.MissingDependencyError`); nothing
         is written then.
@@ -289,7 +267,7 @@ def run_sweep(options: SweepOptions, echo=None) -> SweepResult:
         and ``sweep.json`` with status ``interrupted`` and a ``message`` that
         gives the command that resumes the sweep (:func:`sweep_command`).
     """
-    from contin.scene.parse import parse_scene
+    from contin.scene.parse import parse_scene, read_scene_text
 
     t_start = time.perf_counter()
     display = None
@@ -308,10 +286,7 @@ def run_sweep(options: SweepOptions, echo=None) -> SweepResult:
             display.write(line)
         display.update(line, done=done, total=total, task="sweep")
     scene_path = Path(options.scene)
-    try:
-        text = scene_path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise SceneError(str(scene_path), "a readable scene file", None, hint=f" ({exc.strerror})") from None
+    text, _ = read_scene_text(scene_path)  # a regular file under its cap: never a FIFO or a device
     source = str(scene_path)
     base = parse_scene(text, source, options.overrides)  # the scene itself must be valid: bad input otherwise
     _check_grid_keys(base, options.grid)
@@ -330,15 +305,15 @@ def run_sweep(options: SweepOptions, echo=None) -> SweepResult:
                          hint=f"; every point is refused, for example {first.label}: {refusals[first.index]}")
     outdir = Path(options.outdir)
     points_dir = outdir / "points"
+    check_outdir(outdir, force=options.force, flag="-o/--outdir")  # before anything is written
     try:
         points_dir.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise SceneError("-o/--outdir", "a directory that can be created and written", str(outdir),
                          hint=f" ({exc.strerror or exc})") from None
-    with _file_lock(outdir / ".sweep.lock", blocking=False) as locked:
-        if not locked:
-            raise SceneError("-o/--outdir", "a sweep directory no other sweep is writing", str(outdir),
-                             hint="; wait for that sweep to end or choose another -o")
+    # one writer at a time, a sweep or a run alike: the lock of contin.app.outdir (each point's run locks its own)
+    with OutdirLock(outdir, flag="-o/--outdir"):
+        clean_temporary_files(outdir)
         _clean_leftovers(points_dir)
         index = _Index(outdir / "sweep.csv", options.grid, points)
         todo = []

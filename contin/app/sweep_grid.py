@@ -18,10 +18,13 @@ import yaml
 
 from contin.scene.schema import SceneError
 
-__all__ = ["GridAxis", "GridPoint", "parse_grid", "grid_points", "RANGE_DIGITS"]
+__all__ = ["GridAxis", "GridPoint", "parse_grid", "grid_points", "RANGE_DIGITS", "MAX_GRID_POINTS"]
 
 #: significant digits of the values of a range ``start:stop:count`` (``0:0.6:13`` gives 0.05 exactly as typed)
 RANGE_DIGITS = 12
+#: most points of a sweep, of one axis and of the outer product of all (each point is a whole run with its own
+#: directory; the grid itself is made in memory before the first point runs)
+MAX_GRID_POINTS = 100_000
 
 _NAME_CHARS = re.compile(r"[^A-Za-z0-9._+=-]")
 
@@ -98,6 +101,8 @@ class GridAxis:
             raise SceneError("--grid", "dotted.key=SPEC with a dotted scene key such as model.parameters.F", self.key)
         if not isinstance(self.values, tuple) or not self.values:
             raise SceneError(where, "at least one value", self.values)
+        if len(self.values) > MAX_GRID_POINTS:
+            raise SceneError(where, f"at most {MAX_GRID_POINTS} values", f"{len(self.values)} values")
         object.__setattr__(self, "values", tuple(_plain(v) for v in self.values))
         for v in self.values:
             if not isinstance(v, (int, float, str, bool)) or (isinstance(v, float) and not math.isfinite(v)):
@@ -127,7 +132,8 @@ def parse_grid(text: str) -> GridAxis:
     each value at most once) or a range ``start:stop:count`` of ``count >= 2``
     equally spaced numbers from ``start`` to ``stop`` inclusive (rounded to
     12 significant digits, so ``0:0.6:13`` gives 0, 0.05, ..., 0.6 as typed).
-    A single value is a list of one.
+    A single value is a list of one. An axis has at most :data:`MAX_GRID_POINTS`
+    values.
 
     Raises
     ------
@@ -161,6 +167,9 @@ def parse_grid(text: str) -> GridAxis:
             raise SceneError(where, "a range with finite start and stop", spec)
         if count < 2:
             raise SceneError(where, "a range start:stop:count with a count of at least 2", spec)
+        if count > MAX_GRID_POINTS:  # refused before its values are made
+            raise SceneError(where, f"a range start:stop:count with a count of at most {MAX_GRID_POINTS}",
+                             f"{count} values")
         if start == stop:
             raise SceneError(where, "a range start:stop:count with start different from stop", spec)
         values = tuple(float(f"{start + (stop - start) * i / (count - 1):.{RANGE_DIGITS}g}") for i in range(count))
@@ -168,6 +177,8 @@ def parse_grid(text: str) -> GridAxis:
         if len(set(values)) != len(values):
             raise SceneError(where, f"a range whose {count} values differ in {RANGE_DIGITS} significant digits", spec)
         return GridAxis(key, values, spec)
+    if spec.count(",") >= MAX_GRID_POINTS:
+        raise SceneError(where, f"a list of at most {MAX_GRID_POINTS} values", f"{spec.count(',') + 1} values")
     return GridAxis(key, tuple(_scalar(t, where) for t in spec.split(",")), spec)
 
 
@@ -201,8 +212,17 @@ def grid_points(axes) -> list[GridPoint]:
     keeps the names of the points already computed; if two points would share
     a name, or a name would be unreasonably long, the points are named
     ``p0000``, ``p0001``, ... instead.
+
+    Raises
+    ------
+    SceneError
+        For more than :data:`MAX_GRID_POINTS` points.
     """
     axes = tuple(axes)
+    sizes = [len(a.values) for a in axes]
+    if math.prod(sizes) > MAX_GRID_POINTS:  # counted before a point is made
+        raise SceneError("--grid", f"a grid of at most {MAX_GRID_POINTS} points (the outer product of the axes)",
+                         f"{math.prod(sizes)} points ({' x '.join(map(str, sizes))})")
     short = [a.key.rsplit(".", 1)[-1] for a in axes]
     names = [s if short.count(s) == 1 else a.key for s, a in zip(short, axes)]
     points = []

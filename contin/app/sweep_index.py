@@ -11,7 +11,6 @@ from __future__ import annotations
 import csv
 import json
 import math
-import os
 import re
 import time
 from pathlib import Path
@@ -127,17 +126,18 @@ class _Index:
     def write(self) -> Path:
         from contin.output.results import format_value
 
+        from contin.util.safe_files import replace_file
+
         rows = self.rows()
         cols = self.columns(rows)
-        tmp = self.path.with_name(self.path.name + ".tmp")
-        with open(tmp, "w", newline="") as fh:
+
+        def write(fh):
             w = csv.writer(fh)
             w.writerow(cols)
             for r in rows:
                 w.writerow([_cell(r.get(c), format_value) for c in cols])
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, self.path)
+
+        replace_file(self.path, write, newline="")  # a random temporary file, renamed onto a regular file only
         self._last = time.monotonic()
         return self.path
 

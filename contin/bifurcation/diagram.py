@@ -137,6 +137,8 @@ def _origin(point: SpecialPoint, parent: int | None, st: BranchStart) -> dict:
         "side": st.side,
         "eps": st.eps,
         "first_point_parameter": st.lam,
+        "located": bool(point.located),
+        **({"note": _from_bracket(point)} if not point.located else {}),
     }
 
 
@@ -215,20 +217,33 @@ def _switch_candidates(br: Branch, kinds: set, origin_lam: float | None, tol: fl
     The engine's determinant test and the ``+1`` multiplier event report the
     same branch point; they are merged by kind and bracketing interval,
     keeping the determinant one: it is located exactly, whereas the
-    multiplier count is biased by ``tolerance / |d|mu|/dlam|``.
+    multiplier count is biased by ``tolerance / |d|mu|/dlam|``. A located
+    report is preferred to an unlocated one; a bifurcation that no test
+    located is still switched at, from the best point of its final bracket
+    (a converged solution; :func:`_origin` records that it was not located).
     """
     chosen: dict[tuple, SpecialPoint] = {}
     for sp in br.special_points:
         kind = _kind(sp)
-        if kind.value not in kinds or not sp.located:
+        if kind.value not in kinds:
             continue
         scale = tol * max(1.0, abs(sp.parameter))
         if origin_lam is not None and abs(sp.parameter - origin_lam) <= 1e3 * scale and sp.index <= 1:
             continue  # the bifurcation the branch starts from
         key = (kind, sp.index)
-        if key not in chosen or (kind is SpecialKind.BP and not sp.event.startswith("stability")):
+        old = chosen.get(key)
+        if old is None or (sp.located and not old.located) or (
+                sp.located == old.located and kind is SpecialKind.BP and not sp.event.startswith("stability")):
             chosen[key] = sp
     return sorted(chosen.values(), key=lambda p: (p.s, p.index))
+
+
+def _from_bracket(sp: SpecialPoint) -> str:
+    """What a switch at an unlocated point says of where it started ("" at a located point)."""
+    if sp.located:
+        return ""
+    lo, hi = sp.bracket
+    return f"switched from the bracket [{lo:.10g}, {hi:.10g}], the point not located ({sp.message})"
 
 
 def _kind(sp: SpecialPoint) -> SpecialKind:
@@ -247,7 +262,8 @@ def _torus_child(prob, br: Branch, sp: SpecialPoint, torus: TorusSettings | None
         st, why = None, str(exc)
     if st is None:
         diagram.failed_switches.append({"parent": parent, "kind": "ns", "parameter": float(sp.parameter), "side": 1,
-                                        "message": f"no first point of the torus branch: {why}"})
+                                        "message": f"no first point of the torus branch: {why}"
+                                                   + (f" ({_from_bracket(sp)})" if not sp.located else "")})
     return st
 
 
@@ -395,7 +411,9 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
             failed: list = []
             found = switch_at(prob, br, sp, options=options, eps=eps, problem_factory=problem_factory,
                               pd_direction=pd_direction, failures=failed)
-            diagram.failed_switches.extend({"parent": i, **f} for f in failed)
+            where = _from_bracket(sp)
+            diagram.failed_switches.extend({"parent": i, **f, **({"message": f"{f['message']} ({where})"}
+                                                                  if where else {})} for f in failed)
             for st in found:
                 if len(diagram) >= max_branches:
                     return diagram

@@ -128,7 +128,8 @@ def classify_end(branch: Branch, problem, settings: TorusSettings) -> None:
     point in place; a branch that reached its range end is left as it is.
     """
     if not len(branch) or branch.status in (BranchStatus.RANGE_END, BranchStatus.INTERRUPTED,
-                                            BranchStatus.MAX_POINTS, BranchStatus.CLOSED_LOOP):
+                                            BranchStatus.MAX_POINTS, BranchStatus.DEFAULT_MAX_POINTS,
+                                            BranchStatus.CLOSED_LOOP):
         return
     u, lam = branch.unknowns[-1], float(branch.parameter[-1])
     name = branch.parameter_name

@@ -22,8 +22,10 @@ class BranchStatus(str, enum.Enum):
     RUNNING = "running"
     #: reached an end of the parameter range
     RANGE_END = "range_end"
-    #: ``max_points`` points stored
+    #: ``max_points`` points stored, a cap the caller set
     MAX_POINTS = "max_points"
+    #: the default cap on stored points reached (``max_points`` was not set): the rest is not covered
+    DEFAULT_MAX_POINTS = "default_max_points"
     #: the step size fell below ``ds_min``
     STEP_TOO_SMALL = "step_too_small"
     #: Newton did not converge at the start (the branch has no points)
@@ -52,8 +54,10 @@ class BranchStatus(str, enum.Enum):
 
         A branch ends as asked at a range end (also after turning back), at
         a closed loop, at a located point it cannot pass (``BOUNDARY``) or
-        after ``max_points`` points; it falls short when its start, Newton,
-        the step size or the conditioning failed (or it was interrupted).
+        after the ``max_points`` points the caller set; it falls short when
+        its start, Newton, the step size or the conditioning failed, when it
+        reached the default cap on points that nobody set
+        (``DEFAULT_MAX_POINTS``), or when it was interrupted.
         """
         return self in _AS_ASKED
 

@@ -68,7 +68,7 @@ from contin.engine.branch import Branch, BranchBuilder, BranchStatus, PointRejec
 from contin.engine.connection import connection_report
 from contin.engine.corners import Corners, kink_point
 from contin.engine.corrector import Candidate, Corrector, Failure, StepFailed, format_parameter
-from contin.engine.ends import attempt, closed, finish_at_range_end, revisited, toward, uncovered
+from contin.engine.ends import attempt, closed, finish_at_range_end, left_at_start, revisited, toward, uncovered
 from contin.engine.events import BranchPointEvent, Event, FoldEvent, PointInfo
 from contin.engine.location import EventLocation, test_values
 from contin.engine.newton import NUMERICAL_ERRORS, SingularMatrixError, factorize
@@ -306,9 +306,8 @@ class _Engine:
         """Step until the branch ends (its status says how)."""
         opt, step = self.opt, self.step
         while True:
-            if len(self.branch) >= opt.max_points:
-                self.builder.finish(BranchStatus.MAX_POINTS,
-                                    f"stored max_points={opt.max_points} points; last at {self.fmt(self.pos.lam)}")
+            if len(self.branch) >= opt.point_cap:
+                self._finish_at_cap()
                 return self.branch
             ds_try = step.trial()
             try:
@@ -332,6 +331,18 @@ class _Engine:
             step.grow(cand.iterations)
             if self.checkpoint is not None:
                 self.checkpoint(self.branch, self.state())
+
+    def _finish_at_cap(self) -> None:
+        """End the branch on its cap of stored points: ``MAX_POINTS`` if the caller set it, else a shortfall."""
+        opt, where = self.opt, self.fmt(self.pos.lam)
+        if opt.max_points is not None:
+            self.builder.finish(BranchStatus.MAX_POINTS, f"stored max_points={opt.max_points} points; last at {where}")
+            return
+        # a cap nobody asked for: the branch did not reach where it was going
+        self.builder.finish(
+            BranchStatus.DEFAULT_MAX_POINTS,
+            f"stored the default cap of {opt.point_cap} points (max_points was not set); last at {where}: "
+            "raise max_points (continuation.max_points in a scene) to go on")
 
     def _recover(self, failed: StepFailed, ds_try: float) -> Candidate | StepFailed:
         """After a failed step: a barrier's point located ahead, or a step across a corner, else the failure."""
@@ -438,7 +449,21 @@ class _Engine:
         self.builder.finish(BranchStatus.BOUNDARY, self.barriers.finish_message(why, self.name, self.pos.lam))
 
     def _finish_range_end(self, index: int) -> None:
-        """End the branch on a range end at its stored point ``index``."""
+        """End the branch on a range end at its stored point ``index``.
+
+        Raises :class:`~contin.engine.corrector.Failure` (``ILL_CONDITIONED``) when the branch left the range
+        where it started without covering any of it though asked into it (:func:`~contin.engine.ends.left_at_start`).
+        """
+        lam_start = float(self.branch.parameter[0])
+        if self.user_tangent is None and left_at_start(self.branch, (self.lo, self.hi), lam_start, self.opt.direction):
+            other = self.hi if lam_start == self.lo else self.lo
+            raise Failure(
+                BranchStatus.ILL_CONDITIONED,
+                f"the branch left the parameter range at its start {self.fmt(lam_start)} without covering any of it, "
+                f"though asked to go towards {self.fmt(other)}: the parameter component of its start tangent "
+                f"({self.pos.t_start[-1]:.1e}) cannot tell the way into the range (a fold or a branch point at the "
+                f"start, or a parameter scale, {self.sp.sl:.3g}, far larger than the branch's changes: set "
+                "continuation.parameter_scale)")
         finish_at_range_end(self.builder, index, self._toward(), (self.lo, self.hi), self.lam0, self.name)
 
     def _toward(self) -> float:
@@ -549,7 +574,7 @@ def continuation(
             pass
         raise
     finally:
-        if branch.status is BranchStatus.MAX_POINTS or (
+        if branch.status in (BranchStatus.MAX_POINTS, BranchStatus.DEFAULT_MAX_POINTS) or (
                 branch.status not in (BranchStatus.RUNNING, BranchStatus.INTERRUPTED) and not branch.status.as_asked):
             eng._uncovered()
         if len(branch):

@@ -5,6 +5,8 @@
 - :func:`finish_at_range_end`: ``RANGE_END`` if the end is the one the branch
   set out towards (:func:`toward`), else ``TURNED_BACK`` with the interval it
   left uncovered (:func:`uncovered`);
+- :func:`left_at_start`: a branch that leaves the range where it started, without covering any of it,
+  though asked into it, has not reached a range end (the engine ends it as a shortfall);
 - :func:`closed` and :func:`revisited`: a branch passing again through its
   start, or through an earlier point in the same direction, stops with
   ``CLOSED_LOOP`` instead of going round until ``max_points``.
@@ -22,7 +24,7 @@ from contin.engine.branch import Branch, BranchBuilder, BranchStatus, SpecialKin
 from contin.engine.corrector import Candidate, Corrector, StepFailed, format_parameter
 from contin.engine.predictor import predict
 
-__all__ = ["attempt", "closed", "finish_at_range_end", "revisited", "toward", "uncovered"]
+__all__ = ["attempt", "closed", "finish_at_range_end", "left_at_start", "revisited", "toward", "uncovered"]
 
 #: A chord passing through an earlier point must be within this angle of it (and of the start tangent).
 MAX_PASSING_ANGLE_DEG = 89.0
@@ -96,6 +98,20 @@ def uncovered(branch: Branch, end: float, lam_range: tuple[float, float],
     gap = (furthest, end) if end == hi else (end, furthest)
     branch.info["uncovered"] = gap
     return furthest, gap
+
+
+def left_at_start(branch: Branch, lam_range: tuple[float, float], lam0: float, direction: int) -> bool:
+    """Does ``branch`` end on the range end it started on, every point at ``lam0``, though asked into the range?
+
+    ``direction`` (+1 or -1): the sign of the parameter's change asked at
+    the start. Such a branch covered nothing: its start tangent pointed out
+    of the range against the direction asked (a parameter component too
+    small to orient, at a fold or a branch point on the range end), so
+    "reached the end of the range" would be false.
+    """
+    lo, hi = lam_range
+    into = (direction > 0 and lam0 == lo < hi) or (direction < 0 and lam0 == hi > lo)
+    return into and len(branch) > 0 and bool(np.all(branch.parameter == lam0))
 
 
 def finish_at_range_end(builder: BranchBuilder, index: int, end: float, lam_range: tuple[float, float], lam0: float,

@@ -10,8 +10,9 @@ measured from the earlier point ``a`` along its unit tangent ``t_a``:
 ``point_at(sigma)`` must return the solution on the hyperplane
 ``t_a . (x - x_a) = sigma`` (the engine supplies it; ``sigma = h`` gives the
 later point ``b``). The bracket ``[0, h]`` is narrowed by the Illinois
-variant of regula falsi for continuous tests, or by bisection for
-integer-valued ones, until
+variant of regula falsi for continuous tests (its points kept close enough
+to the bracket's midpoint that the iterations allowed always suffice: the
+projection step of ITP), or by bisection for integer-valued ones, until
 
     |lam_hi - lam_lo| <= tol * max(1, |lam|)  and  sigma_hi - sigma_lo <= sqrt(tol) * h,
 
@@ -386,6 +387,44 @@ def locate(
     return results
 
 
+class _Budget:
+    """The projection step of ITP (Oliveira & Takahashi, ACM Trans. Math. Softw. 47 (2021) 5): how far from
+    the bracket's midpoint the next point may lie.
+
+    Regula falsi (Illinois) on a test that is only piecewise smooth (the
+    multipliers of a contact orbit, kinked where a contact changes) or
+    steep at one end and flat at the other creeps from one end and can use
+    up its iterations without closing the bracket. Kept within the radius
+    ``eps 2^(n_max - j) - width / 2`` of the midpoint at iteration ``j``,
+    the bracket is at most ``2 eps`` wide after ``n_max`` iterations,
+    whatever the test. ``n_max`` is the most the iterations allowed leave,
+    so the radius binds only where the iterations left would not otherwise
+    suffice for bisection: a location that converges without it is
+    unchanged, one that would not is finished by (nearly) bisecting.
+
+    Parameters
+    ----------
+    s_lo, s_hi : float
+        The initial bracket.
+    eps : float
+        The half width aimed at.
+    max_iter : int
+        The iterations allowed.
+    """
+
+    def __init__(self, s_lo: float, s_hi: float, eps: float, max_iter: int):
+        width = s_hi - s_lo
+        self.eps = eps
+        n_half = math.ceil(math.log2(width / (2 * eps))) if width > 2 * eps else 0
+        self.n_max = max(n_half + 1, max_iter - 1)  # one iteration kept for the far end's side
+
+    def project(self, j: int, s: float, s_lo: float, s_hi: float) -> float:
+        """``s`` moved towards the midpoint of ``(s_lo, s_hi)`` as far as iteration ``j`` requires."""
+        mid = 0.5 * (s_lo + s_hi)
+        radius = max(0.0, self.eps * 2.0 ** (self.n_max - j) - 0.5 * (s_hi - s_lo))
+        return s if abs(s - mid) <= radius else mid + math.copysign(radius, s - mid)
+
+
 def narrow(point_at, s_lo, s_hi, p_lo, p_hi, v_lo, v_hi, h, *, side, value=None, tol=1e-10, max_iter=60,
            vtol=1e-15, failed_beyond=False, value_decides=False) -> Location:
     """Narrow a bracket ``[s_lo, s_hi]`` of pseudo-arclength around a change.
@@ -450,6 +489,12 @@ def narrow(point_at, s_lo, s_hi, p_lo, p_hi, v_lo, v_hi, h, *, side, value=None,
 
     lam_rate = abs(p_hi.lam - p_lo.lam) / (s_hi - s_lo) if s_hi > s_lo else 0.0
     lam_hi = p_hi.lam
+    # the half width the tolerances ask (the parameter's part through the step's mean slope, with a
+    # margin of two halvings for a slope steeper where the change is)
+    eps = math.sqrt(tol) * h
+    if lam_rate > 0:
+        eps = min(eps, tol * max(1.0, abs(p_lo.lam), abs(p_hi.lam)) / lam_rate)
+    budget = _Budget(s_lo, s_hi, 0.125 * max(eps, 64 * _EPS * max(1.0, s_full)), max_iter)
 
     def bracket_done():
         width = s_hi - s_lo
@@ -472,7 +517,7 @@ def narrow(point_at, s_lo, s_hi, p_lo, p_hi, v_lo, v_hi, h, *, side, value=None,
         interpolated = False
         if (stalls < 3 and math.isfinite(w_lo) and math.isfinite(w_hi) and (w_lo < 0) != (w_hi < 0)
                 and w_hi != w_lo):
-            t = (s_lo * w_hi - s_hi * w_lo) / (w_hi - w_lo)
+            t = budget.project(iterations, (s_lo * w_hi - s_hi * w_lo) / (w_hi - w_lo), s_lo, s_hi)
             if s_lo < t < s_hi:
                 s, interpolated = t, True
         iterations += 1

@@ -10,16 +10,17 @@ from __future__ import annotations
 
 import dataclasses
 
-import numba as nb
 import numpy as np
 from scipy.linalg.lapack import get_lapack_funcs
+
+from contin.util.jit import njit
 
 __all__ = ["LUFactor", "SingularMatrixError", "factorize"]
 
 _GETRF, _GECON, _GETRS = get_lapack_funcs(("getrf", "gecon", "getrs"), (np.empty((1, 1)),))
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _equilibrated_copy(a, equilibrate, work, row_scale):
     """Row-scale ``a`` into the Fortran-ordered ``work`` in one compiled pass.
 

@@ -19,7 +19,11 @@ import numpy as np
 
 from contin.util.naming import is_real
 
-__all__ = ["ContinuationOptions", "Scaling", "as_options"]
+__all__ = ["DEFAULT_MAX_POINTS", "ContinuationOptions", "Scaling", "as_options"]
+
+#: The cap on stored points when ``ContinuationOptions.max_points`` is not set; a branch stopped by
+#: it did not do what it was asked (it ends with ``BranchStatus.DEFAULT_MAX_POINTS``, a shortfall).
+DEFAULT_MAX_POINTS = 2000
 
 
 class Scaling(str, enum.Enum):
@@ -60,8 +64,11 @@ class ContinuationOptions:
         Initial step, in scaled arclength units.
     ds_min, ds_max : float
         Step bounds; the branch stops with ``STEP_TOO_SMALL`` below ``ds_min``.
-    max_points : int
-        Maximum number of stored points (including the start).
+    max_points : int or None
+        Maximum number of stored points (including the start); a branch
+        stopped there ends with ``MAX_POINTS``, as asked. None (the default):
+        at most 2000 (:data:`DEFAULT_MAX_POINTS`), a cap nobody asked for: a
+        branch stopped there ends with ``DEFAULT_MAX_POINTS``, a shortfall.
     newton_tol : float
         Tolerance on ``||R||_inf`` (unscaled residual).
     newton_max_iter : int
@@ -103,7 +110,7 @@ class ContinuationOptions:
     ds: float = 0.02
     ds_min: float = 1e-8
     ds_max: float = 0.2
-    max_points: int = 2000
+    max_points: int | None = None
     newton_tol: float = 1e-10
     newton_max_iter: int = 12
     newton_easy: int = 4
@@ -136,8 +143,8 @@ class ContinuationOptions:
             bad("ds_min", "positive and <= ds", self.ds_min)
         if not is_real(self.ds_max) or not (math.isfinite(self.ds_max) and self.ds_max >= self.ds):
             bad("ds_max", "finite and >= ds", self.ds_max)
-        if not _is_int(self.max_points) or self.max_points < 1:
-            bad("max_points", "an integer >= 1", self.max_points)
+        if self.max_points is not None and (not _is_int(self.max_points) or self.max_points < 1):
+            bad("max_points", "None or an integer >= 1", self.max_points)
         if not _is_int(self.stall_points) or self.stall_points < 2:
             bad("stall_points", "an integer >= 2", self.stall_points)
         positive("newton_tol")
@@ -180,8 +187,10 @@ class ContinuationOptions:
             if not isinstance(v, (bool, np.bool_)):
                 bad(field, "a bool", v)
             object.__setattr__(self, field, bool(v))
-        for field in ("max_points", "newton_max_iter", "newton_easy", "locate_max_iter", "direction", "stall_points"):
+        for field in ("newton_max_iter", "newton_easy", "locate_max_iter", "direction", "stall_points"):
             object.__setattr__(self, field, int(getattr(self, field)))
+        if self.max_points is not None:
+            object.__setattr__(self, "max_points", int(self.max_points))
         for field in ("ds", "ds_min", "ds_max", "newton_tol", "grow", "shrink", "max_angle_deg", "locate_tol",
                       "corner_ratio"):
             object.__setattr__(self, field, float(getattr(self, field)))
@@ -207,6 +216,11 @@ class ContinuationOptions:
         closest valid option."""
         cls._check_keys(d)
         return cls(**dict(d))
+
+    @property
+    def point_cap(self) -> int:
+        """The number of stored points a branch stops at: ``max_points``, or :data:`DEFAULT_MAX_POINTS` if unset."""
+        return DEFAULT_MAX_POINTS if self.max_points is None else self.max_points
 
     def replace(self, **changes) -> "ContinuationOptions":
         """Copy with some fields changed (validated, unknown names rejected)."""

@@ -18,12 +18,17 @@ import math
 
 import numpy as np
 
-from contin.engine.newton import LUFactor
+from contin.engine.newton import NUMERICAL_ERRORS, LUFactor, SingularMatrixError, factorize
 
-__all__ = ["HermiteArc", "initial_tangent", "last_unit_vector", "orient_along_secant", "predict", "unit_tangent"]
+__all__ = ["HermiteArc", "graph_tangent", "initial_tangent", "last_unit_vector", "orient_along_secant", "predict",
+           "unit_tangent"]
 
-#: A start tangent's parameter component below this has no sign to orient by (``direction`` is then ignored).
+#: A start tangent's parameter component below this has no sign to orient by (``direction`` is then ignored),
+#: unless :func:`graph_tangent` resolves it.
 DIRECTION_EPS = 1e-12
+#: Smallest reciprocal condition of ``Ju su`` at which :func:`graph_tangent` is trusted (its direction is then
+#: accurate to ``~eps / GRAPH_RCOND``).
+GRAPH_RCOND = 1e-10
 
 
 def last_unit_vector(m: int) -> np.ndarray:
@@ -74,9 +79,46 @@ def initial_tangent(Jh: np.ndarray, given: np.ndarray | None, direction: int) ->
             t = -t
         return t
     t = vt[-1].copy()
-    if abs(t[m]) > DIRECTION_EPS and np.sign(t[m]) != direction:
+    resolved = abs(t[m]) > DIRECTION_EPS
+    if not resolved:
+        # the SVD gives the parameter component only to ~eps of the whole vector: where it is smaller
+        # (a parameter scale far larger than the scale of the branch's changes, such as the width of a
+        # range [0.5, 1e17]) its sign is rounding, and the branch could set out backwards
+        graph = graph_tangent(Jh)
+        if graph is not None:
+            t, resolved = graph, True
+    if resolved and np.sign(t[m]) != direction:
         t = -t
     return t
+
+
+def graph_tangent(Jh: np.ndarray) -> np.ndarray | None:
+    """The unit tangent ``(y, 1) / |(y, 1)|`` with ``Ju su y = -Jlam sl``, or None where ``Ju su`` is near singular.
+
+    Its parameter component is positive by construction however small it
+    is, so its sign is exact where the null vector's is rounding; its
+    direction is as accurate as the solve (``Ju su`` of reciprocal condition
+    above :data:`GRAPH_RCOND`, so not at a fold).
+
+    Parameters
+    ----------
+    Jh : ndarray, shape (m, m+1)
+        The scaled Jacobian ``[Ju su, Jlam sl]``.
+    """
+    m = Jh.shape[0]
+    try:
+        lu = factorize(Jh[:, :m])
+        if not lu.rcond >= GRAPH_RCOND:
+            return None
+        y = lu.solve(-Jh[:, m])
+    except (SingularMatrixError, *NUMERICAL_ERRORS):
+        return None
+    z = np.append(y, 1.0)
+    z /= float(np.max(np.abs(z)))  # first to its largest entry: |y| may be near the overflow (a scale of 1e300)
+    nz = float(np.linalg.norm(z))
+    if not (math.isfinite(nz) and nz > 0):
+        return None
+    return z / nz
 
 
 def predict(x: np.ndarray, t: np.ndarray, ds: float) -> np.ndarray:

@@ -23,9 +23,10 @@ exact derivative of the discrete residual). The cost is
 
 from __future__ import annotations
 
-import numba as nb
 import numpy as np
 import rocket_fft  # noqa: F401  (registers numpy.fft for numba)
+
+from contin.util.jit import njit
 
 __all__ = [
     "synthesize",
@@ -39,7 +40,7 @@ __all__ = [
 ]
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def synthesize(U, N):
     """Time samples of ``x`` and of ``dx/dtheta``.
 
@@ -76,7 +77,7 @@ def synthesize(U, N):
     return x, xp
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def project(f, H):
     """Fourier coefficients of sampled values (the discrete Galerkin projection).
 
@@ -106,7 +107,7 @@ def project(f, H):
     return out
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _cs(Ghat, m, N):
     """``C(m), S(m)`` from the rfft of a real signal, folded for aliasing."""
     mm = m % N
@@ -117,7 +118,7 @@ def _cs(Ghat, m, N):
     return z.real / N, z.imag / N
 
 
-@nb.njit(cache=True, inline="always")  # in the innermost loop of every Jacobian: no call
+@njit(cache=True, inline="always")  # in the innermost loop of every Jacobian: no call
 def product_block(T, rc, rs, cc, cs, row_sine, col_sine, h, Cm, Sm, Cp, Sp):
     """Add the product-to-sum entries of one (row harmonic, column harmonic) pair, weighted by ``h``.
 
@@ -134,7 +135,7 @@ def product_block(T, rc, rs, cc, cs, row_sine, col_sine, h, Cm, Sm, Cp, Sp):
             T[rs, cs] += h * (Cm - Cp)
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _fill_block(Ghat, N, H, n, a, b, T, scale):
     # Block of "multiply by G_ab" between dof a (rows) and dof b (columns).
     for k in range(H + 1):
@@ -149,7 +150,7 @@ def _fill_block(Ghat, N, H, n, a, b, T, scale):
             product_block(T, rc, rs, cc, cs, k > 0, l > 0, 0.5 * wk, Cm, Sm, Cp, Sp)
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def multiplication_matrix(G, H, T, scale):
     """Accumulate the coefficient-space matrix of ``g(theta) = G(theta) v(theta)``.
 
@@ -173,7 +174,7 @@ def multiplication_matrix(G, H, T, scale):
             _fill_block(Ghat, N, H, n, a, b, T, scale)
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _fill_velocity_block(Ghat, N, H, n, a, b, Omega, J):
     # Block of "multiply by G_ab, then by Omega d/dtheta" between dof a (rows) and dof b (columns):
     # the columns of harmonic l of the block of _fill_block, combined as (a_l, b_l) <- Omega l (-b_l, a_l).
@@ -195,7 +196,7 @@ def _fill_velocity_block(Ghat, N, H, n, a, b, Omega, J):
                 J[rs, cs] += s * (Sp + Sm)
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _coupled(dfdx, dfdxd, a, b):
     """Whether dofs ``a, b`` are coupled through ``df/dx`` and through ``df/dx'`` at any sample.
 
@@ -209,7 +210,7 @@ def _coupled(dfdx, dfdxd, a, b):
     return hx, hv
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def assemble_jacobian(dfdx, dfdxd, Omega, H, J):
     """Accumulate ``d proj(f(x, xdot)) / du`` into ``J``.
 
@@ -242,7 +243,7 @@ def assemble_jacobian(dfdx, dfdxd, Omega, H, J):
                 _fill_velocity_block(np.fft.rfft(g), N, H, n, a, b, Omega, J)
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def odd_multiplication_matrix(G, H, T, scale):
     """Odd-harmonic block of "multiply by G" in the doubled representation.
 
@@ -279,7 +280,7 @@ def odd_multiplication_matrix(G, H, T, scale):
             _fill_odd_block(np.fft.rfft(g), N, H, n, a, b, T, scale, 0.0, False)
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _fill_odd_block(Ghat, N, H, n, a, b, T, scale, Omega2, velocity):
     # Odd-to-odd block of "multiply by G_ab" (velocity=False) or of "multiply by G_ab after
     # Omega2 d/dtheta'" (velocity=True: columns (a_l, b_l) <- Omega2 l (-b_l, a_l)), in place.
@@ -306,7 +307,7 @@ def _fill_odd_block(Ghat, N, H, n, a, b, T, scale, Omega2, velocity):
                 T[rs, cs] += scale * (Cm - Cp)
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def odd_jacobian(dfdx, dfdxd, Omega2, H, B):
     """Accumulate the odd-harmonic block of the order-``2 nu`` force Jacobian.
 
@@ -339,7 +340,7 @@ def odd_jacobian(dfdx, dfdxd, Omega2, H, B):
                 _fill_odd_block(np.fft.rfft(g), N, H, n, a, b, B, 1.0, Omega2, True)
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def matvec_samples(G, v):
     """Per-sample product ``G_j v_j``; shapes (N, n, n) x (N, n) -> (N, n)."""
     N = G.shape[0]
@@ -354,7 +355,7 @@ def matvec_samples(G, v):
     return out
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def nonlinear_terms(f, dfdx, dfdxd, dfdp, xp, Omega, nu, H, with_w, J):
     """Project the force and assemble its Jacobians in one call (the Newton hot path).
 

@@ -19,17 +19,17 @@ residual). Cost ``O(n^2 (N log N + P^2))``.
 
 from __future__ import annotations
 
-import numba as nb
 import numpy as np
 import rocket_fft  # noqa: F401  (registers numpy.fft for numba)
 
 from contin.hb.aft import product_block
+from contin.util.jit import njit
 
 __all__ = ["synthesize2", "project2", "jacobian2", "multiplication_matrix2", "linear_operator2", "linear_apply2",
            "linear_apply2_dfreq"]
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def synthesize2(U, pairs, N1, N2):
     """Samples of ``x``, ``dx/dtheta1`` and ``dx/dtheta2`` on the grid.
 
@@ -71,7 +71,7 @@ def synthesize2(U, pairs, N1, N2):
     return x.reshape(N, n), x1.reshape(N, n), x2.reshape(N, n)
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def project2(f, pairs, N1, N2):
     """Coefficients of sampled values (the discrete Galerkin projection), shape (2P-1, n).
 
@@ -98,7 +98,7 @@ def project2(f, pairs, N1, N2):
     return out
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _cs2(Ghat, m1, m2, N1, N2):
     """``C(m), S(m)`` of a real field from its ``rfft2`` (shape (N2, N1//2+1)), folded for aliasing."""
     N = N1 * N2
@@ -110,7 +110,7 @@ def _cs2(Ghat, m1, m2, N1, N2):
     return z.real / N, z.imag / N
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _cs_table(Ghat, pairs, N1, N2):
     """``C(m), S(m)`` for every ``m = k -+ l`` of two pairs, as tables indexed ``[m1 + 2 H1, m2 + 2 H2]``."""
     H1 = 0
@@ -126,7 +126,7 @@ def _cs_table(Ghat, pairs, N1, N2):
     return C, S, 2 * H1, 2 * H2
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _fill_block2(Ghat, pairs, N1, N2, n, a, b, T, scale, freqs, velocity):
     # Block of "multiply by G_ab" between dof a (rows) and dof b (columns); with velocity, the
     # columns of pair l act through d/dt: (a_l, b_l) <- f_l (-b_l, a_l) with f_l = freqs[l].
@@ -160,7 +160,7 @@ def _fill_block2(Ghat, pairs, N1, N2, n, a, b, T, scale, freqs, velocity):
             product_block(T, rc, rs, cc, cs, k > 0, l > 0, 0.5 * wk, Cm, Sm, Cp, Sp)
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def multiplication_matrix2(G, pairs, N1, N2, T, scale):
     """Accumulate ``T += scale * [v -> proj(G v)]`` for a sampled matrix field ``G`` of shape (N1 N2, n, n)."""
     n = G.shape[1]
@@ -174,7 +174,7 @@ def multiplication_matrix2(G, pairs, N1, N2, T, scale):
             _fill_block2(Ghat, pairs, N1, N2, n, a, b, T, scale, freqs, False)
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def jacobian2(dfdx, dfdxd, pairs, freqs, N1, N2, J):
     """Accumulate ``d proj(f(x, xdot)) / du`` into ``J`` (shape (n(2P-1), n(2P-1))).
 
@@ -209,7 +209,7 @@ def jacobian2(dfdx, dfdxd, pairs, freqs, N1, N2, J):
                 _fill_block2(np.fft.rfft2(g.reshape(N2, N1)), pairs, N1, N2, n, a, b, J, 1.0, freqs, True)
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def linear_operator2(M, C, K, freqs, out):
     """Add the block-diagonal linear operator to ``out``: ``K`` on the mean and, for pair ``j`` of frequency
     ``f = freqs[j]``, ``[[K - f^2 M, f C], [-f C, K - f^2 M]]`` on ``(a_j, b_j)``."""

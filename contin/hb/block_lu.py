@@ -14,8 +14,9 @@ form: ``kl < 0`` marks dense factors.
 
 from __future__ import annotations
 
-import numba as nb
 import numpy as np
+
+from contin.util.jit import njit
 
 __all__ = ["band_lu", "band_solve", "band_solve_t", "bandwidths", "dense_lu", "dense_solve", "dense_solve_t",
            "factor", "solve"]
@@ -40,7 +41,7 @@ def bandwidths(pattern) -> tuple:
 
 
 # ------------------------------------------------------------------ dense
-@nb.njit(cache=True)
+@njit(cache=True)
 def dense_lu(A, perm) -> bool:
     """LU with partial pivoting of the square complex ``A`` in place (``PA = LU``, ``perm`` the row order).
 
@@ -79,7 +80,7 @@ def dense_lu(A, perm) -> bool:
     return True
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def dense_solve(A, perm, r, out):
     """``out = A^-1 r`` from the factors of :func:`dense_lu`; ``r``, ``out`` of shape (n,), distinct."""
     n = A.shape[0]
@@ -95,7 +96,7 @@ def dense_solve(A, perm, r, out):
         out[i] = s / A[i, i]
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def dense_solve_t(A, perm, r, out):
     """``out = A^-T r`` (plain transpose) from the factors of :func:`dense_lu`: ``U^T L^T P out = r``."""
     n = A.shape[0]
@@ -115,7 +116,7 @@ def dense_solve_t(A, perm, r, out):
 
 
 # ------------------------------------------------------------------ banded
-@nb.njit(cache=True)
+@njit(cache=True)
 def band_lu(AB, kl, ku, piv) -> bool:
     """LU with partial pivoting of a banded complex matrix in ``gbtrf`` storage, in place.
 
@@ -164,7 +165,7 @@ def band_lu(AB, kl, ku, piv) -> bool:
     return True
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def band_solve(AB, kl, ku, piv, b):
     """``b <- A^-1 b`` in place, from the factors of :func:`band_lu`; ``b`` of shape (n,)."""
     n = AB.shape[1]
@@ -183,7 +184,7 @@ def band_solve(AB, kl, ku, piv, b):
         b[i] = s / AB[kv, i]
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def band_solve_t(AB, kl, ku, piv, b):
     """``b <- A^-T b`` (plain transpose, not conjugate) in place, from the factors of :func:`band_lu`."""
     n = AB.shape[1]
@@ -204,7 +205,7 @@ def band_solve_t(AB, kl, ku, piv, b):
 
 
 # ------------------------------------------------------------------ either storage
-@nb.njit(cache=True)
+@njit(cache=True)
 def factor(F, kl, ku, piv) -> bool:
     """:func:`dense_lu` of ``F`` when ``kl < 0``, else :func:`band_lu`."""
     if kl < 0:
@@ -212,7 +213,7 @@ def factor(F, kl, ku, piv) -> bool:
     return band_lu(F, kl, ku, piv)
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def solve(F, kl, ku, piv, r, out, transpose=False):
     """``out = A^-1 r``, or ``A^-T r`` (plain transpose) with ``transpose``, from :func:`factor`'s factors;
     ``r``, ``out`` of shape (n,), distinct."""

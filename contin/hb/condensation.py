@@ -57,12 +57,12 @@ from __future__ import annotations
 
 import collections
 
-import numba as nb
 import numpy as np
 
 from contin.hb.block_lu import bandwidths, factor, solve
 from contin.hb.force_submodel import force_submodel_problem
 from contin.hb.problem import HarmonicBalance
+from contin.util.jit import njit
 
 __all__ = ["CondensedHarmonicBalance", "condense", "condensation_dofs", "nonlinear_dofs", "restrict_coefficients"]
 
@@ -209,7 +209,7 @@ def _to_real(z: np.ndarray) -> np.ndarray:
     return V
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _eliminate(M, C, K, Omega, c, l, f, kl, ku, LU, perm, P, Q, g, S) -> bool:
     """The blocks of :class:`_Blocks` for harmonics ``k = 0..H`` (``H + 1 = f.shape[0]``).
 
@@ -269,7 +269,7 @@ def _eliminate(M, C, K, Omega, c, l, f, kl, ku, LU, perm, P, Q, g, S) -> bool:
     return True
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _solve_all(LU, kl, ku, perm, r):
     """``Z_ll,k^-1 r_k`` for every harmonic from the factors of :func:`_eliminate`; ``r`` of shape (H+1, n_l)."""
     out = np.empty_like(r)

@@ -43,14 +43,15 @@ samples' own derivatives.
 
 from __future__ import annotations
 
-import numba as nb
 import numpy as np
+
+from contin.util.jit import njit
 
 __all__ = ["switching_intervals", "series_at", "locate_crossings", "Crossings", "apply_crossings",
            "crossing_gradients", "add_crossing_jacobian", "add_crossing_dp"]
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def switching_intervals(h):
     """Sample intervals in which a law switches.
 
@@ -84,7 +85,7 @@ def switching_intervals(h):
     return out
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def series_at(U, phi):
     """The series and its first two ``theta`` derivatives at arbitrary phases.
 
@@ -156,7 +157,7 @@ class Crossings:
         self.state, self.dx1 = state, dx1
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _first_guess(h, intervals):
     """Root in ``[0, 1]`` of the cubic through ``h`` at samples ``j-1, j, j+1, j+2`` of each interval.
 
@@ -207,7 +208,7 @@ def _first_guess(h, intervals):
     return out
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _series_bounds(U):
     """Sums of the coefficients' magnitudes, bounds of ``|x|`` and ``|dx/dtheta|``, shapes (n,)."""
     R, n = U.shape
@@ -227,7 +228,7 @@ def _series_bounds(U):
 _NOISE = 2.0
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _newton_sweep(active, law, value, grad_x, grad_xd, x, x1, x2, Omega, dphi, h0, tol, bound0, bound1,
                   t, lo, hi, phi_a, out_phi, out_gx, out_gxd, out_slope, out_x, out_x1, last):
     """One safeguarded Newton step of the unconverged crossings; store the data evaluated at ``t``.
@@ -376,7 +377,7 @@ def locate_crossings(element, U, Omega, theta, h, p, tol=1e-13, max_iter=40) -> 
     return Crossings(iv, sign, t, phi, gx, gxd, slope, (x, Omega * x1), x1)
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def apply_crossings(intervals, sign, t, L, Lx, Lxd, f, dfdx, dfdxd):
     """Correct the two samples of each switching interval (values and own derivatives).
 
@@ -424,7 +425,7 @@ def apply_crossings(intervals, sign, t, L, Lx, Lxd, f, dfdx, dfdxd):
     return coef
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def crossing_gradients(phi, gx, gxd, slope, Omega, H):
     """``dt/dU`` of each crossing (implicit function theorem on ``h(theta*) = 0``).
 
@@ -458,7 +459,7 @@ def crossing_gradients(phi, gx, gxd, slope, Omega, H):
     return out
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def add_crossing_jacobian(intervals, coef, L, theta, dtdU, J):
     """Add ``P(theta_a) (x) dc_a/dt L_a (x) dt/dU`` of each crossing's two samples to ``J``.
 
@@ -535,7 +536,7 @@ def add_crossing_jacobian(intervals, coef, L, theta, dtdU, J):
                     J[I, c1 * n + cd[ic]] += M[r1 * nr + ir, c1 * nc + ic]
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def add_crossing_dp(intervals, coef, L, Lp, dt, dfdp):
     """Add the parameter derivative of the corrected samples to ``dfdp`` (shape (N, n)).
 

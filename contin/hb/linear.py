@@ -15,13 +15,14 @@ it once per evaluation (:meth:`contin.hb.problem.HarmonicBalance.base_frequency`
 
 from __future__ import annotations
 
-import numba as nb
 import numpy as np
+
+from contin.util.jit import njit
 
 __all__ = ["linear_operator", "linear_apply", "linear_apply_dOmega", "split_operator", "LinearTerms"]
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def linear_operator(M, C, K, Omega, H, out, dOmega_only):
     """Fill the block-diagonal linear operator ``A`` (or ``dA/dOmega``).
 
@@ -55,7 +56,7 @@ def linear_operator(M, C, K, Omega, H, out, dOmega_only):
                 out[rs + a, rc + b] -= off
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def linear_apply(M, C, K, Omega, U):
     """``A(Omega; M, C, K) u`` block by block, shape (2H+1, n), without the dense ``A``.
 
@@ -88,7 +89,7 @@ def linear_apply(M, C, K, Omega, U):
     return res
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def linear_apply_dOmega(M, C, Omega, U):
     """``(dA/dOmega) u`` block by block, shape (2H+1, n): ``-2 k^2 Omega M`` on the diagonal, ``k C`` off it.
 

@@ -20,10 +20,14 @@ from contin.modal.absorber import (amplification, fixed_point_height, fixed_poin
                                    optimal_damping, optimal_tuning, peaks, true_peak, undamped_resonances)
 
 __all__ = ["AbsorberProblem", "AbsorberDesign", "FixedPoint", "Peak", "design_absorber", "draw_design", "plot_design",
-           "SIZINGS"]
+           "SIZINGS", "MASS_RATIOS"]
 
 #: how ``design_absorber`` sizes ``m2`` from a maximum allowed amplification
 SIZINGS = ("fixed_points", "peak")
+#: mass ratios ``beta = m2/m1`` a design is made for. Den Hartog's closed forms hold for any ratio, but the
+#: true peak's two maxima merge as beta falls (below about 3e-4 their polynomial roots lose their digits and the
+#: peak is lost or wrong) and ``(1 + beta)^2`` overflows beyond 1e154; absorbers have ratios of 0.01 to 0.5
+MASS_RATIOS = (1e-3, 1e3)
 
 
 def _positive(name: str, v, where: str) -> float:
@@ -274,15 +278,32 @@ def design_absorber(m1: float, k1: float, m2: float | None = None, *, max_amplif
     -------
     AbsorberDesign
 
+    Raises
+    ------
+    ValueError
+        Naming the field (:class:`AbsorberProblem`); for a mass ratio
+        ``m2/m1`` (given, or asked by ``max_amplification``) outside
+        :data:`MASS_RATIOS`, and for values whose design over- or underflows
+        in double precision (``k1/m1``, ``k2``, ``c``), naming the values.
+
     Examples
     --------
     Seed 000's exercise: ``design_absorber(100, 5e5, 10)`` gives ``k2 = 41322.3``
     and ``c = 237.379``.
     """
     prob = AbsorberProblem(m1, k1, m2, max_amplification, sizing)
+    lo, hi = MASS_RATIOS
     if prob.m2 is not None:
-        return _design(prob.m1, prob.k1, prob.m2, prob)
+        beta = prob.m2 / prob.m1
+        if not lo <= beta <= hi:
+            raise ValueError(f"m2 = {prob.m2!r} with m1 = {prob.m1!r} gives the mass ratio m2/m1 = {beta:.4g}, "
+                             f"outside the {lo:g} to {hi:g} the design is made for")
+        return _finite(_design(prob.m1, prob.k1, prob.m2, prob))
     A = prob.max_amplification
+    beta = 2.0 / ((A - 1.0) * (A + 1.0))  # 2/(A^2 - 1) without overflowing A^2
+    if not lo <= beta <= hi:
+        raise ValueError(f"max_amplification = {A!r} asks the mass ratio m2/m1 = 2/(A^2 - 1) = {beta:.4g}, outside "
+                         f"the {lo:g} to {hi:g} the design is made for")
     beta = mass_ratio_for_height(A)
     if sizing == "peak":
         from scipy.optimize import brentq
@@ -296,7 +317,23 @@ def design_absorber(m1: float, k1: float, m2: float | None = None, *, max_amplif
         else:  # pragma: no cover - the peak tends to 1 as beta grows
             raise ValueError(f"no absorber mass reaches the amplification {A!r}")
         beta = brentq(lambda b: _peak_height(b) - A, beta, hi, xtol=1e-14 * beta, rtol=1e-13)
-    return _design(prob.m1, prob.k1, beta * prob.m1, prob)
+        if beta > MASS_RATIOS[1]:
+            raise ValueError(f"max_amplification = {A!r} with sizing 'peak' asks the mass ratio m2/m1 = {beta:.4g}, "
+                             f"beyond the {MASS_RATIOS[1]:g} the design is made for")
+    return _finite(_design(prob.m1, prob.k1, beta * prob.m1, prob))
+
+
+def _finite(d: AbsorberDesign) -> AbsorberDesign:
+    """``d`` if every number of it is finite and its stiffness, damping and frequencies positive; a
+    ``ValueError`` naming the values whose ratios over- or underflow otherwise."""
+    values = {"k2": d.k2, "c": d.c, "p": d.p, "p_a": d.p_a, "m2": d.m2}
+    bad = [f"{k} = {v!r}" for k, v in values.items() if not (math.isfinite(v) and v >= np.finfo(float).tiny)]
+    bad += [f"{k} = {v!r}" for k, v in (("true peak", d.true_peak.amplification), ("P", d.P.w), ("Q", d.Q.w))
+            if not math.isfinite(v)]
+    if bad:
+        raise ValueError(f"m1 = {d.m1!r}, k1 = {d.k1!r}, m2 = {d.m2!r}: the design's {', '.join(bad)} over- or "
+                         "underflows in double precision (choose units that bring the values nearer to 1)")
+    return d
 
 
 def draw_design(ax, design: AbsorberDesign, points: int = 1200) -> None:
@@ -355,5 +392,13 @@ def plot_design(design: AbsorberDesign, path, points: int = 1200, dpi: float = 2
                  f"$k_1$ = {d.k1:.4g}", fontsize=10)
     handles, texts = ax.get_legend_handles_labels()
     fig.legend(handles, texts, loc="outside lower center", ncols=2, fontsize=8)
-    fig.savefig(path, dpi=dpi, metadata={"Software": "contin"} if str(path).lower().endswith(".png") else None)
+    from pathlib import Path
+
+    from contin.util.safe_files import write_user_file
+
+    # the format from the suffix (PNG without one); a device or pipe the user named is written in place
+    fmt = Path(path).suffix.lstrip(".").lower() or "png"
+    write_user_file(path, lambda fh: fig.savefig(fh, format=fmt, dpi=dpi,
+                                                 metadata={"Software": "contin"} if fmt == "png" else None),
+                    binary=True)
     return path

@@ -13,7 +13,12 @@ One JSON record per line, appended and flushed as the run goes:
 - ``{"type": "end", "branch": j, "status", "message", "info", "monitors"}`` when branch ``j`` ends.
 
 A run killed in the middle of a line leaves a last line that does not parse; it
-and everything after it are ignored. :func:`resumable_prefix` cuts the records
+and everything after it are ignored.
+
+Every line is strict JSON: a value that is not finite (a step cap of ``inf``,
+a multiplier not computed, ``nan``) is written as ``{"__float__": "inf"}``
+(:func:`encode`, :func:`dumps`) and read back by :func:`decode`; a line holding
+the tokens ``NaN`` or ``Infinity``, which are not JSON, is refused. :func:`resumable_prefix` cuts the records
 back to the last point from which the run can go on exactly as it would have
 without the interruption: after an ``engine`` or ``end`` record.
 """
@@ -21,6 +26,7 @@ without the interruption: after an ``engine`` or ``end`` record.
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -28,8 +34,8 @@ import numpy as np
 from contin.engine.branch import Branch, BranchBuilder, BranchStatus, SpecialPoint
 from contin.engine.state import RESTART_KEYS
 
-__all__ = ["CheckpointError", "encode", "decode", "read_records", "rebuild_branches", "resumable_prefix",
-           "special_record"]
+__all__ = ["CheckpointError", "encode", "decode", "dumps", "read_records", "rebuild_branches", "resumable_prefix",
+           "special_record", "write_records"]
 
 
 class CheckpointError(ValueError):
@@ -73,18 +79,36 @@ def _checked(rec, path, lineno: int) -> dict:
 ENGINE_KEYS = RESTART_KEYS
 
 
+def _float(v: float):
+    """A float as strict JSON holds it: itself when finite, else ``{"__float__": "inf"}`` (or ``-inf``, ``nan``)."""
+    return v if math.isfinite(v) else {"__float__": repr(float(v))}
+
+
+def _float_list(a: np.ndarray) -> list:
+    """``a.tolist()`` with its non-finite values as :func:`_float` gives them."""
+    if np.all(np.isfinite(a)):
+        return a.tolist()
+
+    def walk(v):
+        return [walk(x) for x in v] if isinstance(v, list) else _float(v)
+
+    return walk(a.tolist())
+
+
 def encode(obj):
-    """JSON-able form of numpy arrays and complex numbers (inverse: :func:`decode`)."""
+    """JSON-able form of numpy arrays, complex numbers and non-finite floats (inverse: :func:`decode`)."""
     if isinstance(obj, np.ndarray):
         if np.iscomplexobj(obj):
-            return {"__complex_array__": [obj.real.tolist(), obj.imag.tolist()]}
+            return {"__complex_array__": [_float_list(obj.real), _float_list(obj.imag)]}
         if obj.dtype.kind in "biu":  # flags and counts come back as they were
             return {"__array__": obj.tolist(), "dtype": obj.dtype.str}
-        return {"__array__": obj.tolist()}
+        return {"__array__": _float_list(np.asarray(obj, dtype=float))}
     if isinstance(obj, (complex, np.complexfloating)):
-        return {"__complex__": [float(np.real(obj)), float(np.imag(obj))]}
+        return {"__complex__": [_float(float(np.real(obj))), _float(float(np.imag(obj)))]}
     if isinstance(obj, np.generic):
-        return obj.item()
+        return encode(obj.item())
+    if isinstance(obj, float):
+        return _float(obj)
     if isinstance(obj, dict):
         return {str(k): encode(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
@@ -97,20 +121,53 @@ def encode(obj):
 _DTYPES = {np.dtype(t).str for t in (bool, np.int8, np.int16, np.int32, np.int64, np.uint8, np.intp)}
 
 
+def _floats(v):
+    """The numbers of a list (nested) with the tagged non-finite values of :func:`_float` read back."""
+    if isinstance(v, list):
+        return [_floats(x) for x in v]
+    if isinstance(v, dict) and "__float__" in v:
+        return _tagged_float(v)
+    return v
+
+
+def _tagged_float(obj: dict) -> float:
+    text = obj["__float__"]
+    if text not in ("inf", "-inf", "nan"):
+        raise CheckpointError(f"a non-finite value written as inf, -inf or nan, found {text!r}")
+    return float(text)
+
+
 def decode(obj):
+    """The value :func:`encode` gave ``obj`` for (numpy arrays, complex numbers, non-finite floats)."""
     if isinstance(obj, dict):
+        if "__float__" in obj:
+            return _tagged_float(obj)
         if "__array__" in obj:
             dtype = obj.get("dtype")
-            return np.asarray(obj["__array__"], dtype=np.dtype(dtype) if dtype in _DTYPES else float)
+            return np.asarray(_floats(obj["__array__"]), dtype=np.dtype(dtype) if dtype in _DTYPES else float)
         if "__complex_array__" in obj:
-            re, im = obj["__complex_array__"]
-            return np.asarray(re) + 1j * np.asarray(im)
+            re, im = (np.asarray(_floats(v), dtype=float) for v in obj["__complex_array__"])
+            out = np.empty(np.broadcast_shapes(re.shape, im.shape), dtype=complex)
+            out.real, out.imag = re, im  # not re + 1j * im: 1j * inf is nan + inf j
+            return out
         if "__complex__" in obj:
-            return complex(*obj["__complex__"])
+            return complex(*_floats(obj["__complex__"]))
         return {k: decode(v) for k, v in obj.items()}
     if isinstance(obj, list):
         return [decode(v) for v in obj]
     return obj
+
+
+def dumps(record: dict) -> str:
+    """One line of ``state.jsonl``: ``record`` encoded (:func:`encode`) as strict JSON, without the newline."""
+    return json.dumps(encode(record), allow_nan=False)
+
+
+def write_records(path: Path, records: list[dict]) -> None:
+    """Replace the checkpoint at ``path`` with ``records`` (atomically; a link there is refused)."""
+    from contin.util.safe_files import replace_file
+
+    replace_file(path, lambda fh: fh.writelines(dumps(r) + "\n" for r in records))
 
 
 def special_record(branch_id: int, sp: SpecialPoint, csv: bool = True) -> dict:
@@ -166,20 +223,33 @@ def read_records(path: Path, max_row: int | None = None) -> list[dict]:
         At a line that parses as JSON but is not a record contin writes (a
         line cut by a killed run does not parse and ends the records).
     """
+    from contin.util.safe_files import open_regular
+
     out = []
-    if not Path(path).exists():
+    if not Path(path).exists() and not Path(path).is_symlink():
         return out
-    with open(path, encoding="utf-8", errors="replace") as fh:
+    with open_regular(path, errors="replace", follow=True) as fh:  # a pipe or a device would never end
         for lineno, line in enumerate(fh, 1):
             try:
-                rec = json.loads(line)
+                rec = json.loads(line, parse_constant=_not_json)
             except json.JSONDecodeError:
                 break
+            except _NonFinite as exc:
+                raise CheckpointError(f"{path} line {lineno}: strict JSON (contin writes a value that is not finite "
+                                      f'as {{"__float__": "inf"}}), found the token {exc.args[0]}') from None
             rec = _checked(rec, path, lineno)
             if rec["type"] == "point" and max_row is not None and rec["row"] >= max_row:
                 break
             out.append(rec)
     return out
+
+
+class _NonFinite(Exception):
+    """``NaN``, ``Infinity`` or ``-Infinity`` in a line: Python's json reads them, JSON has no such tokens."""
+
+
+def _not_json(token: str):
+    raise _NonFinite(token)
 
 
 def _kept(u, dofs, H) -> np.ndarray:
@@ -214,9 +284,10 @@ def rebuild_branches(records: list[dict], parameter_name: str) -> dict[int, Bran
             if j not in builders:
                 builders[j] = BranchBuilder(parameter_name, u.size)
             b = builders[j].branch
-            s = rec.get("s", 0.0 if not len(b) else b.arclength[-1] + 1.0)
+            s = decode(rec.get("s", 0.0 if not len(b) else b.arclength[-1] + 1.0))
             builders[j].append_point(u, rec["lam"], np.asarray(rec["tangent"]), s, rec.get("iterations", 0),
-                                     rec.get("step", 0.0), rec.get("residual", 0.0), decode(rec.get("data") or {}))
+                                     decode(rec.get("step", 0.0)), decode(rec.get("residual", 0.0)),
+                                     decode(rec.get("data") or {}))
         elif rec["type"] == "special" and j in builders:
             point = decode(rec["point"])
             point["unknowns"] = _kept(point["unknowns"], headers.get(j, {}).get("dofs"), headers.get(j, {}).get("H"))
@@ -258,4 +329,22 @@ def _checked_state(state: dict | None, branch: Branch, j: int) -> dict | None:
     if bad:
         raise CheckpointError(f"the engine state of branch {j} does not fit its {len(branch)} points "
                               f"({m} unknowns): {', '.join(bad)}")
+    # the steps the engine goes on with: a step that is not a positive finite number would never end the branch
+    steps = {k: state.get(k) for k in ("ds", "ds_free", "sl")}
+    steps.update({f"recent[{i}]": v for i, v in enumerate(state["recent"] if isinstance(state["recent"], list) else [])})
+    wrong = [f"{k} = {v!r}" for k, v in steps.items() if not _positive(v, finite=True)]
+    if not _positive(state.get("event_cap"), finite=False):  # inf: no event ahead
+        wrong.append(f"event_cap = {state.get('event_cap')!r}")
+    if not isinstance(state["recent"], list):
+        wrong.append(f"recent = {state['recent']!r}")
+    if wrong:
+        raise CheckpointError(f"the engine state of branch {j}: steps that are positive finite numbers, found "
+                              + ", ".join(wrong))
     return state
+
+
+def _positive(v, finite: bool) -> bool:
+    """``v`` is a number > 0 (and finite when ``finite``); NaN is not."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or math.isnan(v) or v <= 0:
+        return False
+    return math.isfinite(v) or not finite

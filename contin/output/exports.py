@@ -42,6 +42,7 @@ import numpy as np
 from contin.hb.qp_basis import QPBasis
 from contin.output.checkpoint import read_records
 from contin.output.results import read_csv
+from contin.util.safe_files import replace_file
 
 __all__ = ["EXPORT_FORMATS", "RunData", "collect_run", "write_exports", "write_coefficients_csv",
            "coefficient_names", "stability_code"]
@@ -194,8 +195,8 @@ def write_coefficients_csv(outdir: str | Path, data: RunData | None = None) -> s
     branches = data["branches"]
     par = data["parameter"]
     names = coefficient_names(data["dofs"], data["H"])
-    tmp = outdir / "coefficients.csv.tmp"
-    with open(tmp, "w", newline="", encoding="utf-8") as fh:
+
+    def write(fh):
         w = csv.writer(fh)
         w.writerow(["row", "branch", "nu", par or "parameter", "base_frequency"] + names)
         for i, r in enumerate(data["coefficient_rows"]):
@@ -203,7 +204,9 @@ def write_coefficients_csv(outdir: str | Path, data: RunData | None = None) -> s
             lam = float(branches[par][r]) if par in branches and r < len(branches[par]) else 0.0
             w.writerow([int(r), branch, int(data["nu"][i]), repr(lam), repr(float(data["base_frequency"][i]))]
                        + [repr(float(v)) for v in data["coefficients"][i].ravel()])
-    tmp.replace(outdir / "coefficients.csv")
+
+    # a temporary file of a random name, made exclusively, renamed onto a regular file only
+    replace_file(outdir / "coefficients.csv", write, newline="")
     return "coefficients.csv"
 
 
@@ -258,8 +261,7 @@ def write_exports(outdir: str | Path, formats=("npz",), summary: dict | None = N
             raise ValueError(f"unknown export format {fmt!r}; expected one of {', '.join(EXPORT_FORMATS)}")
         path = outdir / f"results.{fmt}"
         if fmt == "npz":
-            with open(path, "wb") as fh:
-                np.savez_compressed(fh, **flat)
+            replace_file(path, lambda fh: np.savez_compressed(fh, **flat), binary=True)
         else:
             from scipy.io import savemat
 
@@ -270,6 +272,7 @@ def write_exports(outdir: str | Path, formats=("npz",), summary: dict | None = N
                     mat.setdefault(group, {})[_matlab_name(field)] = value
                 else:
                     mat[_matlab_name(key)] = value
-            savemat(path, mat, do_compression=True, oned_as="column")
+            replace_file(path, lambda fh: savemat(fh, mat, do_compression=True, oned_as="column"),  # noqa: B023
+                         binary=True)
         names.append(path.name)
     return names

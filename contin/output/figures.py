@@ -17,6 +17,8 @@ from pathlib import Path
 import matplotlib
 from matplotlib.figure import Figure
 
+from contin.util.safe_files import replace_file
+
 __all__ = ["FIGURE_FORMATS", "STYLES", "new_figure", "save_figure", "figure_style", "style_names", "legend_below"]
 
 #: file formats a run can write its figures in (``output.formats``)
@@ -110,7 +112,9 @@ def save_figure(fig: Figure, stem: str | Path, formats=("png",), dpi: float | No
         # fixed metadata: the same figure gives the same file, run after run
         meta = {"png": {"Software": "contin"}, "pdf": {"Creator": "contin", "CreationDate": None},
                 "svg": {"Date": None}}[fmt]
-        fig.savefig(path, format=fmt, dpi=dpi if dpi is not None else matplotlib.rcParams["savefig.dpi"],
-                    metadata=meta)
+        dots = dpi if dpi is not None else matplotlib.rcParams["savefig.dpi"]
+        # through a temporary file renamed onto the figure: never written through a link, never half-written
+        replace_file(path, lambda fh: fig.savefig(fh, format=fmt, dpi=dots, metadata=meta),  # noqa: B023
+                     binary=True, sync=False)
         names.append(path.name)
     return names

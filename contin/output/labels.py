@@ -21,7 +21,7 @@ from __future__ import annotations
 import re
 from typing import Mapping
 
-__all__ = ["symbol", "math", "quantity", "axis_label", "model_symbols"]
+__all__ = ["symbol", "math", "quantity", "axis_label", "model_symbols", "mathtext_error"]
 
 _GREEK = {"alpha", "beta", "gamma", "delta", "epsilon", "zeta", "eta", "theta", "iota", "kappa", "lambda",
           "mu", "nu", "xi", "pi", "rho", "sigma", "tau", "upsilon", "phi", "chi", "psi", "omega",
@@ -124,3 +124,30 @@ def model_symbols(model) -> dict:
     if freq and freq not in own and f"parameter:{freq}" not in own:
         own[f"parameter:{freq}"] = r"\Omega"
     return own
+
+
+def mathtext_error(text) -> str | None:
+    """Why matplotlib could not draw ``text``, or None when it can (or ``text`` holds no mathtext).
+
+    Text with an even number of unescaped ``$`` is mathtext; it is parsed as
+    a figure would parse it (:class:`matplotlib.mathtext.MathTextParser`),
+    without drawing anything, so that a scene's labels and title are refused
+    when the scene is checked rather than after the whole computation.
+
+    Returns
+    -------
+    str or None
+        The parser's own words (``Unknown symbol: \\foo``), on one line.
+    """
+    from matplotlib import cbook
+    from matplotlib.mathtext import MathTextParser
+
+    if not isinstance(text, str) or not cbook.is_math_text(text):
+        return None
+    try:
+        MathTextParser("path").parse(text)
+    except ValueError as exc:
+        last = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
+        last = re.sub(r"^\w*Exception: ", "", last)
+        return last if len(last) <= 160 else last[:157] + "..."
+    return None

@@ -3,7 +3,9 @@
 ``branches.csv`` and ``special_points.csv`` are appended row by row and
 flushed, so a killed run leaves valid files holding every finished point;
 ``summary.json`` is replaced atomically (write to a temporary file, then
-rename), so it is never seen half-written.
+rename), so it is never seen half-written. Every file is written through
+:mod:`contin.util.safe_files`: never through a symbolic link, replacing only
+regular files, and a write error names its file.
 """
 
 from __future__ import annotations
@@ -11,12 +13,13 @@ from __future__ import annotations
 import csv
 import json
 import math
-import os
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["CsvStream", "write_json_atomic", "read_csv", "format_value", "truncate_to_valid_rows"]
+from contin.util.safe_files import append_stream, create_stream, open_regular, replace_file
+
+__all__ = ["CsvStream", "write_json_atomic", "strict_json", "read_csv", "format_value", "truncate_to_valid_rows"]
 
 
 def format_value(v) -> str:
@@ -48,13 +51,15 @@ class CsvStream:
     def __init__(self, path: Path, columns: list[str], append: bool = False):
         self.path = Path(path)
         self.columns = list(columns)
-        exists = append and self.path.exists() and self.path.stat().st_size > 0
+        exists = append and (self.path.exists() or self.path.is_symlink())
         if exists:
-            with open(self.path, newline="", encoding="utf-8") as fh:
-                header = next(csv.reader(fh), [])
-            if header != self.columns:
+            with open_regular(self.path, newline="") as fh:
+                header = next(csv.reader(fh), None)
+            exists = header is not None
+            if exists and header != self.columns:
                 raise ValueError(f"{self.path}: cannot resume, its columns differ from this run's")
-        self._fh = open(self.path, "a" if exists else "w", newline="", encoding="utf-8")
+        # a new file is created exclusively, an existing one appended to only if it is a regular file (no link)
+        self._fh = (append_stream if exists else create_stream)(self.path, newline="")
         self._w = csv.writer(self._fh)
         if not exists:
             self._w.writerow(self.columns)
@@ -68,20 +73,36 @@ class CsvStream:
 
     def close(self) -> None:
         if not self._fh.closed:
-            self._fh.flush()
-            os.fsync(self._fh.fileno())
-            self._fh.close()
+            try:
+                self._fh.sync()
+            finally:
+                self._fh.close()
 
 
 def write_json_atomic(path: Path, data) -> None:
-    """Write JSON through a temporary file and an atomic rename."""
-    path = Path(path)
-    tmp = path.with_name(path.name + ".tmp")
-    with open(tmp, "w") as fh:
-        json.dump(data, fh, indent=2, default=_json_default)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
+    """Write strict JSON through a temporary file and an atomic rename (:func:`contin.util.safe_files.replace_file`).
+
+    A value that is not finite (NaN, infinity), which JSON cannot hold, is written as ``null``.
+    """
+    text = json.dumps(strict_json(data), indent=2, default=_json_default, allow_nan=False)
+    replace_file(path, lambda fh: fh.write(text))
+
+
+def strict_json(data):
+    """``data`` with every float that is not finite replaced by None (JSON's ``null``); numpy values as Python's."""
+    if isinstance(data, dict):
+        return {k: strict_json(v) for k, v in data.items()}
+    if isinstance(data, (list, tuple)):
+        return [strict_json(v) for v in data]
+    if isinstance(data, np.ndarray):
+        return strict_json(data.tolist())
+    if isinstance(data, np.generic):
+        data = data.item()
+    if isinstance(data, float) and not math.isfinite(data):
+        return None
+    if isinstance(data, complex):
+        return str(data)
+    return data
 
 
 def _json_default(o):
@@ -96,7 +117,7 @@ def _json_default(o):
 
 def read_csv(path: Path) -> dict[str, np.ndarray]:
     """Read a result CSV into columns (numbers as floats, ``true``/``false`` as bools, empty as NaN)."""
-    with open(path, newline="") as fh:
+    with open_regular(path, newline="", follow=True) as fh:  # never a pipe or a device: a read that never ends
         rows = list(csv.reader(fh))
     if not rows:
         return {}
@@ -117,9 +138,9 @@ def read_csv(path: Path) -> dict[str, np.ndarray]:
 def truncate_to_valid_rows(path: Path, max_rows: int | None = None) -> int:
     """Drop a last row cut short by a killed run (and rows beyond ``max_rows``); returns the data rows kept."""
     path = Path(path)
-    if not path.exists():
+    if not path.exists() and not path.is_symlink():
         return 0
-    with open(path, newline="", encoding="utf-8") as fh:
+    with open_regular(path, newline="") as fh:
         text = fh.read()
     lines = text.splitlines(keepends=True)
     if not lines:
@@ -133,8 +154,5 @@ def truncate_to_valid_rows(path: Path, max_rows: int | None = None) -> int:
             break
         keep.append(line)
     if len(keep) != len(lines):
-        tmp = path.with_name(path.name + ".tmp")
-        with open(tmp, "w", newline="") as fh:
-            fh.writelines(keep)
-        os.replace(tmp, path)
+        replace_file(path, lambda fh: fh.writelines(keep), newline="")
     return len(keep) - 1

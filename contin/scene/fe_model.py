@@ -2,8 +2,10 @@
 
 The rotor file is a ``.npz`` written by contin (:meth:`contin.model.fem.matrices.RotorMatrices.save`, no
 ROSS needed) or a rotor file ROSS writes (``.toml``, ``.json``; needs ``contin[ross]``), read relative to
-the scene file. Lengths, masses, forces and frequencies of the items are in SI; the model's parameters
-(``w``, ``e``, ``f0``, ``delta``, ``kbn``, ``cbn``) are in the model's units
+the scene file, once, only if it is a regular file of at most 256 MiB (:func:`contin.scene.files.read_input`;
+its sha256 goes to ``Scene.inputs``); a ``.npz`` has its arrays checked before they are inflated
+(:func:`contin.model.fem.matrices.load_matrices`). Lengths, masses, forces and frequencies of the items
+are in SI; the model's parameters (``w``, ``e``, ``f0``, ``delta``, ``kbn``, ``cbn``) are in the model's units
 (:mod:`contin.model.fem.builder`), and ``parameters`` overrides them.
 """
 
@@ -104,15 +106,23 @@ def build_fe_model(scene) -> Model:
     """
     from contin.bifurcation.start import contact_start
     from contin.model.fem.builder import Contact, Reduction, SideLoad, Unbalance, Units, fe_rotor_model
+    from contin.model.fem.matrices import load_matrices
     from contin.model.fem.ross_bridge import load_rotor
+    from contin.scene.files import MODEL_FILE_CAP, input_key, read_input
 
     m = scene.model
     path = rotor_path(m, scene.source)
     try:
-        rotor = load_rotor(path)
+        if not path.exists():
+            raise OSError(f"{path}: no such rotor file")
+        # read once, a regular file under its cap; its hash tells a resumed run whether it changed
+        data, digest = read_input(path, MODEL_FILE_CAP)
+        scene.inputs[input_key(path)] = digest
+        rotor = load_matrices(path, data) if path.suffix == ".npz" else load_rotor(path)
     except (OSError, ImportError, ValueError) as exc:
+        why = f"{exc.filename}: {exc.strerror}" if isinstance(exc, OSError) and exc.filename else exc
         raise SceneError("model.file", "a rotor file (.npz written by contin, or ROSS's .toml/.json)", m["file"],
-                         scene.lines.get("model.file"), hint=f": {exc}") from None
+                         scene.lines.get("model.file"), hint=f": {why}") from None
     units = m["units"]
     try:
         model = fe_rotor_model(

@@ -2,7 +2,8 @@
 
 A scene has three sections, ``model``, ``analysis`` and ``output`` (SPEC 4.2).
 Loading uses PyYAML's safe loader, with YAML 1.2's float syntax (PyYAML
-follows YAML 1.1, where ``1e-6`` without a dot is a string); the schema check then reports every problem
+follows YAML 1.1, where ``1e-6`` without a dot is a string; :mod:`contin.scene.yaml_text`), on a file
+read once under a size cap (:mod:`contin.scene.files`); the schema check then reports every problem
 as a :class:`SceneError` naming the dotted key, the expected form, what was
 found and, where the YAML parser knows it, the line.
 
@@ -18,7 +19,6 @@ that need the built model are each analysis's ``check``
 
 from __future__ import annotations
 
-import re
 import unicodedata
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,83 +31,11 @@ from contin.output.exports import EXPORT_FORMATS
 from contin.output.figures import FIGURE_FORMATS, style_names
 from contin.scene.schema import (Key, SceneError, anything, check_section, integer, is_int, is_number, listing,
                            mapping, number, string)
+from contin.scene.yaml_text import MAX_DEPTH, MAX_VALUES, SceneLoader, line_map, load_nodes, load_text  # noqa: F401
 
-__all__ = ["SceneError", "Scene", "load_scene", "parse_scene", "scene_from_data", "apply_override", "analysis_schemas",
+__all__ = ["SceneError", "Scene", "load_scene", "parse_scene", "read_scene_text", "scene_from_data", "apply_override", "analysis_schemas",
            "SceneLoader", "START_SIMULATION", "check_names", "check_parameter_values", "model_frequency",
            "parameter_rule", "check_model_section"]
-
-
-class SceneLoader(yaml.SafeLoader):
-    """Safe YAML loader that reads ``1e-6`` as a number, as YAML 1.2 does, and refuses a key given twice
-    in one mapping (PyYAML keeps the last silently; a merge ``<<`` may still be overridden)."""
-
-    def construct_mapping(self, node, deep=False):
-        if isinstance(node, yaml.MappingNode):
-            seen: dict = {}
-            for key_node, _ in node.value:
-                if key_node.tag == "tag:yaml.org,2002:merge":
-                    continue
-                key = self.construct_object(key_node, deep=deep)
-                try:
-                    if key in seen:
-                        raise yaml.constructor.ConstructorError(
-                            "while constructing a mapping", node.start_mark,
-                            f"the key {key!r} is given twice (first on line {seen[key]})", key_node.start_mark)
-                except TypeError:  # an unhashable key: the base class reports it
-                    continue
-                seen[key] = key_node.start_mark.line + 1
-        return super().construct_mapping(node, deep)
-
-
-SceneLoader.yaml_implicit_resolvers = {k: list(v) for k, v in yaml.SafeLoader.yaml_implicit_resolvers.items()}
-SceneLoader.add_implicit_resolver(
-    "tag:yaml.org,2002:float",
-    re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
-    |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
-    |\.[0-9_]+(?:[eE][-+][0-9]+)?
-    |[-+]?\.(?:inf|Inf|INF)
-    |\.(?:nan|NaN|NAN))$""", re.X),
-    list("-+0123456789."),
-)
-
-
-#: values a scene may hold once its YAML aliases are expanded (a scene has a few hundred)
-MAX_VALUES = 100_000
-#: nesting depth a scene may have (a scene has about five levels)
-MAX_DEPTH = 64
-
-
-def _load(text: str, source: str = "<string>"):
-    try:
-        data = yaml.load(text, Loader=SceneLoader)  # noqa: S506  (a SafeLoader subclass)
-    except RecursionError:
-        raise SceneError(source, f"YAML nested at most {MAX_DEPTH} levels deep", "deeper nesting") from None
-    except ValueError as exc:  # Python refuses to convert integers of more than 4300 digits
-        raise SceneError(source, "numbers a scene can hold", "a number too long to read",
-                         hint=f" ({exc})") from None
-    _check_expansion(data, source)
-    return data
-
-
-def _check_expansion(data, source: str) -> None:
-    """Refuse what YAML aliases can build: a structure that contains itself, or one that expands
-    to more values than any scene holds (the "billion laughs" of nested aliases)."""
-    count = 0
-    stack = [(data, 0, ())]
-    while stack:
-        node, depth, path = stack.pop()
-        count += 1
-        if count > MAX_VALUES:
-            raise SceneError(source, f"a scene of at most {MAX_VALUES} values with its YAML aliases expanded",
-                             "more (aliases nested within aliases)")
-        if isinstance(node, (dict, list)):
-            if id(node) in path:
-                raise SceneError(source, "YAML whose aliases do not refer to themselves", "a recursive alias")
-            if depth >= MAX_DEPTH:
-                raise SceneError(source, f"YAML nested at most {MAX_DEPTH} levels deep", "deeper nesting")
-            inner = (*path, id(node))
-            items = list(node.keys()) + list(node.values()) if isinstance(node, dict) else node
-            stack.extend((v, depth + 1, inner) for v in items)
 
 
 # ---------------------------------------------------------------- schema
@@ -406,11 +334,16 @@ class Scene:
         File name or ``"<string>"``.
     lines : dict
         Dotted key to YAML line number (1-based), where known.
+    inputs : dict
+        The files read for this scene: absolute, resolved path -> sha256 (hex)
+        of the bytes read: the scene file (:func:`load_scene`) and a model
+        file (a rotor's ``.npz`` or ROSS file, recorded when the model is built).
     """
 
     data: dict
     source: str = "<string>"
     lines: dict = field(default_factory=dict)
+    inputs: dict = field(default_factory=dict)
 
     @property
     def model(self) -> dict:
@@ -428,31 +361,6 @@ class Scene:
         return SceneError(key, expected, found, self.lines.get(key), hint)
 
 
-def _line_map(text: str) -> dict:
-    """Dotted key -> line number, from the YAML node tree."""
-    lines: dict = {}
-    try:
-        root = yaml.compose(text, Loader=SceneLoader)
-    except (yaml.YAMLError, RecursionError, ValueError):
-        return lines
-
-    def walk(node, prefix):
-        if isinstance(node, yaml.MappingNode):
-            for k, v in node.value:
-                key = f"{prefix}.{k.value}" if prefix else str(k.value)
-                lines[key] = k.start_mark.line + 1
-                walk(v, key)
-        elif isinstance(node, yaml.SequenceNode):
-            for i, v in enumerate(node.value):
-                key = f"{prefix}[{i}]"
-                lines[key] = v.start_mark.line + 1
-                walk(v, key)
-
-    if root is not None:
-        walk(root, "")
-    return lines
-
-
 def apply_override(data: dict, assignment: str) -> None:
     """Apply ``dotted.key=value`` (value parsed as YAML) to ``data`` in place."""
     if "=" not in assignment:
@@ -462,7 +370,7 @@ def apply_override(data: dict, assignment: str) -> None:
     if not key or any(not part for part in key.split(".")):
         raise SceneError("--set", "a dotted key such as model.parameters.f0", key)
     try:
-        value = _load(text, f"--set {key}") if text.strip() else None
+        value = load_text(text, f"--set {key}") if text.strip() else None
     except yaml.YAMLError as exc:
         raise SceneError(f"--set {key}", "a YAML value", text, hint=f" ({str(exc).splitlines()[0]})") from None
     node = data
@@ -486,7 +394,7 @@ def parse_scene(text: str, source: str = "<string>", overrides=()) -> Scene:
         On malformed YAML or any schema violation.
     """
     try:
-        data = _load(text, source)
+        data, root = load_nodes(text, source)  # once: a large scene is not parsed again for its lines
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         line = mark.line + 1 if mark is not None else None
@@ -498,7 +406,7 @@ def parse_scene(text: str, source: str = "<string>", overrides=()) -> Scene:
         raise SceneError("(top level)", "a mapping with the sections model, analysis, output", type(data).__name__)
     for ov in overrides:
         apply_override(data, ov)
-    return scene_from_data(data, source, _line_map(text))
+    return scene_from_data(data, source, line_map(root))
 
 
 def scene_from_data(data: dict, source: str = "<string>", lines: dict | None = None) -> Scene:
@@ -573,17 +481,42 @@ def check_model_section(model: dict, lines: dict | None = None) -> dict:
     return model
 
 
-def load_scene(path: str | Path, overrides=()) -> Scene:
-    """Read and validate a scene file; see :func:`parse_scene`."""
+def read_scene_text(path: str | Path) -> tuple[str, str]:
+    """The text of a scene file and the sha256 of its bytes.
+
+    The file is read once, only if it is a regular file (a link to one is
+    followed) of at most :data:`contin.scene.files.SCENE_FILE_CAP` bytes: a
+    device, a named pipe or a directory is refused before anything is read
+    (:func:`contin.scene.files.read_input`); so is text that is not UTF-8.
+    """
+    from contin.scene.files import SCENE_FILE_CAP, read_input, size_text
+
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        raw, digest = read_input(path, SCENE_FILE_CAP)
     except OSError as exc:
-        raise SceneError(str(path), "a readable scene file", None, hint=f" ({exc.strerror})") from None
+        raise SceneError(str(path), f"a readable scene file (a regular file of at most {size_text(SCENE_FILE_CAP)})",
+                         None, hint=f" ({exc.strerror})") from None
+    try:
+        text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
         raise SceneError(str(path), "a scene file in UTF-8", f"byte 0x{exc.object[exc.start]:02x} at offset {exc.start}",
                          hint=" (save the file as UTF-8)") from None
-    return parse_scene(text, str(path), overrides)
+    # universal newlines, as text-mode reading gave (YAML's line numbers count them alike)
+    return text.replace("\r\n", "\n").replace("\r", "\n"), digest
+
+
+def load_scene(path: str | Path, overrides=()) -> Scene:
+    """Read (:func:`read_scene_text`) and validate a scene file; see :func:`parse_scene`.
+
+    The file's sha256 goes to :attr:`Scene.inputs`.
+    """
+    from contin.scene.files import input_key
+
+    text, digest = read_scene_text(path)
+    scene = parse_scene(text, str(path), overrides)
+    scene.inputs[input_key(Path(path))] = digest
+    return scene
 
 
 def analysis_schemas() -> dict:

@@ -121,10 +121,22 @@ def check_scene(scene, model):
 
     Returns what the analysis's check returns (its prepared setup, handed to
     its run as ``RunContext.plan``), or None.
+
+    First the memory and work the scene asks (:func:`contin.scene.budget.check_resources`:
+    before the analysis's check, which builds its problems and their arrays);
+    after it, the texts its figures draw and ``continuation.unknown_scale``
+    against the problems' unknowns (:mod:`contin.scene.preflight`).
     """
+    from contin.scene.budget import check_resources
+    from contin.scene.preflight import check_texts, check_unknown_scale
+
     load_all()
+    check_resources(scene, model)
     check = ANALYSIS_CHECKS.get(scene.analysis["type"])
-    return None if check is None else check(scene, model)
+    plan = None if check is None else check(scene, model)
+    check_texts(scene, model)
+    check_unknown_scale(scene, plan)
+    return plan
 
 
 def check_output(scene, measures, names=()) -> None:
@@ -157,9 +169,10 @@ def shortfalls(branches: list[dict], parameter: str, failed_switches=(), what: s
     """What a run did not do that its scene asked: branches whose numerics gave up, switches without a branch.
 
     A branch ends as asked at a range end (also after turning back), a
-    closed loop, a located point it cannot pass, or ``max_points``
-    (:attr:`contin.engine.branch.BranchStatus.as_asked`); an interrupted one is
-    the run's interruption, not a shortfall.
+    closed loop, a located point it cannot pass, or the ``max_points`` the
+    scene set (:attr:`contin.engine.branch.BranchStatus.as_asked`; the default
+    cap, ``default_max_points``, is a shortfall); an interrupted one is the
+    run's interruption, not a shortfall.
 
     Parameters
     ----------
@@ -170,7 +183,8 @@ def shortfalls(branches: list[dict], parameter: str, failed_switches=(), what: s
         The continuation parameter (in the messages).
     failed_switches : sequence of dict
         ``parent``, ``kind``, ``parameter``, ``side``, ``message`` of each
-        switch that found no first point.
+        switch that found no first point, or that was not tried because its
+        point was not located (``side`` None).
     what : str
         What the entries are called in the messages.
     """
@@ -187,6 +201,7 @@ def shortfalls(branches: list[dict], parameter: str, failed_switches=(), what: s
         after = f" after {b['points']} points" if "points" in b else ""
         out.append(f"{name} ended {status.value}{after}: {b.get('message', '')}{where}")
     for f in failed_switches:
+        side = "" if f.get("side") is None else f" (side {f['side']:+d})"  # None: no side was tried
         out.append(f"no branch switched from branch {f['parent']} at its {f['kind']} point {parameter}="
-                   f"{f['parameter']:.10g} (side {f['side']:+d}): {f['message']}")
+                   f"{f['parameter']:.10g}{side}: {f['message']}")
     return out

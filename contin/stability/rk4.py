@@ -21,8 +21,9 @@ from __future__ import annotations
 
 import threading
 
-import numba as nb
 import numpy as np
+
+from contin.util.jit import njit
 
 __all__ = ["rk4_propagate", "rk4_segments"]
 
@@ -70,7 +71,7 @@ def _force_jacobians(hb, x, xd, tau, p, scratch=False):
     return f, dfdx, dfdxd
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _nonzero_pattern(Minv):
     """Column indices of the nonzeros of each row of ``Minv``: ``(count (n,), cols (n, n))``."""
     n = Minv.shape[0]
@@ -84,7 +85,7 @@ def _nonzero_pattern(Minv):
     return count, cols
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _node_block(count, cols, Minv, K, C, dfdx, dfdxd, j, out):
     """``out = [-Minv (K + dfdx[j]), -Minv (C + dfdxd[j])]``, shape (n, 2n).
 
@@ -114,7 +115,7 @@ def _node_block(count, cols, Minv, K, C, dfdx, dfdxd, j, out):
             out[a, n + c] = -s2
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _lower_blocks(Minv, K, C, dfdx, dfdxd):
     """``B[j] = [-Minv (K + dfdx[j]), -Minv (C + dfdxd[j])]`` (see :func:`_node_block`).
 
@@ -145,7 +146,7 @@ def _full_state_matrices(B):
     return A
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _matmul_into(A, B, out):
     d = A.shape[0]
     for i in range(d):
@@ -156,7 +157,7 @@ def _matmul_into(A, B, out):
             out[i, j] = s
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _rk4_step(A0, A1, A2, Phi, h, k1, k2, k3, k4, tmp):
     """One classical RK4 step of ``Phi' = A(t) Phi`` in place (``A1`` at the half step)."""
     d = Phi.shape[0]
@@ -178,7 +179,7 @@ def _rk4_step(A0, A1, A2, Phi, h, k1, k2, k3, k4, tmp):
             Phi[i, j] += h / 6.0 * (k1[i, j] + 2.0 * k2[i, j] + 2.0 * k3[i, j] + k4[i, j])
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def rk4_propagate(A, h):
     """Classical RK4 for ``Phi' = A(t) Phi``, ``Phi(0) = I``, over one period.
 
@@ -203,7 +204,7 @@ def rk4_propagate(A, h):
     return Phi
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def rk4_segments(A, starts, steps, h, jumps):
     """Classical RK4 for ``Phi' = A(t) Phi`` over consecutive segments, with a jump matrix after each.
 
@@ -237,7 +238,7 @@ def rk4_segments(A, starts, steps, h, jumps):
     return Phi
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _block_stage(B, X, k):
     """``k = A X`` with ``A = [[0, I], B]``, ``B`` (n, d), ``X`` and ``k`` (d, d).
 
@@ -295,7 +296,7 @@ def _block_stage(B, X, k):
             j += 1
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _rk4_block_step(B0, B1, B2, Phi, h, k1, k2, k3, k4, tmp):
     """One classical RK4 step of ``Phi' = A(t) Phi`` in place, ``A = [[0, I], B]`` (``B1`` at the half step).
 
@@ -324,7 +325,7 @@ def _rk4_block_step(B0, B1, B2, Phi, h, k1, k2, k3, k4, tmp):
 
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _variational_rk4(Minv, K, C, dfdx, dfdxd, starts, steps, h, jumps):
     """Classical RK4 for ``Phi' = A(t) Phi``, ``Phi(0) = I``, with ``A`` built node by node.
 

@@ -20,11 +20,11 @@ from __future__ import annotations
 
 import math
 
-import numba as nb
 import numpy as np
 from scipy.fft import next_fast_len
 
 from contin.stability.rk4 import _full_state_matrices, _node_block, _nonzero_pattern
+from contin.util.jit import njit
 
 __all__ = ["RK4_STABILITY", "RK4StepError", "fast_steps"]
 
@@ -78,7 +78,7 @@ _PERRON_ITERATIONS = 32
 _PERRON_GAP = 1e-3
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _perron_bound(Bj, x, y, warm, enough):
     """Upper bound of the spectral radius of ``A = [[0, I], [B1, B2]]`` from ``Bj = [B1, B2]`` (n, 2n).
 
@@ -160,7 +160,7 @@ def _perron_bound(Bj, x, y, warm, enough):
     return bound
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _row_bounds(B):
     """:func:`_row_bound` of each ``B[j]``: shape (K,)."""
     out = np.empty(B.shape[0])
@@ -169,7 +169,7 @@ def _row_bounds(B):
     return out
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _row_bound(Bj):
     """Upper bound of the spectral radius of ``A = [[0, I], [B1, B2]]`` from ``Bj = [B1, B2]`` (n, 2n).
 
@@ -200,7 +200,7 @@ def _row_bound(Bj):
 
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _node_bounds(Minv, K, C, dfdx, dfdxd, enough):
     """:func:`_perron_bound` of ``A`` at every node, shape (N,).
 
@@ -223,7 +223,7 @@ def _node_bounds(Minv, K, C, dfdx, dfdxd, enough):
     return out
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _blocks_at(Minv, K, C, dfdx, dfdxd, nodes):
     """The lower block rows of ``A`` at the given nodes: shape (len(nodes), n, 2n)."""
     n = Minv.shape[0]

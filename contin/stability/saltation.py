@@ -52,12 +52,12 @@ from __future__ import annotations
 
 import dataclasses
 
-import numba as nb
 import numpy as np
 
 from contin.hb import aft
 from contin.hb.harmonics import coefficient_blocks
 from contin.stability.rk4 import _force_jacobians
+from contin.util.jit import njit
 
 __all__ = ["SwitchEvent", "switching_events", "orbit_state"]
 
@@ -103,7 +103,7 @@ def orbit_state(hb, u: np.ndarray, lam: float, t) -> np.ndarray:
     return z[0] if np.ndim(t) == 0 else z
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _synthesize_at(U, Omega, th):
     """``(x, x')`` at the phases ``th`` (K,) from ``U`` (2H+1, n): shape (K, 2n).
 
@@ -420,7 +420,7 @@ def _brentq_all(f, a, b, fa, fb, active, xtol, rtol, maxiter):
     raise RuntimeError(f"Failed to converge after {maxiter} iterations, value is {xcur[~done][0]}")
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _brent_advance(xpre, xcur, xblk, fpre, fcur, fblk, spre, scur, done, xtol, rtol):
     """One iteration of Brent's method for every bracket not yet ``done``, up to its next evaluation.
 
@@ -534,7 +534,7 @@ def _switch_events_at(hb, u, lam, p, sw_elements, tc, elem, fun, direction, salt
     return events
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _fields(z, normal, jump, fe, force_before, direction, Minv, C, K):
     """The vector fields before and after each switch and their rates across the surface.
 

@@ -347,7 +347,7 @@ class CompiledModel:
             # no model name here: models of the same structure share one module (and its compiled code)
             f"# {n} dofs, {len(self.forces)} force elements, {len(self.excitations)} excitation elements",
             "import numpy as np",
-            "from numba import njit",
+            "from contin.util.jit import njit",  # cached only in the private cache directory
         ] + sorted(imports) + ["", f"N = {n}", f"NS = {m}"] + globals_
         rhs = [
             "",

@@ -19,6 +19,21 @@ classification therefore also requires, for ``k >= 2``,
   dofs has its non-harmonic content on the lines ``j w / k``: the strongest
   such line must dominate every non-harmonic line elsewhere.
 
+A recorded response is *settled* only when it is a steady state of the
+equations, not of the integrator or of a transient:
+
+- its amplitude must not grow over the record (:func:`amplitude_growth`:
+  the peak deviation from the mean rising in every quarter of the record, by
+  more than ``10 tol`` from the first quarter to the last, is growth, without
+  bound or still building up);
+- the last revolutions integrated again with half the step must end where
+  the run ended, to ``tol`` of the motion's range (:func:`step_refinement`);
+  an explicit integrator beyond its stability limit (a stiff force that the
+  step check before the run cannot see, a law written as an expression)
+  gives an answer that depends on the step;
+- a ``period-1`` response still converging within the record is not settled
+  either.
+
 The spectrum of the disc of a rotor is taken of the complex displacement
 ``z = x1 + i y1``: a line at ``+f`` is a forward whirl of radius ``|c_f|``, at
 ``-f`` a backward whirl, with ``z = sum_f c_f exp(i f t)``. The rotor paper
@@ -39,6 +54,9 @@ from contin.model.base import Model
 
 __all__ = [
     "Classification",
+    "REFINE_PERIODS",
+    "amplitude_growth",
+    "step_refinement",
     "section_points",
     "spectrum",
     "dominant_lines",
@@ -80,7 +98,19 @@ class Classification:
     note : str
         Why the class was chosen (or rejected).
     settled : bool
-        False for a ``period-1`` response still converging within the record.
+        False for a response that is not a steady state: a ``period-1``
+        response still converging within the record, an amplitude that grows
+        over the record, or a result that depends on the step
+        (:func:`steady_state`).
+    growth : float or None
+        Peak deviation from the mean in the last quarter of the record over
+        that in the first (:func:`amplitude_growth`).
+    step_change : float or None
+        The final state's change when the last revolutions are integrated
+        again with half the step, relative to the motion's range
+        (:func:`step_refinement`; None when not checked).
+    unsettled : str
+        Why the response is not settled ("" when it is).
     """
 
     label: str
@@ -94,6 +124,14 @@ class Classification:
     subharmonic_dominance: float | None
     note: str = ""
     settled: bool = True
+    growth: float | None = None
+    step_change: float | None = None
+    unsettled: str = ""
+
+    def not_settled(self, reason: str) -> None:
+        """Mark the response not settled, adding ``reason``."""
+        self.settled = False
+        self.unsettled = f"{self.unsettled}; {reason}" if self.unsettled else reason
 
     @property
     def periodic(self) -> bool:
@@ -335,14 +373,111 @@ def classify(result, dofs: Sequence[int] = (0, 1), tol: float = 1e-3, max_period
             f0 = next((f for f, _ in top if abs(f - round(f)) > 2.5 * df), None)
             if f0 is not None:
                 note += f"; strongest non-harmonic line at {f0:+.4f} w"
-    return Classification(label, period, P, spread, mismatch, ratio if period != 1 else None, top, whirl,
-                          dom if period is not None and period >= 2 else None, note, settled)
+    cls = Classification(label, period, P, spread, mismatch, ratio if period != 1 else None, top, whirl,
+                         dom if period is not None and period >= 2 else None, note, settled,
+                         unsettled="" if settled else note)
+    cls.growth, rising = amplitude_growth(result)
+    if rising and not cls.growth <= 1.0 + 10.0 * tol:
+        cls.not_settled(f"its amplitude grows over the record (x{cls.growth:.4g} from the first quarter to the last, "
+                        "rising in every quarter): growing without bound, or still building up; run a longer "
+                        "transient to tell")
+    return cls
+
+
+def amplitude_growth(result, parts: int = 4) -> tuple[float, bool]:
+    """How the amplitude of a record changes over it.
+
+    The record is cut into ``parts`` equal parts; in each, the peak
+    deviation of every state component from its mean over the record,
+    relative to the component's range over the record, the largest over the
+    components (components that do not move are left out).
+
+    Parameters
+    ----------
+    result : SimulationResult
+    parts : int
+
+    Returns
+    -------
+    ratio : float
+        That peak in the last part over that in the first (inf if the first
+        is zero or the values overflow).
+    rising : bool
+        True if the peak rose from each part to the next.
+    """
+    y = np.concatenate([result.x, result.v], axis=1)
+    K = y.shape[0] // parts
+    if K < 1:
+        return 1.0, False
+    with np.errstate(over="ignore", invalid="ignore"):
+        span = np.ptp(y, axis=0)
+        if not np.all(np.isfinite(span)) or not np.all(np.isfinite(y)):
+            return math.inf, True  # too large to measure: nothing bounded is
+        moving = span > 1e-12 * max(float(span.max()), 1e-300)
+        if not np.any(moving):
+            return 1.0, False
+        dev = np.abs(y[:, moving] - y[:, moving].mean(axis=0)) / span[moving]
+        peaks = np.array([dev[i * K:(i + 1) * K].max() for i in range(parts)])
+    ratio = float(peaks[-1] / peaks[0]) if peaks[0] > 0 else math.inf
+    return ratio, bool(np.all(np.diff(peaks) > 0))
+
+
+#: revolutions at the end of a run that :func:`steady_state` integrates again with half the step
+REFINE_PERIODS = 8
+
+
+def step_refinement(model: Model, params, result, periods: int = REFINE_PERIODS, scale=None) -> float:
+    """How much the end of a run moves when its last revolutions are integrated with half the step.
+
+    From the section point ``periods`` revolutions before the last one, the
+    model is integrated again over those revolutions with
+    ``2 * steps_per_period`` steps per period (the same event location) and
+    its state compared with the run's last section point.
+
+    Parameters
+    ----------
+    model : Model
+    params : dict or None
+        The run's parameter overrides.
+    result : SimulationResult
+    periods : int
+        Revolutions integrated again (at most those of the run).
+    scale : ndarray, shape (2n,), optional
+        What the change is measured against, per state component (default:
+        the range of each over the recorded window, as :func:`classify` does).
+
+    Returns
+    -------
+    float
+        ``max |y_fine - y_run| / scale`` (inf if the finer run blew up).
+    """
+    from contin.timedomain.simulation import SimulationError, simulate
+
+    n = result.x.shape[1]
+    last = result.section.shape[0] - 1
+    periods = int(min(periods, last))
+    if periods < 1:
+        return math.nan
+    if scale is None:
+        scale = np.concatenate([np.full(n, max(float(np.ptp(result.x, axis=0).max()), 1e-12)),
+                                np.full(n, max(float(np.ptp(result.v, axis=0).max()), 1e-12))])
+    y0, y1 = result.section[last - periods], result.section[last]
+    S = 2 * int(result.steps_per_period)
+    try:
+        fine = simulate(model, params, y0[:n], y0[n:], periods=periods, steps_per_period=S, record_every=S,
+                        locate_events=result.locate_events)
+    except SimulationError:
+        return math.inf  # blew up with the finer step: the coarse run's answer is the integrator's
+    with np.errstate(over="ignore", invalid="ignore"):
+        change = float(np.max(np.abs(fine.section[periods] - y1) / scale))
+    return change if math.isfinite(change) else math.inf
 
 
 def steady_state(model: Model, params=None, x0=None, v0=None, *, transient: float = 200, record: int = 64,
                  steps_per_period: int = 4096, samples_per_period: int = 64, locate_events: bool = True,
-                 dofs: Sequence[int] = (0, 1), tol: float = 1e-3, max_period: int = 8, **kwargs):
-    """Simulate to steady state and classify.
+                 dofs: Sequence[int] = (0, 1), tol: float = 1e-3, max_period: int = 8,
+                 refine_periods: int = REFINE_PERIODS, **kwargs):
+    """Simulate to steady state, classify, and check that the answer does not depend on the step.
 
     Parameters
     ----------
@@ -359,6 +494,11 @@ def steady_state(model: Model, params=None, x0=None, v0=None, *, transient: floa
         Recorded samples per revolution (a divisor of ``steps_per_period``).
     locate_events, dofs, tol, max_period
         See :func:`contin.timedomain.simulation.simulate` and :func:`classify`.
+    refine_periods : int
+        The last ``min(refine_periods, record)`` revolutions are integrated
+        again with half the step (:func:`step_refinement`); where the state
+        they end at moves by more than ``tol`` of the motion's range the
+        response is not settled (numerical instability). 0 skips the check.
     **kwargs
         Passed to :func:`contin.timedomain.simulation.simulate` (``progress``, ``should_stop``, ...).
 
@@ -380,4 +520,14 @@ def steady_state(model: Model, params=None, x0=None, v0=None, *, transient: floa
         return res, None  # stopped early (``should_stop``): nothing to classify
     # the last sample (t = end) repeats the phase of the first: drop it so the window spans whole revolutions
     res.t, res.x, res.v = res.t[:-1], res.x[:-1], res.v[:-1]
-    return res, classify(res, dofs, tol, max_period)
+    cls = classify(res, dofs, tol, max_period)
+    if refine_periods > 0:
+        periods = min(int(refine_periods), record)
+        change = step_refinement(model, params, res, periods)
+        cls.step_change = None if math.isnan(change) else change
+        if cls.step_change is not None and not change <= tol:
+            cls.not_settled(f"the result depends on the step (numerical instability, or a step too coarse for "
+                            f"the tolerance): the last {periods} revolutions integrated again with half the step "
+                            f"end {change:.3g} of the motion's range away, more than the tolerance {tol:g}; raise "
+                            "steps_per_period")
+    return res, cls

@@ -1,16 +1,15 @@
 """Benchmark: first run on a cold numba cache against the same run on a warm one.
 
 contin's kernels are compiled by numba with ``cache=True``: the first run in
-a fresh environment compiles them (and the generated kernels of
-:mod:`contin.model.codegen`), later runs load them from disk. Each scene below is run
-twice with ``contin run`` in fresh processes that share two new, empty cache
-directories (``NUMBA_CACHE_DIR`` and ``CONTIN_CACHE_DIR``): the first run
-pays the compilation, the second only loads. The difference is the
-first-run compile time; both are printed with their ratio.
+a fresh environment compiles them (the package's own and the generated kernels
+of :mod:`contin.model.codegen`), later runs load them from the private kernel
+cache (:mod:`contin.util.jit`; ``NUMBA_CACHE_DIR`` plays no part). Each scene
+below is run twice with ``contin run`` in fresh processes that share one new,
+empty ``CONTIN_CACHE_DIR``: the first run pays the compilation, the second
+only loads. The difference is the first-run compile time; both are printed
+with their ratio.
 
-``--quick`` (CI) compiles something small: the custom Duffing scene's
-generated kernel (:mod:`contin.model.codegen`) in a new, empty ``CONTIN_CACHE_DIR``,
-contin's own kernels loaded from numba's cache as they are.
+``--quick`` runs the small custom Duffing scene only.
 
     python scripts/bench/bench_compile.py [--quick]
 """
@@ -35,13 +34,10 @@ SCENES = {
 }
 
 
-def run_once(scene: str, overrides, cache: Path, out: Path, numba_cache: bool = True) -> float:
-    """Wall time of ``contin run`` in a fresh process with the kernel cache in ``cache`` (and numba's too,
-    with ``numba_cache``)."""
+def run_once(scene: str, overrides, cache: Path, out: Path) -> float:
+    """Wall time of ``contin run`` in a fresh process with the kernel cache in ``cache``."""
     env = dict(os.environ, CONTIN_CACHE_DIR=str(cache / "kernels"), OPENBLAS_NUM_THREADS="1",
                PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    if numba_cache:
-        env["NUMBA_CACHE_DIR"] = str(cache / "numba")
     cmd = [sys.executable, "-m", "contin", "run", str(ROOT / "scenes" / f"{scene}.yaml"), "-o", str(out), "-q"]
     for o in overrides:
         cmd += ["--set", o]
@@ -56,7 +52,7 @@ def run_once(scene: str, overrides, cache: Path, out: Path, numba_cache: bool = 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true",
-                    help="a custom model's generated kernel only, numba's cache kept (CI)")
+                    help="the small custom Duffing scene only")
     a = ap.parse_args(argv)
     names = ["custom"] if a.quick else ["duffing", "rotor"]
     print(f"{'scene':>8s} {'cold s':>8s} {'warm s':>8s} {'compile s':>10s} {'cold/warm':>10s}")
@@ -64,8 +60,8 @@ def main(argv=None) -> int:
         scene, overrides = SCENES[name]
         with tempfile.TemporaryDirectory(prefix="bench_compile_") as tmp:
             tmp = Path(tmp)
-            cold = run_once(scene, overrides, tmp / "cache", tmp / "cold", numba_cache=not a.quick)
-            warm = run_once(scene, overrides, tmp / "cache", tmp / "warm", numba_cache=not a.quick)
+            cold = run_once(scene, overrides, tmp / "cache", tmp / "cold")
+            warm = run_once(scene, overrides, tmp / "cache", tmp / "warm")
         print(f"{name:>8s} {cold:8.2f} {warm:8.2f} {cold - warm:10.2f} {cold / warm:10.2f}")
     return 0
 

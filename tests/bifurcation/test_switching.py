@@ -246,3 +246,34 @@ def test_a_side_without_a_first_point_is_reported(diagram):
     assert f["kind"] == "pd" and f["side"] == 1 and abs(f["parameter"] - pd.parameter) < 1e-12
     assert "Newton failed" in f["message"]
     assert diagram.failed_switches == []  # every side of the normal switches found its first point
+
+
+@pytest.mark.slow  # ~10 s: the contact rotor traced with Floquet stability, its branches switched
+def test_every_switch_asked_on_a_contact_orbit_starts_a_branch_or_says_why(tmp_path):
+    """The rotor pressed into its clearance (f0 = 0.7, H = 8): each period doubling of the harmonic branch either
+    starts a branch or is a shortfall naming it, located or not (20 location iterations leave some of them
+    unlocated: they were dropped without a word; now they are switched at from their final bracket)."""
+    from pathlib import Path
+
+    from contin.app.runner import run_scene
+    from contin.output.results import read_csv
+    from contin.scene.parse import load_scene
+
+    scene = load_scene(Path(__file__).resolve().parents[2] / "scenes" / "rotor_f0_05.yaml", overrides=[
+        "model.parameters.f0=0.7", "analysis.harmonics=8", "analysis.samples=256", "analysis.starts=[]",
+        "analysis.switch=[pd]", "analysis.max_branches=64", "analysis.continuation.locate_max_iter=20",
+        "output.plots=false"])
+    summary = run_scene(scene, tmp_path / "out", progress=False)
+    rows = read_csv(tmp_path / "out" / "special_points.csv")
+    pds = [(w, located) for b, kind, w, located in zip(rows["branch"], rows["kind"], rows["w"], rows["located"])
+           if b == 0 and kind == "pd"]
+    unlocated = [w for w, located in pds if not located]
+    assert unlocated  # what the test is about
+    children = [b for b in summary["analysis"]["branches"] if b["parent"] == 0]
+    failed = [f for f in summary["analysis"]["failed_switches"] if f["parent"] == 0]
+    assert len(children) + len(failed) == len(pds)
+    from_bracket = sorted([b["origin"]["parameter"] for b in children if not b["origin"]["located"]]
+                          + [f["parameter"] for f in failed if "switched from the bracket" in f["message"]])
+    assert from_bracket == pytest.approx(sorted(unlocated), abs=1e-9)
+    assert (summary["status"] == "incomplete") == bool(failed)
+    assert len(summary["analysis"]["shortfalls"]) >= len(failed)

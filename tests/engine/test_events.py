@@ -4,6 +4,10 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from conftest import fuzz_examples
 
 from contin.engine.branch import SpecialKind
 from contin.engine.events import (
@@ -181,7 +185,7 @@ def test_narrow_uses_the_continuous_test_and_keeps_the_bracket_by_the_side():
     side = lambda p, v: p.lam <= 0.37
     loc = narrow(point_at, 0.0, 1.0, a, b, -0.37, 0.63, 1.0, side=side, value=lambda p: p.lam - 0.37, tol=1e-12)
     assert loc.located and loc.point.lam == pytest.approx(0.37, abs=1e-12)
-    assert len(calls) <= 6  # regula falsi on a linear test
+    assert len(calls) <= 10  # ITP on a linear test (its first steps nudged towards the midpoint); bisection: 40
     # a continuous test that disagrees with the side (its zero is elsewhere) cannot move the bracket off
     calls.clear()
     loc = narrow(point_at, 0.0, 1.0, a, b, -0.2, 0.8, 1.0, side=side, value=lambda p: p.lam - 0.2, tol=1e-12)
@@ -207,3 +211,78 @@ def test_predicted_zero():
     assert predicted_zero(-1.0, -0.5, 1.0) == pytest.approx(1.0)
     assert predicted_zero(0.5, 1.0, 1.0) == math.inf  # moving away
     assert predicted_zero(float("nan"), 1.0, 1.0) == math.inf
+
+
+# -- tests that are only piecewise smooth: a contact orbit's multipliers ------------------------------------
+# At a period doubling of the rotor's contact orbit near w = 1.765 (H = 10) the pd test jumps from -5.9e-6 to
+# +3.8e-5 where its multiplier crosses -1 (a contact changes there); the old regula falsi took 26 of its 60
+# iterations. Jumps and corners more lopsided than that made it creep from one end until the iterations ran out
+# ("location did not converge in 60 iterations"), its estimate still 1e-8 off.
+
+def _lopsided(left: float, right: float, slope: float, root: float):
+    """A test of the arclength: ``slope (s - root)`` plus a jump from ``-left`` to ``+right`` at ``root``."""
+    return lambda s: slope * (s - root) + (right if s >= root else -left)
+
+
+@pytest.mark.parametrize("left, right, slope", [
+    (1e-8, 1e-3, 0.0),  # a jump, steep on one side only
+    (1e-3, 1e-8, 0.05),
+    (1e-6, 1e-2, 1.0),
+    (0.0, 0.0, None),  # a corner: slope 1 before the root, 1e-3 after
+])
+def test_a_lopsided_jump_or_corner_is_located_within_the_iterations(left, right, slope):
+    h, lam0, rate, root = 1.28e-3, 1.76, 0.25, 2.1e-4
+    g = _lopsided(left, right, slope, root) if slope is not None else (
+        lambda s: (s - root) if s < root else 1e-3 * (s - root))
+    ev = FunctionEvent(lambda p: g(p.s))
+    calls = []
+    point_at = arc_point_at(lambda s: lam0 + rate * s, calls=calls)
+    a, b = info(lam0, s=0.0), info(lam0 + rate * h, s=h)
+    (loc,) = locate(ev, 0, point_at, h, a, b, g(0.0), g(h), tol=1e-10, max_iter=60)
+    assert loc.located, loc.message
+    assert len(calls) <= 59
+    # |dlam| <= tol * lam at the change: the arclength to within tol * lam / rate
+    assert abs(loc.point.s - root) <= 1e-10 * lam0 / rate
+    assert loc.message.startswith("located in")
+
+
+def test_a_count_with_a_lopsided_continuous_test_is_located_as_a_stability_event_narrows_it():
+    """The stability events' form: the count keeps the bracket, the continuous test (the product over the
+    multipliers) proposes the points; a jump of the test at the change is located within the iterations."""
+    root, h = 0.3, 1.0
+    g = _lopsided(1e-9, 1e-2, 0.0, root)
+    calls = []
+    point_at = arc_point_at(lambda s: s, calls=calls)
+    a, b = info(0.0), info(1.0, s=1.0)
+    loc = narrow(point_at, 0.0, h, a, b, g(0.0), g(h), h, side=lambda p, v: p.lam < root, value=lambda p: g(p.lam),
+                 tol=1e-10, max_iter=60)
+    assert loc.located and abs(loc.point.lam - root) <= 1e-10
+    assert len(calls) <= 59
+
+
+@settings(max_examples=fuzz_examples(60), deadline=None)
+@given(root=st.floats(0.01, 0.99), left=st.floats(-9.0, -1.0), right=st.floats(-9.0, -1.0),
+       slope=st.sampled_from([0.0, 1e-3, 1.0, 30.0]))
+def test_jumps_of_any_size_at_any_place_are_located(root, left, right, slope):
+    g = _lopsided(10.0 ** left, 10.0 ** right, slope, root)
+    ev = FunctionEvent(lambda p: g(p.s))
+    a, b = info(2.0, s=0.0), info(3.0, s=1.0)
+    (loc,) = locate(ev, 0, arc_point_at(lambda s: 2.0 + s), 1.0, a, b, g(0.0), g(1.0), tol=1e-10, max_iter=60)
+    assert loc.located, loc.message
+    assert loc.iterations <= 59
+    assert abs(loc.point.s - root) <= 1e-10 * 3.0
+
+
+def test_a_smooth_test_is_located_by_the_same_points_as_before():
+    """The safeguard moves no point of a location that converges without it: regula falsi's own sequence
+    on lam(sigma) = sigma^2 + sigma, event lam = 0.7 (Illinois, as before)."""
+    calls = []
+    ev = FunctionEvent(lambda p: p.lam - 0.7)
+    a, b = info(0.0), info(2.0, s=1.0)
+    (loc,) = locate(ev, 0, arc_point_at(lambda s: s * s + s, calls=calls), 1.0, a, b, -0.7, 1.3)
+    # the first two points are plain regula falsi on the end values, then on the new bracket [s1, 1]
+    s1 = 0.7 / 2.0
+    assert calls[0] == pytest.approx(s1, abs=1e-15)
+    g1 = s1 * s1 + s1 - 0.7
+    assert calls[1] == pytest.approx((s1 * 1.3 - 1.0 * g1) / (1.3 - g1), abs=1e-15)
+    assert loc.located and loc.point.lam == pytest.approx(0.7, abs=1e-10) and len(calls) <= 12

@@ -57,3 +57,16 @@ def test_as_options():
         as_options(3)
     with pytest.raises(ValueError, match="did you mean 'ds_max'"):
         as_options({"ds_mx": 0.1})
+
+
+def test_max_points_unset_is_the_default_cap_and_set_is_the_callers():
+    """Unset, ``max_points`` is None (a cap nobody asked for, 2000 points); set, it is the caller's."""
+    from contin.engine.options import DEFAULT_MAX_POINTS
+
+    opts = ContinuationOptions()
+    assert opts.max_points is None and opts.point_cap == DEFAULT_MAX_POINTS == 2000
+    assert ContinuationOptions(max_points=7).point_cap == 7
+    assert ContinuationOptions.from_dict(opts.to_dict()) == opts  # None survives a configuration round trip
+    for bad in (0, -3, 2.5, True, "100"):
+        with pytest.raises(ValueError, match=r"ContinuationOptions.max_points must be None or an integer >= 1"):
+            ContinuationOptions(max_points=bad)

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from contin.engine.linalg import factorize
+from contin.engine import predictor
 from contin.engine.predictor import (
     HermiteArc,
     initial_tangent,
@@ -50,6 +51,23 @@ def test_the_start_tangent_follows_the_direction_asked_or_the_given_tangent():
     np.testing.assert_allclose(up, np.array([2.0, 1.0]) / math.sqrt(5.0), atol=1e-15)
     np.testing.assert_allclose(down, -up, atol=0)
     np.testing.assert_allclose(initial_tangent(Jh, np.array([-1.0, 0.0]), +1), down, atol=1e-15)
+
+
+@pytest.mark.parametrize("sl", [1e17, 1e50, 1e300])
+def test_a_parameter_component_below_the_rounding_of_the_null_vector_keeps_the_direction_asked(sl):
+    """``[A, -b sl]`` with a huge ``sl`` (the width of a range [0.5, 1e17]): the tangent is
+    ``(A^-1 b sl, 1)`` normalised, its parameter component ``~1/sl``, far below the SVD's rounding of it."""
+    A = np.array([[3.0, 1.0, 0.0, 0.2], [1.0, 4.0, 1.0, 0.0], [0.0, 1.0, 5.0, 1.0], [0.3, 0.0, 1.0, 2.0]])
+    b = np.array([1.0, -2.0, 0.5, 0.7])
+    Jh = np.column_stack([A, -b * sl])
+    exact = np.append(np.linalg.solve(A, b), 1.0 / sl)  # (u', 1/sl) up to the norm, with u' = A^-1 b
+    exact /= np.linalg.norm(exact)
+    for direction in (+1, -1):
+        t = initial_tangent(Jh, None, direction)
+        assert np.sign(t[-1]) == direction
+        np.testing.assert_allclose(t, direction * exact, rtol=1e-12, atol=1e-300)
+    # at a fold (Ju singular) there is no graph over the parameter: no direction to keep
+    assert predictor.graph_tangent(np.array([[0.0, -1.0]])) is None
 
 
 def test_at_a_branch_point_the_given_tangent_picks_its_branch():

@@ -36,19 +36,16 @@ print(os.environ.get("NUMBA_CACHE_DIR", "-"), type(impl.locator).__name__, aft.s
 """
 
 
-def test_package_kernels_are_cached_where_numba_puts_them_by_default():
-    """contin never sets ``NUMBA_CACHE_DIR``: its own kernels' compiled code goes to the package's
-    ``__pycache__`` (or numba's per-user directory if the package cannot be written), not to a shared place
-    chosen by contin (the generated kernels' directory is checked by :mod:`contin.model.codegen`)."""
+def test_package_kernels_are_cached_in_the_private_cache_directory(tmp_path):
+    """contin never sets ``NUMBA_CACHE_DIR``, and its own kernels' compiled code goes neither to the package's
+    ``__pycache__`` nor to numba's directories: to ``$CONTIN_CACHE_DIR/numba/`` (:mod:`contin.util.jit`)."""
     import os
     from pathlib import Path
 
-    from contin.hb import aft
-
     env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env["CONTIN_CACHE_DIR"] = str(tmp_path / "kernels")
     out = subprocess.run([sys.executable, "-c", WHERE], capture_output=True, text=True, check=True, env=env)
     numba_cache_dir, locator, path = out.stdout.split()
     assert numba_cache_dir == "-"
-    assert locator in ("InTreeCacheLocator", "UserWideCacheLocator")
-    if locator == "InTreeCacheLocator":
-        assert Path(path) == Path(aft.__file__).parent / "__pycache__"
+    assert locator == "ContinCacheLocator"
+    assert Path(path).parent == tmp_path / "kernels" / "numba"

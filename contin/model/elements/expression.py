@@ -200,7 +200,7 @@ class ExpressionForce(ForceElement):
             head.append(f"# {self.dof_names[dof]}: {ex.to_text(node)!r}")
         lines = head + [
             "import numpy as np",
-            "from numba import njit",
+            "from contin.util.jit import njit",  # cached only in the private cache directory
             "",
             "",
             '@njit(cache=True, error_model="numpy")',

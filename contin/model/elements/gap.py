@@ -12,12 +12,12 @@ from __future__ import annotations
 
 import copy
 
-import numba as nb
 import numpy as np
 
 from contin.model.base import Monomial, register_force
 from contin.model.elements.contact import ContactForce, ContactForm, contact_values
 from contin.model.elements.registry import SceneKeys, item_label, shorten
+from contin.util.jit import njit
 
 __all__ = ["GapForce", "GapForm"]
 
@@ -25,7 +25,7 @@ __all__ = ["GapForce", "GapForm"]
 SIDES = {"+": 1, "-": -1, "both": 0}
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _gap_kernel(x, xd, d, g, k, c, side, clip, f, dfdx, dfdxd, dp):
     # side: +1 contact when x > g, -1 when x < -g, 0 both sides.
     # dp: 0 = forces/Jacobian; 1, 2, 3 = d/dg, d/dk, d/dc into f
@@ -56,7 +56,7 @@ def _gap_kernel(x, xd, d, g, k, c, side, clip, f, dfdx, dfdxd, dp):
             f[j, d] += vj
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _gap_switching_kernel(x, xd, d, g, k, c, side, clip, val, gx, gxd, diff, jump, dx, dxd, which):
     # two functions: 0 = side + (x - g), 1 = side - (-x - g); -1 for an absent side.
     # With clip: min(penetration, (signed force)/k), the law being active iff both are positive.
@@ -175,7 +175,7 @@ class GapForce(ContactForce):
 
 
 # ---------------------------------------------------------------- time simulation
-@nb.njit(cache=True)
+@njit(cache=True)
 def _gap_force(X, V, d, g, k, c, side, active_plus, active_minus, F):
     """Gap force of the frozen mode on a 1-sample view (law of :class:`GapForce`)."""
     x = X[0, d]
@@ -186,7 +186,7 @@ def _gap_force(X, V, d, g, k, c, side, active_plus, active_minus, F):
         F[0, d] += k * (x + g) + c * v
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _gap_switch(X, V, d, g, k, c, side, clip, S, off):
     """Switching functions of a gap: ``x - g`` (side +) and ``-x - g`` (side -); -1 for an absent side."""
     x = X[0, d]

@@ -19,16 +19,16 @@ import copy
 
 from typing import Sequence
 
-import numba as nb
 import numpy as np
 
 from contin.model.base import ForceElement, register_force
 from contin.model.elements.registry import CompiledForm, float_array
+from contin.util.jit import njit
 
 __all__ = ["PointForce", "PointForm"]
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _point_kernel(x, s, poly, f, dfdx, want_jac):
     """``f_i += s_i q(y)``, ``y = s . x``, ``q(y) = sum_k poly[k] y^k``, and its Jacobian.
 

@@ -13,16 +13,16 @@ import copy
 
 from typing import Sequence
 
-import numba as nb
 import numpy as np
 
 from contin.model.base import ForceElement, register_force
 from contin.model.elements.registry import CompiledForm, float_array, int_array
+from contin.util.jit import njit
 
 __all__ = ["PolynomialForce", "PolynomialForm"]
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _poly_kernel(x, xd, tau, target, coef, ex, ev, torder, tphase, f, dfdx, dfdxd, want_jac):
     N, n = x.shape
     T = target.shape[0]

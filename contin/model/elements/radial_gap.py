@@ -12,17 +12,17 @@ from __future__ import annotations
 
 import copy
 
-import numba as nb
 import numpy as np
 
 from contin.model.base import Monomial, register_force
 from contin.model.elements.contact import ContactForce, ContactForm, contact_values
 from contin.model.elements.registry import SceneKeys, item_label, shorten
+from contin.util.jit import njit
 
 __all__ = ["RadialGapForce", "RadialGapForm"]
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _radial_kernel(x, xd, ix, iy, delta, k, c, clip, f, dfdx, dfdxd, dp):
     # dp: 0 = forces/Jacobian; 1, 2, 3 = d/ddelta, d/dk, d/dc into f
     N = x.shape[0]
@@ -73,7 +73,7 @@ def _radial_kernel(x, xd, ix, iy, delta, k, c, clip, f, dfdx, dfdxd, dp):
         dfdxd[j, iy, iy] += c * ey * ey
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _radial_switching_kernel(x, xd, ix, iy, delta, k, c, clip, val, gx, gxd, diff, jump, dx, dxd, which):
     # h = r - delta; with clip: min(r - delta, Fn/k), the law being active iff both are positive.
     # which: 0 = values and derivatives; 1, 2, 3 = d/ddelta, d/dk, d/dc of h into val and of the law into diff
@@ -211,7 +211,7 @@ class RadialGapForce(ContactForce):
 
 
 # ---------------------------------------------------------------- time simulation
-@nb.njit(cache=True)
+@njit(cache=True)
 def _radial_force(X, V, ix, iy, delta, k, c, active, F):
     """Radial contact force of the frozen mode (law of :class:`RadialGapForce`, paper eq. 3)."""
     if active == 0:
@@ -229,7 +229,7 @@ def _radial_force(X, V, ix, iy, delta, k, c, active, F):
     F[0, iy] += Fn * ey_
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _radial_switch(X, V, ix, iy, delta, k, c, clip, S, off):
     """Switching function ``r - delta`` (with ``clip``: ``min(r - delta, Fn/k)``)."""
     x = X[0, ix]

@@ -17,16 +17,16 @@ it has no scene keys.
 
 from __future__ import annotations
 
-import numba as nb
 import numpy as np
 
 from contin.model.base import ForceElement, Monomial, register_force
 from contin.model.elements.registry import CompiledForm, float_array
+from contin.util.jit import njit
 
 __all__ = ["StringStretchingForce", "StringStretchingForm"]
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _stretch_kernel(x, q, c, f, dfdx, want_jac):
     """``f_i += c q_i x_i S``, ``S = sum_k q_k x_k^2``, and its Jacobian.
 

@@ -175,20 +175,23 @@ def test_ctrl_c_in_the_middle_of_a_run_prints_the_command_that_resumes_it(tmp_pa
 
 
 def test_a_second_ctrl_c_still_says_how_to_resume(tmp_path, capsys, monkeypatch):
-    import contin.app.runner
-    from contin.output.results import write_json_atomic
+    from contin.app.progress import Progress
 
-    def interrupted(scene, outdir, progress=True, resume=False):  # what the runner leaves when Ctrl-C escapes
-        outdir.mkdir(parents=True)
-        write_json_atomic(outdir / "summary.json", {"status": "interrupted", "message": "KeyboardInterrupt: "})
-        raise KeyboardInterrupt
+    update, calls = Progress.update, []
 
-    monkeypatch.setattr(contin.app.runner, "run_scene", interrupted)
+    def escapes_at_the_fifth_point(self, text, **kwargs):
+        calls.append(text)
+        if len(calls) == 5:
+            raise KeyboardInterrupt  # a Ctrl-C that escapes the analysis (a second one, or outside it)
+        update(self, text, **kwargs)
+
+    monkeypatch.setattr(Progress, "update", escapes_at_the_fifth_point)
     out = tmp_path / "run"
-    assert main(["run", DUFFING, "-o", str(out), "--set", "analysis.harmonics=3"]) == 130
-    command = f"contin run {DUFFING} -o {out} --resume --set analysis.harmonics=3"
+    assert main(["run", DUFFING, "-o", str(out), "-q", *QUICK]) == 130
+    command = f"contin run {DUFFING} -o {out} --resume " + " ".join(QUICK)
     assert f"\n  {command}\n" in capsys.readouterr().err
-    assert json.loads((out / "summary.json").read_text())["message"].endswith(command)
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "interrupted" and summary["message"].endswith(command)
 
 
 
