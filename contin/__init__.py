@@ -21,18 +21,21 @@ in this list (``tests/test_layers.py`` enforces it):
 
 The Python interface is importable from the top: ``contin.System``,
 ``contin.frequency_response``, ``contin.load``, ... (:mod:`contin.api`; imported on
-first use, so that ``contin --help`` stays fast).
+first use, so that ``contin --help`` stays fast). Every warning contin issues is a
+:class:`ContinWarning` (``contin.ContinWarning``, a ``UserWarning``): silence or
+escalate them alone with ``warnings.filterwarnings("ignore", category=contin.ContinWarning)``.
 
 :mod:`contin.models` holds the built-in models (plug-ins of the catalogue).
 """
 
 from contin.util.version import __version__
+from contin.util.warning import ContinWarning
 
 
 #: names of :mod:`contin.api` offered at the top level
 _API = ("System", "Result", "BranchResult", "LocatedPoint", "load", "run", "frequency_response", "backbone", "static",
         "modes", "frf", "simulate", "bifurcation_curve", "convergence")
-__all__ = ["__version__", *_API]
+__all__ = ["__version__", "ContinWarning", *_API]
 
 
 def __getattr__(name):

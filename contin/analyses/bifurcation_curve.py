@@ -582,7 +582,7 @@ def _plot(ctx, curves, checks, p1, p2, range1, range2, lines, reference=()) -> l
         [{"kind": sp.kind.value if sp.kind.value != "end" else "stop", "x": sp.p1, "y": sp.p2}
          for c in curves for sp in c.special_points
          if (sp.kind.value in CURVE_POINT_KINDS[:3] and sp.located) or (sp.kind.value == "end" and not sp.located)],
-        [{"kind": c["kind"], "x": c[p1], "y": c[p2]} for c in checks],
+        [{"kind": c["kind"], "x": c[p1], "y": c[p2], "located": c["located"]} for c in checks],
         p1, p2, ctx.outdir / "bifurcation_curves", lines=sorted(set(lines)), reference=reference, xlim=range1,
         ylim=(min([range2[0]] + lines + ref_y), max([range2[1]] + lines + ref_y)), units=out["units"],
         labels=out["labels"], symbols=sym, formats=out["formats"], dpi=out["dpi"], style=out["style"],

@@ -8,10 +8,11 @@ import numpy as np
 
 from contin.hb.measures import measure_names, point_measures
 from contin.hb.torus import QuasiPeriodicBalance, torus_measure_names, torus_measures
-from contin.output.checkpoint import dumps, encode, read_records, special_record
+from contin.output.checkpoint import read_records, special_record
 from contin.output.dense import checkpoint_solutions
 from contin.output.results import CsvStream, read_csv
-from contin.util.safe_files import append_stream, create_stream
+from contin.output.state_store import INLINE
+from contin.output.state_writer import StateWriter
 
 __all__ = ["BranchRecorder", "SPECIAL_EXTRA", "row_measures"]
 
@@ -54,9 +55,9 @@ class BranchRecorder:
         self.special_columns = ["branch", "kind", parameter, "index"] + self.measures + SPECIAL_EXTRA
         self.rows = CsvStream(outdir / "branches.csv", self.branch_columns, append)
         self.special = CsvStream(outdir / "special_points.csv", self.special_columns, append)
-        # full solutions (coefficients and tangent) for plots of any row and for --resume
-        # (never through a link, appended only to a regular file; every line strict JSON: checkpoint.dumps)
-        self.state = (append_stream if append else create_stream)(outdir / "state.jsonl")
+        # full solutions (coefficients and tangent) for plots of any row and for --resume: small records in
+        # strict JSON, their arrays in binary beside them (never through a link: contin.output.state_store)
+        self.state = StateWriter(outdir / "state.jsonl", append)
         self.n_rows = self.rows.rows
         self._written_special: dict[int, int] = {}
         self._headers: set = set()
@@ -104,18 +105,17 @@ class BranchRecorder:
             self._headers.add(branch_id)
             su = branch.info.get("unknown_scale")
             kept = getattr(self.problems.get(branch_id), "dofs", None)
-            self.state.write(dumps({"type": "branch", "branch": branch_id, "nu": nu, "H": H,
-                                    "unknown_scale": None if su is None else np.asarray(su),
-                                    "parameter_scale": branch.info.get("parameter_scale"),
-                                    "dofs": None if kept is None else [int(d) for d in kept],
-                                    "torus": _torus_header(self.problems.get(branch_id))}) + "\n")
-        self.state.write(dumps({
-            "type": "point", "row": self.n_rows, "branch": branch_id, "nu": nu, "H": H, "lam": lam, "u": u.tolist(),
-            "tangent": branch.tangents[i].tolist(), "s": float(branch.arclength[i]),
+            self.state.write({"type": "branch", "branch": branch_id, "nu": nu, "H": H,
+                              "unknown_scale": None if su is None else np.asarray(su),
+                              "parameter_scale": branch.info.get("parameter_scale"),
+                              "dofs": None if kept is None else [int(d) for d in kept],
+                              "torus": _torus_header(self.problems.get(branch_id))})
+        self.state.write({
+            "type": "point", "row": self.n_rows, "branch": branch_id, "nu": nu, "H": H, "lam": lam, "u": _vector(u),
+            "tangent": _vector(branch.tangents[i]), "s": float(branch.arclength[i]),
             "step": float(branch.step_sizes[i]), "iterations": int(branch.newton_iterations[i]),
             "residual": float(branch.residual_norms[i]),
-            "data": {k: v[i] for k, v in pd.items()}}) + "\n")
-        self.state.flush()
+            "data": {k: v[i] for k, v in pd.items()}})
         self.n_rows += 1
         self.special_points(branch_id, branch)
         c = self.curves.setdefault(branch_id, {"x": [], "rows": [], "stable": [], "nu": nu,
@@ -153,7 +153,7 @@ class BranchRecorder:
         for sp in branch.special_points[done:]:
             if sp.kind.value == "start" or self._duplicate(branch_id, sp):
                 # kept in the checkpoint all the same: a resumed branch holds every special point
-                self.state.write(dumps(special_record(branch_id, self._full_point(branch_id, sp), csv=False)) + "\n")
+                self.state.write(special_record(branch_id, self._full_point(branch_id, sp), csv=False))
                 continue
             i = min(max(sp.index, 0), len(branch) - 1)
             if i + 1 < len(branch) and abs(branch.parameter[i + 1] - sp.parameter) < abs(branch.parameter[i] - sp.parameter):
@@ -167,8 +167,7 @@ class BranchRecorder:
                         "detail": _detail(sp)})
             self.special.write(row)
             self.special_list.append(dict(row, _before=off + min(max(sp.index, 0), len(branch) - 1)))
-            self.state.write(dumps(special_record(branch_id, sp)) + "\n")
-            self.state.flush()
+            self.state.write(special_record(branch_id, sp))
 
     def _full_point(self, branch_id: int, sp):
         """``sp`` with full coefficients (expanded when the branch's problem is condensed)."""
@@ -179,13 +178,11 @@ class BranchRecorder:
         """The engine's state after a step (or its monitors' at the branch's end): see :mod:`contin.output.checkpoint`."""
         self.special_points(branch_id, branch)  # the state holds them: write them first
         if "points" in state:
-            rec = {"type": "engine", "branch": branch_id, "state": encode(state)}
+            self.state.engine({"type": "engine", "branch": branch_id, "state": state})
         else:
             info = {k: v for k, v in branch.info.items() if k in _END_INFO}
-            rec = {"type": "end", "branch": branch_id, "status": branch.status.value, "message": branch.message,
-                   "info": encode(info), "monitors": encode(state.get("monitors") or [])}
-        self.state.write(dumps(rec) + "\n")
-        self.state.flush()
+            self.state.write({"type": "end", "branch": branch_id, "status": branch.status.value,
+                              "message": branch.message, "info": info, "monitors": state.get("monitors") or []})
 
     def restore(self, previous: dict) -> None:
         """Take up the rows and special points of an interrupted run (``--resume``)."""
@@ -222,6 +219,13 @@ class BranchRecorder:
         self.rows.close()
         self.special.close()
         self.state.close()
+
+
+def _vector(a):
+    """A point's coefficients or tangent as written: a list when short (inline in its line), else the array
+    (its bytes in ``state.bin``)."""
+    a = np.asarray(a, dtype=float)
+    return a.tolist() if a.size <= INLINE else a
 
 
 def _torus_header(problem) -> dict | None:

@@ -8,7 +8,7 @@ the requested bifurcations, and streams ``branches.csv`` and
 With ``analysis.condense`` (``auto``, ``true``, ``false``) the engine follows
 the problem condensed onto the dofs that carry nonlinear forces
 (:mod:`contin.hb.condensation`); everything written stays full: the measures,
-the special points, and the coefficients ``u`` in ``state.jsonl`` (whose
+the special points, and the coefficients ``u`` of ``state.jsonl`` (whose
 tangents are the engine's, in the kept dofs' coefficients, listed as
 ``dofs`` in each branch record).
 """
@@ -28,7 +28,7 @@ from contin.hb.condensation import condensation_dofs, condense
 # the recorder's names are part of this analysis' interface (bifurcation_curve, convergence_plan use them)
 from contin.analyses.branch_recorder import SPECIAL_EXTRA, BranchRecorder, row_measures  # noqa: F401
 from contin.hb.torus import torus_measure_names
-from contin.output.checkpoint import read_records, rebuild_branches, resumable_prefix, write_records
+from contin.output.checkpoint import keep_records, read_records, rebuild_branches, resumable_prefix
 from contin.output.dense import as_number
 from contin.output.results import truncate_to_valid_rows
 from contin.output.model_figures import model_figures
@@ -94,11 +94,20 @@ def continuation_options(scene, lam_start: float, lam_end: float) -> Continuatio
         raise SceneError("analysis.continuation", "valid continuation options", None, hint=f": {exc}") from None
 
 
-def _start(scene, model, hb, lam0: float):
-    """The start guess: ``analysis.start_from`` = model (its own start, else linear), linear or simulation."""
+def _start(scene, model, hb, lam0: float, problem=None, options=None):
+    """The start guess: ``analysis.start_from`` = model (its own start, else linear), linear or simulation.
+
+    From the linear solution, Newton is tried at once on ``problem`` (the
+    engine's, ``hb`` by default); where it fails with many harmonics, the start
+    is solved with few and raised to ``hb.H``
+    (:func:`contin.bifurcation.start.harmonic_start`). If that fails too, the
+    linear solution is returned: the engine's start then fails with its own
+    message, and :func:`start_advice` says what to try.
+    """
     from contin.scene.registry import RunError
     from contin.timedomain.simulation import SimulationError
-    from contin.bifurcation.start import HomotopyFailed, simulation_start
+    from contin.bifurcation.start import HomotopyFailed, harmonic_start, simulation_start
+    from contin.engine.newton import NUMERICAL_ERRORS
 
     how = scene.analysis["start_from"]
     try:
@@ -107,8 +116,31 @@ def _start(scene, model, hb, lam0: float):
         if how == "model" and model.start is not None:
             return model.start(hb, lam0)
     except (HomotopyFailed, SimulationError) as exc:
-        raise RunError(f"no starting solution at {hb.parameter}={lam0:g}: {exc}") from None
-    return hb.linear_solution(lam0)
+        raise RunError(f"no starting solution at {hb.parameter}={lam0:g}: {exc}{start_advice(scene, hb, lam0)}") \
+            from None
+    u = hb.linear_solution(lam0)
+    problem = hb if problem is None else problem
+    try:
+        x = harmonic_start(problem, lam0, u if problem is hb else problem.restrict(u), options)
+    except (HomotopyFailed, *NUMERICAL_ERRORS):  # the engine's start says why, in its words
+        return u
+    return x if problem is hb else problem.expand(x, lam0)
+
+
+def start_advice(scene, hb, lam0: float) -> str:
+    """What to try when no start was found at ``lam0``: the other end of the range, a simulation, fewer harmonics."""
+    from contin.bifurcation.start import START_LOW_HARMONICS
+
+    a = scene.analysis
+    lo, hi = sorted(float(v) for v in a["range"])
+    other = hi if abs(lam0 - lo) <= abs(lam0 - hi) else lo
+    tips = [f"start at the other end of the range (--set analysis.start={other:g}; the direction follows)"]
+    if a["start_from"] != "simulation":
+        tips.append("start from a time simulation (--set analysis.start_from=simulation)")
+    if hb.H > START_LOW_HARMONICS:
+        tips.append(f"fewer harmonics first (--set analysis.harmonics={START_LOW_HARMONICS}), "
+                    "then raise them")
+    return "; to try: " + ", or ".join(tips)
 
 
 def _restore(outdir, parameter: str) -> dict:
@@ -117,8 +149,8 @@ def _restore(outdir, parameter: str) -> dict:
     records, rows, special_rows = resumable_prefix(read_records(outdir / "state.jsonl"), n_rows)
     truncate_to_valid_rows(outdir / "branches.csv", rows)
     truncate_to_valid_rows(outdir / "special_points.csv", special_rows)
-    # rewrite the checkpoint without what the cut dropped (atomically, strict JSON, never through a link)
-    write_records(outdir / "state.jsonl", records)
+    # cut the checkpoint's lines to what was kept (atomically, never through a link; state.bin is appended to)
+    keep_records(outdir / "state.jsonl", len(records))
     return rebuild_branches(records, parameter)
 
 
@@ -216,11 +248,14 @@ def run(ctx) -> dict:
             if len(results) in previous:  # taken up from the checkpoint: no start to compute
                 u0 = np.asarray(previous[len(results)].unknowns[0])
             else:
-                u0 = np.array(a["guess"], dtype=float) if a["guess"] is not None else _start(sc, model, hb_i, lam0)
+                u0 = np.array(a["guess"], dtype=float) if a["guess"] is not None else _start(sc, model, hb_i, lam0,
+                                                                                               problem, opts)
                 if problem is not hb_i:  # the starts are full coefficients
                     u0 = problem.restrict(u0)
             first = len(results)
             results += follow(problem, u0, lam0, (lo, hi), opts, rec, ctx, previous, first_id=first)
+            if len(results) > first and results[first][0].status == BranchStatus.START_FAILED:
+                results[first][0].message += start_advice(sc, hb_i, lam0)
             if ctx.stop_requested or any(b.status == BranchStatus.INTERRUPTED for b, _ in results):
                 break
     finally:
@@ -288,23 +323,29 @@ def _condition_summary(branch) -> dict:
 
 def _stability_summary(branch) -> dict | None:
     """Where Hill's multipliers were replaced by the monodromy's, and why."""
+    from contin.stability.monitor import describe_ranges, replaced_ranges
+
     st = branch.info.get("stability")
     if not st:
         return None
     out = {"method": st.get("method"),
            "hill_monodromy_gap": st.get("largest_hill_monodromy_gap"),
-           "fallbacks": len(st.get("fallbacks", [])),
-           "disagreements": len(st.get("disagreements", [])),
+           # points of the branch (the statistics count every evaluation: rejected steps and locations too)
+           "fallbacks": replaced_ranges(branch, "hill_fallback")[0],
+           "disagreements": replaced_ranges(branch, "disagreement")[0],
            "unevaluated": len(st.get("unevaluated", []))}
     if st.get("unevaluated"):
         lam, why = st["unevaluated"][0]
         out["unevaluated_message"] = (f"no stability verdict at {len(st['unevaluated'])} points (first at "
                                       f"{lam:.10g}: {why}); their rows have empty stability cells")
-    where = sorted(st.get("fallbacks", []) + st.get("disagreements", []))
-    if where:
-        out["first_fallback_at"] = where[0]
-        out["message"] = (f"Hill and the monodromy disagreed at {len(where)} points (first at {where[0]:.10g}): "
-                          "the monodromy's multipliers were used there")
+    count, ranges = replaced_ranges(branch, ("disagreement", "hill_fallback"))
+    if count:
+        out["first_fallback_at"] = ranges[0][0]
+        out["replaced_points"] = count
+        out["replaced_ranges"] = [list(r) for r in ranges]
+        out["message"] = (f"Hill and the monodromy disagreed at {count} of the branch's {len(branch)} points "
+                          f"({describe_ranges(branch.parameter_name, ranges)}): the monodromy's multipliers were "
+                          "used there")
     return out
 
 
@@ -359,7 +400,8 @@ def diagram_branches(rec: BranchRecorder, measure: str) -> tuple[list, list]:
                 sy = 1.0 if measure == "max_multiplier" and s["kind"] in CHANGES else \
                     value_between(x, y, j, s[rec.parameter])
             points.append({"x": float(s[rec.parameter]), "y": sy, "index": j, "changes": s["kind"] in CHANGES})
-            special.append({"x": float(s[rec.parameter]), "y": sy, "kind": s["kind"], "branch": bid})
+            special.append({"x": float(s[rec.parameter]), "y": sy, "kind": s["kind"], "branch": bid,
+                            "located": bool(s.get("located", True))})
         evaluate, U, directions = None, np.zeros((x.size, 0)), None
         if measure in rec.measures and len(c.get("u", ())) == x.size and x.size > 1:  # a function of u
             evaluate, U = _evaluator(rec, measure, c["nu"], rec.problems.get(bid)), np.array(c["u"])

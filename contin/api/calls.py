@@ -9,8 +9,10 @@ runs exactly what the scene
     analysis: {type: frequency_response, parameter: w, range: [0.5, 3], harmonics: 9, stability: hill}
     output: {plots: false}
 
-runs, with the same checks (an unknown or misspelt keyword is refused with the scene's
-message, naming ``analysis.<key>``), and returns a :class:`contin.api.result.Result`.
+runs, with the same checks, and returns a :class:`contin.api.result.Result`. A keyword
+that is no key of the analysis raises ``TypeError`` naming it, as a Python call does
+(with the key it was likely meant to be); a value the scene would refuse raises
+:class:`contin.scene.parse.SceneError` naming ``analysis.<key>``.
 Nothing global changes: no matplotlib backend is selected, no rcParams outlive the
 call, BLAS threads are left as they are, and the interrupt handler in place before the
 call is back after it.
@@ -26,7 +28,8 @@ from typing import Mapping
 from contin.api.result import Result
 from contin.api.system import System, plain
 from contin.app.runner import run_scene
-from contin.scene.parse import Scene, SceneError, load_scene, parse_scene, scene_from_data
+from contin.scene.parse import Scene, SceneError, analysis_schemas, load_scene, parse_scene, scene_from_data
+from contin.util.naming import suggest
 
 __all__ = ["run", "frequency_response", "backbone", "static", "modes", "frf", "simulate", "bifurcation_curve",
            "convergence", "ANALYSIS_CALLS"]
@@ -55,7 +58,18 @@ def _execute(scene: Scene, outdir, progress: bool) -> Result:
     return Result(directory, temporary=temporary)
 
 
+def _check_keywords(kind: str, keys: dict) -> None:
+    """``TypeError`` for a keyword that is no key of ``kind``'s analysis section, as Python's own calls say it."""
+    schema = analysis_schemas()[kind]
+    for key in keys:
+        if key not in schema:
+            raise TypeError(f"{kind}() got an unexpected keyword argument {key!r}{suggest(key, schema)}; "
+                            f"its keywords are outdir, output, progress and the keys of a {kind} scene's "
+                            f"analysis section: {', '.join(k for k in schema if k != 'type')}")
+
+
 def _analysis_call(kind: str, system, outdir, output, progress, keys: dict) -> Result:
+    _check_keywords(kind, keys)  # before the system is built: a misspelt call fails at once
     system = _system(system)
     if "type" in keys:
         raise SceneError("analysis.type", f"no type keyword: this call runs a {kind} analysis", keys["type"])

@@ -64,7 +64,7 @@ def diagram_data(result, measure: str) -> tuple[list, list]:
             if j > 0 and min(x[j - 1], x[j]) <= s.parameter <= max(x[j - 1], x[j]):
                 j -= 1  # the stored point before it along the branch
             points.append({"x": s.parameter, "y": sy, "index": j, "changes": s.kind in CHANGES})
-            special.append({"x": s.parameter, "y": sy, "kind": s.kind, "branch": b.id})
+            special.append({"x": s.parameter, "y": sy, "kind": s.kind, "branch": b.id, "located": s.located})
         U = None if b.torus else _solutions(result, b)  # a torus is drawn through its stored points
         evaluate = _evaluator(result, measure, b.nu) if U is not None and len(b) > 1 else None
         d = dense_branch(x, U if evaluate is not None else np.zeros((x.size, 0)), evaluate, stable=stable,
@@ -76,8 +76,13 @@ def diagram_data(result, measure: str) -> tuple[list, list]:
     return curves, special
 
 
-def plot_result(result, ax=None, measure: str | None = None, **options):
+def plot_result(result, ax=None, measure: str | None = None, *, table: bool | None = None, **options):
     """Draw ``result`` into ``ax`` (a new pyplot figure when None); see :meth:`Result.plot`."""
+    if table is not None and not isinstance(table, (bool, np.bool_)):
+        raise TypeError(f"Result.plot: table must be True, False or None, not {table!r}")
+    if table is None:
+        # the table stands right of the axes: only a figure made here is sure to have room for it
+        table = ax is None
     if ax is None:
         import matplotlib.pyplot as plt  # the user's figure, on the user's backend
 
@@ -102,5 +107,5 @@ def plot_result(result, ax=None, measure: str | None = None, **options):
     measure = measure or out.get("measure") or f"amp_{result.dofs[0]}"
     curves, special = diagram_data(result, measure)
     draw_bifurcation_diagram(ax, curves, special, result.parameter, measure, units=out.get("units"),
-                             labels=out.get("labels"), symbols=symbols, **options)
+                             labels=out.get("labels"), symbols=symbols, table=bool(table), **options)
     return ax

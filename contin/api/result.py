@@ -276,14 +276,22 @@ class Result:
         return theta / omega, x, xdot
 
     # ------------------------------------------------------------ figures and files
-    def plot(self, ax=None, measure: str | None = None, **options):
+    def plot(self, ax=None, measure: str | None = None, *, table: bool | None = None, **options):
         """Draw the run's diagram into ``ax`` (a new pyplot figure if None) with the user's backend.
+
+        Everything drawn into a given ``ax`` stays inside it (the legend too), so the figure's own
+        layout, ``tight_layout()`` included, keeps its size.
 
         Parameters
         ----------
         ax : matplotlib Axes, optional
         measure : str, optional
             A column of ``branches.csv`` (the scene's ``output.measure`` by default).
+        table : bool, optional
+            Number the special points and list them in a table right of the axes. By default only
+            without ``ax`` (a new figure with ``constrained`` layout, which makes room for it); in a
+            given ``ax`` the points are marked and their kinds named in the legend. With ``table=True``
+            in your own axes, give the figure a layout that makes room (``layout="constrained"``).
         **options
             Passed to :func:`contin.output.plotting.draw_bifurcation_diagram`.
 
@@ -293,7 +301,7 @@ class Result:
         """
         from contin.api.plot import plot_result
 
-        return plot_result(self, ax, measure, **options)
+        return plot_result(self, ax, measure, table=table, **options)
 
     def save(self, path: str | Path, exports=EXPORT_FORMATS) -> Path:
         """Copy the result files to the directory ``path`` and write the ``exports`` there.
@@ -332,8 +340,11 @@ class Result:
         if self.special_points:
             kinds: dict = {}
             for s in self.special_points:
-                kinds[s.kind] = kinds.get(s.kind, 0) + 1
-            parts.append("special points: " + ", ".join(f"{v} {k}" for k, v in kinds.items()))
+                n, lost = kinds.get(s.kind, (0, 0))
+                kinds[s.kind] = (n + 1, lost + (not s.located))
+            # a point whose location did not converge is only bracketed: said so, not counted as found
+            parts.append("special points: " + ", ".join(f"{n} {k}" + (f" ({lost} not located)" if lost else "")
+                                                        for k, (n, lost) in kinds.items()))
         if self.message:
             parts.append(self.message)
         return "<Result " + "; ".join(parts) + ">"

@@ -1,4 +1,5 @@
-"""The ``contin`` command: ``run``, ``sweep``, ``check``, ``models``, ``absorber``, ``budget`` and ``plot``.
+"""The ``contin`` command: ``run``, ``sweep``, ``check``, ``models``, ``examples``, ``absorber``, ``budget`` and
+``plot``.
 
 Exit status: 0 when the run did everything the scene asked, 1 when it fell
 short or failed for numerical reasons (a branch that ended ``start_failed``,
@@ -8,7 +9,8 @@ short or failed; the sweep still runs every other point and lists them in
 ``sweep.csv``) or when a result file could not be written (a full disk: the
 file and the command that resumes the run are named), 2 on bad input (an
 output directory that is not contin's, or that another run is writing,
-included), 130 when interrupted (Ctrl-C, SIGTERM, SIGHUP).
+included), 130 when interrupted (Ctrl-C, SIGTERM, SIGHUP), 141, quietly, when the
+reader of its output went away (``contin models | head``).
 
 Each command imports its machinery when it runs, so that ``contin --help`` and
 ``contin models`` answer without loading numba and the compiled kernels.
@@ -23,17 +25,40 @@ import textwrap
 __all__ = ["main"]
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
+#: stdout's reader went away (``contin models | head``): the status of a command ended by SIGPIPE, 128 + 13
+EXIT_PIPE_CLOSED = 141
 
 
 def _parser() -> argparse.ArgumentParser:
     from contin.util.version import __version__
 
     p = argparse.ArgumentParser(prog="contin", description="Continuation of periodic vibrations of nonlinear "
-                                "mechanical systems: branches, stability, folds and bifurcations.")
+                                "mechanical systems: branches, stability, folds and bifurcations.",
+                                epilog="Examples ship with contin: `contin examples` lists them, `contin run duffing "
+                                "-o results/duffing` runs one by its name, `contin examples --copy DIR` copies "
+                                "them to edit. `contin COMMAND --help` describes each command.")
     p.add_argument("--version", action="version", version=f"contin {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
-    r = sub.add_parser("run", help="run a scene and write result files and plots")
-    r.add_argument("scene", help="scene file (YAML)")
+    r = sub.add_parser("run", help="run a scene and write result files and plots",
+                       formatter_class=argparse.RawDescriptionHelpFormatter,
+                       description="Run SCENE and write its result files (branches.csv, special_points.csv, "
+                       "summary.json, ...) and plots in OUTDIR, as it goes: an interrupted run is taken up "
+                       "with --resume.",
+                       epilog=textwrap.dedent("""\
+                           examples:
+                             contin run duffing -o results/duffing      (an example, by its name)
+                             contin run my_scene.yaml -o results/h15 --set analysis.harmonics=15
+                             contin run my_scene.yaml -o results/h15 --resume
+
+                           exit status:
+                             0    every branch ended as the scene asked
+                             1    a branch fell short or failed (the reasons and the uncovered intervals
+                                  are printed and stored in summary.json), or a file could not be written
+                             2    bad input (scene, --set value, output directory), before anything is written
+                             130  interrupted (Ctrl-C, SIGTERM, SIGHUP); --resume goes on
+                             141  the reader of the output went away (contin run ... | head), quietly"""))
+    r.add_argument("scene", help="scene file (YAML), or the name of an example that ships with contin "
+                   "(`contin examples` lists them)")
     r.add_argument("-o", "--outdir", default=None, help="output directory (default: results/<scene name>)")
     r.add_argument("--force", action="store_true",
                    help="write into an output directory that holds files and is not contin's (files of the names "
@@ -75,9 +100,15 @@ def _parser() -> argparse.ArgumentParser:
     sw.add_argument("--no-map", dest="map_plot", action="store_false", help="do not draw sweep_map.png")
     sw.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     c = sub.add_parser("check", help="validate a scene and print what would run")
-    c.add_argument("scene")
+    c.add_argument("scene", help="scene file (YAML), or the name of an example that ships with contin")
     c.add_argument("--set", dest="overrides", action="append", default=[], metavar="dotted.key=value")
     sub.add_parser("models", help="list the built-in models with their parameters, defaults and effects")
+    ex = sub.add_parser("examples", help="list the example scenes that ship with contin, or copy them",
+                        description="List the example scenes that ship with contin, one line each. `contin run "
+                        "NAME -o OUTDIR` runs one by its name; --copy DIR copies every scene and the data files "
+                        "they read into DIR, to edit and run from there.")
+    ex.add_argument("--copy", metavar="DIR", default=None, help="copy the scenes and their data files into DIR")
+    ex.add_argument("--force", action="store_true", help="with --copy: replace files of the same names in DIR")
     ab = sub.add_parser("absorber", help="Den Hartog's optimal damped vibration absorber for a main system m1, k1",
                         description="Optimal tuning and damping of a dynamic vibration absorber (fixed-point theory): "
                         "k2, c with both damping ratios, the fixed points P and Q, the true peak of the optimal "
@@ -127,13 +158,31 @@ def cmd_models() -> int:
     return EXIT_OK
 
 
+def cmd_examples(args) -> int:
+    from pathlib import Path
+
+    from contin.app.examples import copy_examples, listing
+
+    if args.copy is None:
+        if args.force:
+            return _fail("--force goes with --copy DIR")
+        print("\n".join(listing()))
+        return EXIT_OK
+    written = copy_examples(args.copy, force=args.force)
+    print(f"{len(written)} files copied to {args.copy}; run one with: contin run "
+          f"{Path(args.copy) / 'duffing.yaml'} -o results/duffing")
+    return EXIT_OK
+
+
 def cmd_check(args) -> int:
     from contin.scene.registry import check_scene
     from contin.scene.build import build_model
     from contin.scene.parse import load_scene
 
     # the same steps as `contin run` before it writes anything, so that check refuses what run would
-    scene = load_scene(args.scene, args.overrides)
+    from contin.app.examples import find_scene
+
+    scene = load_scene(find_scene(args.scene), args.overrides)
     model = build_model(scene)
     plan = check_scene(scene, model)
     a = scene.analysis
@@ -216,22 +265,24 @@ def _branch_line(b: dict) -> str:
 def cmd_run(args) -> int:
     from pathlib import Path
 
+    from contin.app.examples import find_scene
     from contin.app.runner import WriteFailed, run_scene
     from contin.scene.parse import SceneError, load_scene
 
+    scene_file = find_scene(args.scene)  # a file, or the name of a shipped example
     overrides = list(args.overrides)
     if args.budget is not None:
         import math
 
         if not (math.isfinite(args.budget) and args.budget > 0):
             raise SceneError("--budget", "a positive finite number (the largest error accepted)", args.budget)
-        kind = load_scene(args.scene, overrides).analysis["type"]
+        kind = load_scene(scene_file, overrides).analysis["type"]
         if kind != "convergence":
             raise SceneError("--budget", "a convergence scene (analysis.type: convergence)", kind)
         overrides.append(f"analysis.budget={args.budget!r}")
     if args.outdir == "":
         raise SceneError("-o", "a directory name for the results", "")
-    scene = load_scene(args.scene, overrides)
+    scene = load_scene(scene_file, overrides)
     outdir = Path(args.outdir) if args.outdir is not None else Path("results") / Path(args.scene).stem
     if outdir.exists() and not outdir.is_dir():
         raise SceneError("-o", "a directory for the results (new or existing)", str(outdir),
@@ -372,7 +423,74 @@ def cmd_sweep(args) -> int:
     return EXIT_FAILED if result.failed else EXIT_OK
 
 
+def _one_line_warnings():
+    """Show each warning as one line ``contin: warning: ...`` on stderr, each text once; returns the undo.
+
+    Python's own display adds the category, file and source line of the
+    ``warnings.warn`` call, which tell a user nothing. A caller that records or
+    shows warnings its own way (``warnings.catch_warnings(record=True)``, a
+    replaced ``warnings.showwarning``) keeps its way: nothing is installed.
+    """
+    import warnings
+
+    impl = getattr(warnings, "_showwarnmsg_impl", None)
+    if warnings.showwarning is not getattr(warnings, "_showwarning_orig", None) or \
+            getattr(impl, "__module__", None) != "warnings":
+        return lambda: None
+    previous, seen = warnings.showwarning, set()
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        from contin.util.warning import ContinWarning
+
+        text = " ".join(str(message).split())
+        text = text[len("contin: "):] if text.startswith("contin: ") else text
+        if not issubclass(category, ContinWarning):  # another library's: its category says whose
+            text = f"{category.__name__}: {text}"
+        if text in seen:
+            return
+        seen.add(text)
+        try:
+            stream = file or sys.stderr
+            stream.write(f"contin: warning: {text}\n")
+            stream.flush()
+        except (OSError, ValueError):  # a closed stderr: the warning cannot be shown, the run goes on
+            pass
+
+    warnings.showwarning = show
+
+    def restore():
+        if warnings.showwarning is show:
+            warnings.showwarning = previous
+
+    return restore
+
+
+def _pipe_closed() -> int:
+    """The reader of stdout went away (``contin models | head``): no message, no error at exit."""
+    import os
+
+    try:  # what is still buffered goes nowhere, instead of failing again when Python exits
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):
+        pass
+    return EXIT_PIPE_CLOSED
+
+
 def main(argv=None) -> int:
+    """The ``contin`` command; returns its exit status (see the module's docstring)."""
+    restore = _one_line_warnings()
+    try:
+        code = _main(argv)
+        sys.stdout.flush()  # a closed pipe is met here, not when Python exits
+        return code
+    except BrokenPipeError:
+        return _pipe_closed()
+    finally:
+        restore()
+
+
+def _main(argv=None) -> int:
     from contin.scene.registry import RunError
     from contin.scene.parse import SceneError
 
@@ -383,6 +501,8 @@ def main(argv=None) -> int:
     try:
         if args.command == "models":
             return cmd_models()
+        if args.command == "examples":
+            return cmd_examples(args)
         if args.command == "check":
             return cmd_check(args)
         if args.command == "absorber":
@@ -403,6 +523,8 @@ def main(argv=None) -> int:
         return _fail(str(exc), EXIT_FAILED)
     except KeyboardInterrupt:
         return _fail("interrupted", EXIT_INTERRUPTED)
+    except BrokenPipeError:  # stdout's reader went away: main() ends quietly
+        raise
     except OSError as exc:  # a place that cannot be written or read: a message, not a traceback
         import errno
 

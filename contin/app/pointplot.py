@@ -8,7 +8,9 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from contin.analyses.simulate import SPECTRUM_FLOOR, draw_spectrum, frequency_text
+from contin.analyses.simulate import SPECTRUM_FLOOR, draw_spectrum
+from contin.app.point_drawing import (closed_period, contact_geometry, contact_panels, draw_contact,
+                                      draw_contact_panel, fill_places, legend_above, name_lines)
 from contin.hb import aft
 from contin.hb.harmonics import coefficient_blocks, harmonic_amplitudes
 from contin.output.checkpoint import CheckpointError, read_records
@@ -21,7 +23,11 @@ __all__ = ["load_state_row", "plot_point", "draw_point"]
 
 
 def load_state_row(outdir: Path, row: int) -> dict:
-    """The stored solution of ``branches.csv`` row ``row`` (0-based, header excluded)."""
+    """The stored solution of ``branches.csv`` row ``row`` (0-based, header excluded).
+
+    Its record of ``state.jsonl``, with ``u`` and ``tangent`` read back from ``state.bin``
+    (:func:`contin.output.checkpoint.read_records`).
+    """
     path = Path(outdir) / "state.jsonl"
     if not path.is_file():
         raise SceneError(str(outdir), "a result directory written by `contin run` (with state.jsonl)", None)
@@ -43,9 +49,9 @@ def _check_row_size(path: Path, row: int, rec: dict, model, H: int) -> None:
 
     n = model.n_dof
     size = n * (2 * H + 1)
-    u = rec.get("u")
-    if not isinstance(u, list) or len(u) != size:
-        found = f"{len(u)} values" if isinstance(u, list) else type(u).__name__
+    u = rec.get("u")  # a list when short, else the array read from state.bin
+    if not isinstance(u, (list, np.ndarray)) or len(u) != size:
+        found = f"{len(u)} values" if isinstance(u, (list, np.ndarray)) else type(u).__name__
         dofs = "1 dof" if n == 1 else f"{n} dofs"
         raise SceneError(str(path), f"row {row} with {size} coefficients ({dofs} x (2H+1), H = {H})", found)
     N = max(default_samples(H, model.degree), model.min_samples)
@@ -103,24 +109,35 @@ def plot_point(outdir: Path, row: int, samples: int = 512) -> Path:
     amps = harmonic_amplitudes(u, n)
     out = scene.output
     sym = getattr(model, "symbols", None)
+    contacts = contact_geometry(model, p)
+    panels = 3 + len(contact_panels(contacts, n))  # a contact whose dofs the orbit does not show: its own
     with figure_style(out["style"]):
-        fig = new_figure((12.5, 4.2))
-        axs = fig.subplots(1, 3)
+        fig = new_figure((4.2 * panels, 4.2))
+        axs = fig.subplots(1, panels)
         draw_point(axs, t, x, xd, amps, nu, model.dof_names, units=out["units"], labels=out["labels"], symbols=sym,
-                   w=math(hb.frequency, sym).strip("$"))
+                   w=math(hb.frequency, sym).strip("$"), contacts=contacts)
         fig.suptitle(f"row {row}: branch {rec['branch']}, $\\nu$ = {nu}, {math(hb.parameter, sym)} = {lam:.6g}")
         names = save_figure(fig, outdir / f"point_{row}", out["formats"], out["dpi"])
     return outdir / names[0]
 
 
-def draw_point(axs, t, x, xd, amps, nu: int, dofs, *, units=None, labels=None, symbols=None, w: str = "w") -> None:
-    """Draw one periodic solution into three axes: time history, orbit (or phase portrait), harmonic spectrum.
+def draw_point(axs, t, x, xd, amps, nu: int, dofs, *, units=None, labels=None, symbols=None, w: str = "w",
+               contacts=()) -> None:
+    """Draw one periodic solution: time history, orbit (or phase portrait), each contact, harmonic spectrum.
+
+    The time history and the orbits are closed (the first sample drawn again at ``t = T``). A contact
+    (:func:`contin.app.point_drawing.contact_geometry`) is drawn with its clearance, a circle of radius
+    ``clearance`` for a ``radial_gap`` and the stop lines for a ``gap``, the part of the orbit in contact
+    marked: in the orbit panel when that shows its dofs, else in an axes of its own. The spectrum's main
+    lines are named where no name covers another, a stem or the legend.
 
     Parameters
     ----------
-    axs : sequence of 3 matplotlib Axes
+    axs : sequence of matplotlib Axes
+        ``3 + len(contact_panels(contacts, len(dofs)))``: time history, orbit, one per contact not in the
+        orbit, spectrum.
     t : ndarray, shape (S,)
-        One period.
+        One period, uniformly sampled, without its end ``t = T``.
     x, xd : ndarray, shape (S, n)
         Displacements and velocities.
     amps : ndarray, shape (H + 1, n)
@@ -129,13 +146,20 @@ def draw_point(axs, t, x, xd, amps, nu: int, dofs, *, units=None, labels=None, s
     dofs : sequence of str
     w : str
         Mathtext of the forcing frequency's symbol.
+    contacts : sequence of dict, optional
+        The model's contact elements with their clearances.
     """
     n = len(dofs)
+    own = contact_panels(contacts, n)
+    if len(axs) != 3 + len(own):
+        raise ValueError(f"draw_point: axs must hold {3 + len(own)} axes (3 and one per contact not shown in "
+                         f"the orbit), found {len(axs)}")
+    t, x, xd = closed_period(t, x, xd)
     for i, d in enumerate(dofs):
         axs[0].plot(t, x[:, i], label=math(d, symbols))
     axs[0].set_xlabel("time $t$ (one period)")
     axs[0].set_ylabel("displacement")
-    axs[0].legend(loc="upper right")
+    legend_above(axs[0], ncols=min(n, 4))
     if n >= 2:
         axs[1].plot(x[:, 0], x[:, 1])
         axs[1].set_xlabel(axis_label(dofs[0], units, labels, symbols))
@@ -146,21 +170,31 @@ def draw_point(axs, t, x, xd, amps, nu: int, dofs, *, units=None, labels=None, s
         axs[1].set_xlabel(axis_label(dofs[0], units, labels, symbols))
         axs[1].set_ylabel(axis_label(dofs[0] + "_dot", units, labels, symbols))
         axs[1].set_title("phase portrait")
+    inside = [c for c in contacts if not any(c is o for o in own)]
+    for k, c in enumerate(inside):  # the orbit panel shows these contacts' dofs
+        X, Y = axs[1].get_lines()[0].get_xdata(), axs[1].get_lines()[0].get_ydata()
+        draw_contact(axs[1], c, X, Y, x, horizontal=c["type"] == "radial_gap" or c["dof"] == 0, label=k == 0)
+        if c["type"] == "radial_gap":
+            axs[1].set_aspect("equal", adjustable="box")
+    if inside:
+        legend_above(axs[1])
+    for ax, c in zip(axs[2:-1], own):
+        draw_contact_panel(ax, c, x, xd, dofs, units=units, labels=labels, symbols=symbols)
+    spec = axs[-1]
     freqs = np.arange(amps.shape[0]) / nu
     width = 0.6 / (n * nu)
     top = float(np.max(amps)) if amps.size else 0.0
     for i, d in enumerate(dofs):  # harmonic amplitudes as stems, cut at the spectrum floor, main ones named
-        draw_spectrum(axs[2], freqs + (i - (n - 1) / 2) * width, amps[:, i], w=w, fmax=np.inf, stems=True,
+        draw_spectrum(spec, freqs + (i - (n - 1) / 2) * width, amps[:, i], w=w, fmax=np.inf, stems=True,
                       label=math(d, symbols), color=f"C{i}", annotate=False)
+    spec.set_xlabel(f"frequency / ${w}$")
+    spec.set_ylabel("harmonic amplitude")
+    spec.set_title("spectrum")
+    if n > 1:
+        spec.legend(loc="upper right")
+    fill_places(axs[1:-1])
     if top > 0:
-        axs[2].set_ylim(top * SPECTRUM_FLOOR, top * 3.0)
+        spec.set_ylim(top * SPECTRUM_FLOOR, top * 10.0)  # a decade above the largest line for the names
         main = [(float(freqs[k]), float(amps[k].max())) for k in np.argsort(amps.max(axis=1))[::-1][:5]
                 if amps[k].max() >= 1e3 * SPECTRUM_FLOOR * top]
-        for fk, ak in main:
-            axs[2].annotate(frequency_text(fk, w), (fk, ak), textcoords="offset points", xytext=(0, 4),
-                            ha="center", fontsize=8)
-    axs[2].set_xlabel(f"frequency / ${w}$")
-    axs[2].set_ylabel("harmonic amplitude")
-    axs[2].set_title("spectrum")
-    if n > 1:
-        axs[2].legend(loc="upper right")
+        name_lines(spec, main, w)

@@ -9,7 +9,9 @@ far the task has got; the run closes the display with :meth:`Progress.close`.
   seconds, with percentage, elapsed time and remaining time; a finished
   task's bar stays as a line.
 - Elsewhere (a log file, a pipe, CI): no carriage returns; a plain line at
-  most every ``log_interval`` seconds and one when a task ends.
+  most every ``log_interval`` seconds and one when a task ends, which says
+  what the task did (a branch: the interval of the parameter it covered),
+  not a percentage and a remaining time that went stale when it stopped.
 - Nothing during the first ``delay`` seconds (short runs and tests print
   nothing), and nothing at all when disabled (``--quiet``).
 
@@ -92,6 +94,8 @@ class _Task:
     text: str = ""
     bar: tqdm | None = None
     printed: str | None = None  # the last plain line written for it
+    parameter: object = None  # a branch's parameter values so far, as last reported (for its final line)
+    bounds: tuple | None = None
 
 
 def _terminal_columns(stream) -> int:
@@ -187,6 +191,8 @@ class Progress:
             self._end_task()
             t = self._task = _Task(task, mode, units, n, n, now)
         t.text, t.n = str(text), n
+        if parameter is not None and bounds is not None:
+            t.parameter, t.bounds = parameter, bounds  # kept, not reduced: min/max only for the final line
         if now - self.t0 < self.delay:
             return
         if self.terminal:
@@ -224,7 +230,7 @@ class Progress:
             t.bar.n = t.n
             t.bar.close()  # leave=True: the final state is drawn and stays as a line
         elif not self.terminal and self._shown():
-            self._line(t, self.clock())
+            self._final_line(t, self.clock())
 
     def _draw(self, t: _Task) -> None:
         if t.bar is None:
@@ -241,6 +247,24 @@ class Progress:
             return
         t.bar.set_description_str(t.text, refresh=False)
         t.bar.update(t.n - t.bar.n)
+
+    def _final_line(self, t: _Task, now: float) -> None:
+        """The line that ends a task in a log: what it covered or did, and its time; no remaining time."""
+        elapsed = tqdm.format_interval(max(now - t.t0, 0.0))
+        p = np.asarray(t.parameter, dtype=float) if t.parameter is not None else np.empty(0)
+        if p.size and t.bounds is not None:
+            lo, hi = sorted(float(b) for b in t.bounds)
+            line = (f"{t.text}  ended: covered [{np.min(p):.6g}, {np.max(p):.6g}] of [{lo:.6g}, {hi:.6g}], "
+                    f"{elapsed} elapsed")
+        elif t.mode is _Mode.COUNT:
+            line = f"{t.text}  ended: {t.n} of {t.total} done, {elapsed} elapsed"
+        elif t.mode is _Mode.FRACTION:
+            line = f"{t.text}  ended at {100 * t.n / _UNITS:.0f}%, {elapsed} elapsed"
+        else:
+            line = f"{t.text}  ({elapsed} elapsed)"
+        if line != t.printed:
+            self.stream.write(line + "\n")
+            self.stream.flush()
 
     def _line(self, t: _Task, now: float) -> None:
         elapsed = max(now - t.t0, 0.0)

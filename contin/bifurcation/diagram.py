@@ -116,11 +116,9 @@ def _record_stability(br: Branch, mon) -> None:
     """Store the monitor's statistics; say in the branch message where the monodromy replaced Hill."""
     st = mon.statistics()
     br.info["stability"] = st
-    where = sorted(st.get("fallbacks", []) + st.get("disagreements", []))
-    if where:
-        br.message = (f"{br.message}; stability: Hill's multipliers disagreed with the monodromy's at "
-                      f"{len(where)} point(s) (first at {br.parameter_name}={where[0]:.10g}), "
-                      "the monodromy's were used there")
+    replaced = mon.report(br)  # counts the branch's points (not the evaluations) and names the ranges
+    if replaced:
+        br.message = f"{br.message}; {replaced}"
     if st.get("unevaluated"):
         lam, why = st["unevaluated"][0]
         br.message = (f"{br.message}; no stability verdict at {len(st['unevaluated'])} point(s) (first at "

@@ -9,6 +9,11 @@ problem first (a wide basin, where the static load alone fixes the contact
 side), then follows the solution with the continuation engine to the real
 stiffness, and finally to the wanted start value of the continuation
 parameter if the homotopy had to be done elsewhere.
+
+A homotopy in the harmonics (:func:`harmonic_start`) helps where many
+harmonics are asked for: Newton from the linear solution with H = 25 can
+wander off where with H = 5 it converges, and the low-H solution padded with
+zeros is close to the high-H one (the higher harmonics are small).
 """
 
 from __future__ import annotations
@@ -23,7 +28,11 @@ from contin.hb.problem import HarmonicBalance
 from contin.engine.newton import solve_at_parameter
 from contin.model.base import Model
 
-__all__ = ["HomotopyFailed", "homotopy_start", "contact_start", "simulation_start", "integrated_model"]
+__all__ = ["HomotopyFailed", "homotopy_start", "harmonic_start", "contact_start", "simulation_start",
+           "integrated_model", "START_LOW_HARMONICS"]
+
+#: the harmonics :func:`harmonic_start` solves with first
+START_LOW_HARMONICS = 5
 
 
 class HomotopyFailed(RuntimeError):
@@ -127,6 +136,71 @@ def homotopy_start(hb: HarmonicBalance, lam0: float, parameter: str, soft_value:
     if not len(path) or path.parameter[-1] != lam0:
         raise HomotopyFailed(f"continuing the start from {hb.parameter}={at:g} to {lam0:g} stopped: {path.message}")
     return follow.expand(path.unknowns[-1], lam0) if condensed else path.unknowns[-1]
+
+
+def harmonic_start(problem, lam0: float, guess: np.ndarray, options: ContinuationOptions | None = None,
+                   low: int = START_LOW_HARMONICS) -> np.ndarray:
+    """A converged solution at ``lam = lam0``: Newton from ``guess``, else by a homotopy in the harmonics.
+
+    When Newton from ``guess`` does not converge and the problem has more than
+    ``low`` harmonics, the problem is solved with ``low`` harmonics from the
+    first coefficients of ``guess`` (from its own linear solution if that
+    fails too), and the solution, padded with zeros, is the Newton guess with
+    twice as many harmonics, up to ``problem.H``.
+
+    Parameters
+    ----------
+    problem : HarmonicBalance or CondensedHarmonicBalance
+        Anything with ``H``, ``size``, ``with_options(harmonics=...)``,
+        ``linear_solution`` and ``linearize``; its coefficients harmonic-major
+        (the higher harmonics last), so that padding with zeros adds harmonics.
+    lam0 : float
+    guess : ndarray, shape (problem.size,)
+    options : ContinuationOptions, optional
+        ``newton_tol`` and ``newton_max_iter`` (at least 30 iterations are allowed).
+    low : int
+        The harmonics of the first solve.
+
+    Returns
+    -------
+    ndarray, shape (problem.size,)
+
+    Raises
+    ------
+    HomotopyFailed
+        Saying where Newton failed: from ``guess`` and at which step of the homotopy.
+    """
+    opts = options or ContinuationOptions()
+    opts = opts.replace(newton_max_iter=max(int(opts.newton_max_iter), 30))
+    guess = np.asarray(guess, float)
+    first = solve_at_parameter(problem, guess, lam0, opts)
+    if first.converged:
+        return first.x
+    why = f"Newton from the guess with H={problem.H}: {first.message}"
+    H = int(problem.H)
+    if H <= low:
+        raise HomotopyFailed(why)
+    ladder = [low]
+    while 2 * ladder[-1] < H:
+        ladder.append(2 * ladder[-1])
+    ladder.append(H)
+    coarse = problem.with_options(harmonics=ladder[0])
+    res = solve_at_parameter(coarse, guess[:coarse.size], lam0, opts)
+    if not res.converged:  # the guess's low harmonics may be what misleads Newton: the linear solution instead
+        res = solve_at_parameter(coarse, coarse.linear_solution(lam0), lam0, opts)
+    if not res.converged:
+        raise HomotopyFailed(f"{why}; with H={ladder[0]} too: {res.message}")
+    u = res.x
+    for h in ladder[1:]:
+        fine = problem if h == H else problem.with_options(harmonics=h)
+        padded = np.zeros(fine.size)
+        padded[:u.size] = u  # harmonic-major coefficients: the added harmonics come last, zero
+        res = solve_at_parameter(fine, padded, lam0, opts)
+        if not res.converged:
+            raise HomotopyFailed(f"{why}; from the solution with H={ladder[ladder.index(h) - 1]} padded with "
+                                 f"zeros to H={h}: {res.message}")
+        u = res.x
+    return u
 
 
 def contact_start(hb: HarmonicBalance, lam0: float, *, stiffness: str = "kbn", clearance: str = "delta",

@@ -20,7 +20,7 @@ import math
 import numpy as np
 
 from contin.engine.barriers import Barriers
-from contin.engine.branch import BranchBuilder, SpecialPoint
+from contin.engine.branch import BranchBuilder, SpecialKind, SpecialPoint
 from contin.engine.corrector import Candidate, Corrector
 from contin.engine.events import (
     BranchPointEvent,
@@ -35,12 +35,18 @@ from contin.engine.newton import NUMERICAL_ERRORS
 from contin.engine.predictor import HermiteArc, unit_tangent
 from contin.engine.problem import LazyData, evaluate_monitors, point_info
 
-__all__ = ["EventLocation", "location_point", "test_values"]
+__all__ = ["BP_DIP", "FOLD_NEAR", "EventLocation", "branch_point_artefact", "kernel_singular_values", "location_point", "test_values"]
 
 #: Hyperplanes from the earlier point to the one asked when the Hermite guess is outside Newton's basin.
 ARC_SUBSTEPS = 4
 #: Smallest ``t . ta`` the substeps' predictor divides by (a tangent turned far from ``ta``).
 MIN_ALIGNMENT = 0.1
+#: At a located branch point the smallest singular value of ``[Ju Jlam]`` must have fallen below this
+#: fraction of its larger value at the step's ends (it vanishes at a branch point, not at a fold).
+BP_DIP = 0.1
+#: A fold is beside a point where the smallest singular value of ``Ju`` is below this fraction of that of
+#: ``[Ju Jlam]`` (which bounds it from above).
+FOLD_NEAR = 0.2
 
 
 def test_values(events: list, info: PointInfo) -> list[np.ndarray]:
@@ -52,6 +58,73 @@ def test_values(events: list, info: PointInfo) -> list[np.ndarray]:
         except NUMERICAL_ERRORS:
             out.append(np.full(1, np.nan))
     return out
+
+
+def kernel_singular_values(info: PointInfo, su, sl: float) -> np.ndarray:
+    """The singular values of the scaled ``[Ju su, Jlam sl]`` at ``info``, largest first (m of them).
+
+    The matrix has a one-dimensional kernel (the tangent) at a regular point and at
+    a fold, a two-dimensional one at a branch point: there its smallest value vanishes.
+    """
+    A = np.column_stack([np.asarray(info.Ju, float) * su, np.asarray(info.Jlam, float) * sl])
+    return np.linalg.svd(A, compute_uv=False)
+
+
+def branch_point_artefact(p: PointInfo, a: PointInfo, b: PointInfo, su, sl: float, *,
+                          bordered: bool = False) -> tuple[str | None, dict]:
+    """Whether a branch point located at ``p`` on the step from ``a`` to ``b`` is one.
+
+    At a branch point ``[Ju Jlam]`` loses rank: its smallest singular value at
+    ``p`` falls below :data:`BP_DIP` times the larger of its values at ``a`` and
+    ``b``. Where it does not, the change that was taken for a branch point is
+    explained otherwise:
+
+    - a fold beside it: ``Ju`` nearly singular (its smallest singular value below
+      :data:`FOLD_NEAR` times that of ``[Ju Jlam]``) while ``[Ju Jlam]`` is not. A
+      multiplier crosses ``+1`` at a fold too, and the multipliers of a truncated
+      series (the monodromy's, or Hill's) cross a little off the fold of the
+      harmonic balance, in the step before or after it;
+    - ``bordered``: the test is the sign of ``det [[Ju, Jlam], [t^T]]``, which
+      flips without a rank drop only where the tangent's orientation does (a
+      corner of a non-smooth branch) or at a fold.
+
+    A multiplier crossing where neither matrix is singular is kept: nothing in
+    the Jacobian tells what it is.
+
+    Returns
+    -------
+    reason : str or None
+        Why the point is no branch point (None: it is one, or the check could not be made).
+    data : dict
+        ``kernel_singular_values``: the two smallest singular values of ``[Ju Jlam]`` at ``p`` over
+        the largest (one for a single unknown); ``kernel_dip``: the smallest over its value at the
+        ends; ``fold_ratio``: the smallest of ``Ju`` over the smallest of ``[Ju Jlam]``.
+    """
+    try:
+        sv = kernel_singular_values(p, su, sl)
+        ends = max(float(kernel_singular_values(a, su, sl)[-1]), float(kernel_singular_values(b, su, sl)[-1]))
+        ju = np.linalg.svd(np.asarray(p.Ju, float) * su, compute_uv=False)
+    except (np.linalg.LinAlgError, ValueError):
+        return None, {}
+    if not (sv.size and np.all(np.isfinite(sv)) and np.all(np.isfinite(ju)) and math.isfinite(ends)):
+        return None, {}
+    top = float(sv[0]) if sv[0] > 0 else 1.0
+    data = {"kernel_singular_values": [float(v) / top for v in sv[::-1][:2]]}
+    if ends <= 0.0:
+        return None, data  # both ends on the singular set: nothing to compare with
+    dip = float(sv[-1]) / ends
+    data["kernel_dip"] = dip
+    if dip <= BP_DIP:
+        return None, data
+    fold = float(ju[-1]) / float(sv[-1])
+    data["fold_ratio"] = fold
+    rank = (f"[Ju Jlam] keeps full rank there (its smallest singular value is {dip:.2g} times its value at the "
+            f"step's ends, > {BP_DIP:g})")
+    if fold < FOLD_NEAR:
+        return f"{rank} while Ju is nearly singular ({fold:.2g} times that): a fold beside it, not a branch point", data
+    if bordered:
+        return f"{rank}: the tangent's orientation flipped (a corner or a fold), not a branch point", data
+    return None, data
 
 
 def location_point(ev: Event, loc: Location, ga: float, gb: float, comp: int, vector: bool, lam_a: float,
@@ -208,8 +281,18 @@ class EventLocation:
                 except NUMERICAL_ERRORS as exc:
                     p.data = {}
                     loc.message += f"; a monitor failed there ({type(exc).__name__}: {exc})"
-            self.builder.add_special(location_point(ev, loc, ga[comp], gb[comp], comp, ga.size > 1, info_a.lam,
-                                                    info_b.lam, index))
+            point = location_point(ev, loc, ga[comp], gb[comp], comp, ga.size > 1, info_a.lam, info_b.lam, index)
+            if ev.kind is SpecialKind.BP:
+                reason, kernel = branch_point_artefact(p, info_a, info_b, sp.su, sp.sl,
+                                                       bordered=isinstance(ev, BranchPointEvent))
+                if reason is not None:  # kept out of the special points, said in the branch's data
+                    self.builder.branch.info.setdefault("dropped_points", []).append(
+                        {"kind": point.kind.value, "event": ev.name, "parameter": point.parameter,
+                         "interval": [float(info_a.lam), float(info_b.lam)], "index": index, "reason": reason,
+                         **kernel})
+                    continue
+                point.data.update(kernel)
+            self.builder.add_special(point)
             if ev.barrier and loc.located:
                 # the steps after it must show that the branch passes it (see Barriers.after_store)
                 self.barriers.reached(ev, float(loc.point.lam), h, index + 1, ds_free)

@@ -22,7 +22,7 @@ current user (and root) can have put or changed anything in it
 directory of the effective uid, not writable by group or others, reached
 through directories only root or the user can change (or sticky ones, like
 ``/tmp``); missing components are created with mode 0700. A directory that
-fails is skipped with one :class:`RuntimeWarning` naming it and the reason
+fails is skipped with one :class:`~contin.util.warning.ContinWarning` naming it and the reason
 (once per process). If none is acceptable, the kernels are compiled in memory
 with numba's on-disk cache turned off: correct, only the compilation is paid
 again by every process.

@@ -12,15 +12,26 @@ One JSON record per line, appended and flushed as the run goes:
   continuation engine carries to its next step (:func:`contin.engine.continuation.continuation`, ``checkpoint``);
 - ``{"type": "end", "branch": j, "status", "message", "info", "monitors"}`` when branch ``j`` ends.
 
-A run killed in the middle of a line leaves a last line that does not parse; it
-and everything after it are ignored.
+The arrays (a point's coefficients ``u`` and its tangent, the engine's
+vectors) are not in the lines: an array of more than
+:data:`~contin.output.state_store.INLINE` values is a reference to its float64
+bytes in ``state.bin`` (or, for the engine's last positions, in
+``state_last.npz``), read back exactly (:mod:`contin.output.state_store`).
+:func:`read_records` gives the records with numpy arrays in their place. A
+``state.jsonl`` with its arrays as JSON lists was written by an older contin
+and is refused.
+
+A run killed in the middle of a line leaves a last line that does not parse
+(or one whose arrays are past the end of ``state.bin``); it and everything
+after it are ignored.
 
 Every line is strict JSON: a value that is not finite (a step cap of ``inf``,
 a multiplier not computed, ``nan``) is written as ``{"__float__": "inf"}``
 (:func:`encode`, :func:`dumps`) and read back by :func:`decode`; a line holding
 the tokens ``NaN`` or ``Infinity``, which are not JSON, is refused. :func:`resumable_prefix` cuts the records
 back to the last point from which the run can go on exactly as it would have
-without the interruption: after an ``engine`` or ``end`` record.
+without the interruption: after an ``engine`` (whose last positions are still
+held) or ``end`` record.
 """
 
 from __future__ import annotations
@@ -33,13 +44,10 @@ import numpy as np
 
 from contin.engine.branch import Branch, BranchBuilder, BranchStatus, SpecialPoint
 from contin.engine.state import RESTART_KEYS
+from contin.output.state_store import INLINE, ArrayReader, CheckpointError, TornRecord
 
-__all__ = ["CheckpointError", "encode", "decode", "dumps", "read_records", "rebuild_branches", "resumable_prefix",
-           "special_record", "write_records"]
-
-
-class CheckpointError(ValueError):
-    """A line of a checkpoint that parses but is not a record contin writes."""
+__all__ = ["CheckpointError", "encode", "decode", "dumps", "keep_records", "read_records", "rebuild_branches",
+           "resumable_prefix", "special_record"]
 
 
 #: the keys each kind of record holds (what :func:`rebuild_branches` reads)
@@ -48,6 +56,8 @@ RECORD_KEYS = {"point": ("row", "branch", "lam", "u", "tangent"), "branch": ("br
 
 
 def _is_numbers(v) -> bool:
+    if isinstance(v, np.ndarray):  # read from state.bin
+        return v.ndim == 1 and v.dtype.kind == "f"
     return isinstance(v, list) and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v)
 
 
@@ -63,6 +73,9 @@ def _checked(rec, path, lineno: int) -> dict:
         raise CheckpointError(f"{where}: a {kind} record with the keys {', '.join(missing)}")
     if not (isinstance(rec["branch"], int) and rec["branch"] >= 0):
         raise CheckpointError(f"{where}: a branch number, found {rec['branch']!r}")
+    if kind == "point" and any(isinstance(rec[k], list) and len(rec[k]) > INLINE for k in ("u", "tangent")):
+        raise CheckpointError(f"{where}: written by an older contin (its arrays as JSON lists, without "
+                              "state.bin), which this one does not resume")
     if kind == "point" and not (isinstance(rec["row"], int) and isinstance(rec["lam"], (int, float))
                                 and _is_numbers(rec["u"]) and _is_numbers(rec["tangent"])
                                 and len(rec["tangent"]) >= 1):
@@ -95,9 +108,17 @@ def _float_list(a: np.ndarray) -> list:
     return walk(a.tolist())
 
 
-def encode(obj):
-    """JSON-able form of numpy arrays, complex numbers and non-finite floats (inverse: :func:`decode`)."""
+def encode(obj, store=None):
+    """JSON-able form of numpy arrays, complex numbers and non-finite floats (inverse: :func:`decode`).
+
+    ``store(array)``, when given, takes every array of more than
+    :data:`~contin.output.state_store.INLINE` values and returns what stands for it
+    (a reference to its bytes: :class:`contin.output.state_store.StateWriter`).
+    """
     if isinstance(obj, np.ndarray):
+        if store is not None and obj.size > INLINE and obj.ndim <= 2 and obj.dtype.kind in "biufc":
+            return store(obj if obj.dtype.kind in "bic" else np.asarray(obj, dtype=np.int64 if obj.dtype.kind == "u"
+                                                                         else float))
         if np.iscomplexobj(obj):
             return {"__complex_array__": [_float_list(obj.real), _float_list(obj.imag)]}
         if obj.dtype.kind in "biu":  # flags and counts come back as they were
@@ -110,9 +131,9 @@ def encode(obj):
     if isinstance(obj, float):
         return _float(obj)
     if isinstance(obj, dict):
-        return {str(k): encode(v) for k, v in obj.items()}
+        return {str(k): encode(v, store) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
-        return [encode(v) for v in obj]
+        return [encode(v, store) for v in obj]
     if hasattr(obj, "value") and not isinstance(obj, (int, float, str, bool)):
         return obj.value
     return obj
@@ -163,15 +184,22 @@ def dumps(record: dict) -> str:
     return json.dumps(encode(record), allow_nan=False)
 
 
-def write_records(path: Path, records: list[dict]) -> None:
-    """Replace the checkpoint at ``path`` with ``records`` (atomically; a link there is refused)."""
-    from contin.util.safe_files import replace_file
+def keep_records(path: Path, count: int) -> None:
+    """Cut the checkpoint at ``path`` to its first ``count`` records (atomically; a link there is refused).
 
-    replace_file(path, lambda fh: fh.writelines(dumps(r) + "\n" for r in records))
+    The lines are kept as they are, so their references into ``state.bin``
+    still hold; the bytes of the records cut off stay there unreferenced.
+    """
+    from contin.util.safe_files import open_regular, replace_file
+
+    with open_regular(path, encoding=None, follow=True) as fh:  # bytes: the lines exactly as they were
+        lines = [line for _, line in zip(range(count), fh)]
+    replace_file(path, lambda out: out.writelines(lines), binary=True)
 
 
 def special_record(branch_id: int, sp: SpecialPoint, csv: bool = True) -> dict:
-    return {"type": "special", "branch": branch_id, "point": encode(sp.to_dict()), "csv": bool(csv)}
+    """A special point's record (arrays encoded on writing: :class:`contin.output.state_writer.StateWriter`)."""
+    return {"type": "special", "branch": branch_id, "point": sp.to_dict(), "csv": bool(csv)}
 
 
 def resumable_prefix(records: list[dict], n_rows: int) -> tuple[list[dict], int, int]:
@@ -204,7 +232,7 @@ def resumable_prefix(records: list[dict], n_rows: int) -> tuple[list[dict], int,
             r += 1
         elif kind == "special":
             s += int(rec.get("csv", True))
-        elif kind in ("engine", "end"):
+        elif kind == "end" or (kind == "engine" and not rec.get("stale")):
             keep, rows, special = i + 1, r, s
     return records[:keep], rows, special
 
@@ -228,7 +256,8 @@ def read_records(path: Path, max_row: int | None = None) -> list[dict]:
     out = []
     if not Path(path).exists() and not Path(path).is_symlink():
         return out
-    with open_regular(path, errors="replace", follow=True) as fh:  # a pipe or a device would never end
+    # a pipe or a device would never end
+    with open_regular(path, errors="replace", follow=True) as fh, ArrayReader(path) as arrays:
         for lineno, line in enumerate(fh, 1):
             try:
                 rec = json.loads(line, parse_constant=_not_json)
@@ -237,10 +266,25 @@ def read_records(path: Path, max_row: int | None = None) -> list[dict]:
             except _NonFinite as exc:
                 raise CheckpointError(f"{path} line {lineno}: strict JSON (contin writes a value that is not finite "
                                       f'as {{"__float__": "inf"}}), found the token {exc.args[0]}') from None
+            try:
+                rec = _resolved(rec, arrays, f"{path} line {lineno}")
+            except TornRecord:  # its arrays were being written when the run was killed
+                break
             rec = _checked(rec, path, lineno)
             if rec["type"] == "point" and max_row is not None and rec["row"] >= max_row:
                 break
             out.append(rec)
+    return out
+
+
+def _resolved(rec, arrays: ArrayReader, where: str):
+    """``rec`` with its arrays read (:class:`ArrayReader`); an engine record whose last positions
+    ``state_last.npz`` no longer holds is marked ``stale`` (no point to resume from)."""
+    out = arrays.resolve(rec, where)
+    if isinstance(rec, dict) and rec.get("type") == "engine" and isinstance(rec.get("state"), dict):
+        lost = [k for k, v in rec["state"].items() if isinstance(v, dict) and "__last__" in v]
+        if any(out["state"].get(k) is None for k in lost):
+            out["stale"] = True
     return out
 
 

@@ -19,6 +19,7 @@ from scipy.interpolate import PchipInterpolator
 
 from contin.output.figures import figure_style, legend_below, new_figure, save_figure
 from contin.output.labels import axis_label
+from contin.output.plotting import NOT_LOCATED
 
 __all__ = ["CURVE_STYLE", "CODIM2_MARKERS", "POINT_MARKERS", "smooth_arc", "draw_two_parameter",
            "two_parameter_diagram"]
@@ -134,7 +135,8 @@ def draw_two_parameter(ax, curves, codim2, points, p1: str, p2: str, *, lines=()
         ``kind`` (cusp, fold_flip, extremum, or ``stop``: a curve that ended
         before its range), ``x``, ``y``.
     points : list of dict
-        One-parameter special points: ``kind`` ('fold' or 'pd'), ``x``, ``y``.
+        One-parameter special points: ``kind`` ('fold' or 'pd'), ``x``, ``y`` and optionally
+        ``located`` (False: drawn grey and named "(not located)" in the legend).
     p1, p2 : str
         Parameter names (axis labels from :func:`contin.output.labels.axis_label`).
     lines : sequence of float
@@ -192,6 +194,8 @@ def draw_two_parameter(ax, curves, codim2, points, p1: str, p2: str, *, lines=()
     for q in points:
         m, color = POINT_MARKERS.get(q["kind"], ("x", "k"))
         key = "located by the one-parameter runs: " + q["kind"]
+        if not q.get("located", True):  # only bracketed: grey, and said so in the legend
+            color, key = "0.45", f"found by the one-parameter runs: {q['kind']} {NOT_LOCATED}"
         ax.plot(q["x"], q["y"], m, color=color, mfc="none", ms=7, mew=1.3, label=key if key not in done else None,
                 zorder=7)
         done.add(key)

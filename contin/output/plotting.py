@@ -24,15 +24,37 @@ from matplotlib.transforms import Affine2D, ScaledTranslation
 from contin.output.figures import figure_style, new_figure, save_figure
 from contin.output.labels import axis_label, math
 
-__all__ = ["bifurcation_diagram", "draw_bifurcation_diagram", "branch_label", "axis_label", "SPECIAL", "CHANGES"]
+__all__ = ["bifurcation_diagram", "draw_bifurcation_diagram", "branch_label", "axis_label", "kind_name", "point_marker",
+           "SPECIAL", "CHANGES"]
 
 #: special points drawn: marker, name in the table, short name (narrow figures)
 SPECIAL = {"fold": ("o", "fold", "fold"), "pd": ("s", "period doubling", "PD"), "ns": ("D", "Neimark-Sacker", "NS"),
-           "bp": ("^", "branch point", "BP"), "kink": ("v", "corner", "corner"),
+           "bp": ("^", "branch point", "BP"), "kink": ("v", "kink", "kink"),
            "stability": ("X", "stability change", "stab."), "grazing": ("*", "grazing", "grazing"),
            "locking": ("P", "locking", "lock"), "frequency_min": ("<", "frequency minimum", "min."), "frequency_max": (">", "frequency maximum", "max.")}
 #: kinds at which the stability of a branch changes
 CHANGES = ("fold", "pd", "ns", "bp", "stability")
+#: said of a point whose location did not converge (its parameter is only bracketed)
+NOT_LOCATED = "(not located)"
+
+
+def kind_name(kind: str, located: bool = True, short: bool = False) -> str:
+    """The name of a special point's kind in tables and legends, ``(not located)`` added for an unlocated one."""
+    name = SPECIAL[kind][2 if short else 1]
+    return name if located else f"{name} {NOT_LOCATED}"
+
+
+def point_marker(kind: str, located: bool = True, ms: float | None = None) -> dict:
+    """``Line2D`` keywords of a special point's marker: white-filled when located, open and grey when not
+    (the curve shows through it: the point lies somewhere in its bracket)."""
+    style = {"marker": SPECIAL[kind][0], "linestyle": "none", "mew": 0.8}
+    if ms is not None:
+        style["ms"] = ms
+    if located:
+        style.update(mfc="white", mec="k", fillstyle="full")
+    else:
+        style.update(mfc="none", mec="0.35", fillstyle="none")
+    return style
 
 
 def branch_label(nu: int) -> str:
@@ -109,7 +131,9 @@ def draw_bifurcation_diagram(ax, branches, special, parameter: str, measure: str
         made from ``nu`` when absent). With one group there is no branch entry.
     special : list of dict
         Each with ``x``, ``y``, ``kind`` and optionally ``parameter`` (the
-        value the table gives; ``x``, or ``y`` with ``vertical_parameter``).
+        value the table gives; ``x``, or ``y`` with ``vertical_parameter``)
+        and ``located`` (False: drawn with an open marker and named
+        "(not located)" in the table and legend; True by default).
     parameter, measure : str
         Names of the parameter and the plotted measure (axis labels from
         :func:`contin.output.labels.axis_label`).
@@ -123,7 +147,8 @@ def draw_bifurcation_diagram(ax, branches, special, parameter: str, measure: str
     log_y : bool
         Logarithmic y axis.
     table : bool
-        Number the special points and list them beside the axes (else they are only marked).
+        Number the special points and list them beside the axes (else they are marked and their kinds
+        named in the legend, and nothing is drawn outside the axes).
     short_names : bool, optional
         Short kind names in the table (default: when the figure is narrower than 5 inches).
 
@@ -162,7 +187,8 @@ def draw_bifurcation_diagram(ax, branches, special, parameter: str, measure: str
               if sp.get("kind") in SPECIAL and np.isfinite(sp["x"]) and np.isfinite(sp["y"])]
     ms = 0.9 * float(matplotlib.rcParams["lines.markersize"])
     for sp in points:
-        ax.plot(sp["x"], sp["y"], SPECIAL[sp["kind"]][0], ms=ms, mfc="white", mec="k", mew=0.8, zorder=5)
+        sp["located"] = bool(sp.get("located", True))
+        ax.plot(sp["x"], sp["y"], zorder=5, **point_marker(sp["kind"], sp["located"], ms))
     if log_y:
         ax.set_yscale("log")
     if extra is not None:
@@ -172,6 +198,9 @@ def draw_bifurcation_diagram(ax, branches, special, parameter: str, measure: str
     ax.set_ylabel(axis_label(yname, units, labels, symbols, "parameter" if yname == parameter else None))
     if title:
         ax.set_title(title)
+    if points and not table:  # no table to name the kinds: the legend does, once per kind drawn
+        for kind, located in dict.fromkeys((sp["kind"], sp["located"]) for sp in points):
+            handles.append(Line2D([], [], label=kind_name(kind, located), **point_marker(kind, located, ms)))
     own = [h for h in ax.get_legend_handles_labels()[0] if h not in handles]
     legend = ax.legend(handles=handles + own, loc="best") if handles or own else None
     if points and table:
@@ -268,7 +297,7 @@ def _table(ax, points, parameter, symbols, short_names, units) -> list:
     values = _value_texts([sp["parameter"] for sp in points])
     for sp, v in zip(points, values):
         sp["value_text"] = v
-    names = [SPECIAL[sp["kind"]][2 if short_names else 1] for sp in points]
+    names = [kind_name(sp["kind"], sp.get("located", True), short_names) for sp in points]
     unit = (units or {}).get(parameter)
     head = math(parameter, symbols, "parameter") + (f" [{unit}]" if unit else "")
 
@@ -315,8 +344,12 @@ def _fill_table(rows, points, short_names) -> None:
     """Write each point into the row of its number."""
     for sp in points:
         mark, name, value = rows[sp["number"] - 1]
-        mark.set_marker(SPECIAL[sp["kind"]][0])
-        name.set_text(SPECIAL[sp["kind"]][2 if short_names else 1])
+        style = point_marker(sp["kind"], sp.get("located", True))
+        mark.set_marker(style["marker"])
+        mark.set_fillstyle(style["fillstyle"])
+        mark.set_markerfacecolor(style["mfc"])
+        mark.set_markeredgecolor(style["mec"])
+        name.set_text(kind_name(sp["kind"], sp.get("located", True), short_names))
         value.set_text(sp["value_text"])
 
 

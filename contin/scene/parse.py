@@ -33,7 +33,7 @@ from contin.scene.schema import (Key, SceneError, anything, check_section, integ
                            mapping, number, string)
 from contin.scene.yaml_text import MAX_DEPTH, MAX_VALUES, SceneLoader, line_map, load_nodes, load_text  # noqa: F401
 
-__all__ = ["SceneError", "Scene", "load_scene", "parse_scene", "read_scene_text", "scene_from_data", "apply_override", "analysis_schemas",
+__all__ = ["SceneError", "Scene", "load_scene", "parse_scene", "read_scene_text", "scene_from_data", "apply_override", "cite_override", "analysis_schemas",
            "SceneLoader", "START_SIMULATION", "check_names", "check_parameter_values", "model_frequency",
            "parameter_rule", "check_model_section"]
 
@@ -361,8 +361,8 @@ class Scene:
         return SceneError(key, expected, found, self.lines.get(key), hint)
 
 
-def apply_override(data: dict, assignment: str) -> None:
-    """Apply ``dotted.key=value`` (value parsed as YAML) to ``data`` in place."""
+def apply_override(data: dict, assignment: str) -> tuple[str, Any]:
+    """Apply ``dotted.key=value`` (value parsed as YAML) to ``data`` in place; returns the key and the value."""
     if "=" not in assignment:
         raise SceneError("--set", "dotted.key=value", assignment)
     key, _, text = assignment.partition("=")
@@ -383,6 +383,30 @@ def apply_override(data: dict, assignment: str) -> None:
             raise SceneError(f"--set {key}", f"'{'.'.join(parts[: i + 1])}' to be a mapping", nxt)
         node = nxt
     node[parts[-1]] = value
+    return key, value
+
+
+def cite_override(lines: dict, assignment: str, key: str, value: Any) -> None:
+    """Make errors in an overridden value cite the ``--set`` that gave it, not the file's line it replaced.
+
+    The file's lines of ``key`` and of everything below it are dropped, and
+    ``key`` and each key inside ``value`` map to ``"--set key=value"`` (as the
+    user typed it), which :class:`SceneError` prints in place of a line.
+    """
+    citation = f"--set {key}={assignment.partition('=')[2].strip()}"
+    for k in [k for k in lines if k == key or k.startswith((f"{key}.", f"{key}["))]:
+        del lines[k]
+
+    def walk(v, path):
+        lines[path] = citation
+        if isinstance(v, dict):
+            for k, item in v.items():
+                walk(item, f"{path}.{k}")
+        elif isinstance(v, list):
+            for i, item in enumerate(v):
+                walk(item, f"{path}[{i}]")
+
+    walk(value, key)
 
 
 def parse_scene(text: str, source: str = "<string>", overrides=()) -> Scene:
@@ -404,9 +428,11 @@ def parse_scene(text: str, source: str = "<string>", overrides=()) -> Scene:
         data = {}
     if not isinstance(data, dict):
         raise SceneError("(top level)", "a mapping with the sections model, analysis, output", type(data).__name__)
-    for ov in overrides:
-        apply_override(data, ov)
-    return scene_from_data(data, source, line_map(root))
+    applied = [(ov, *apply_override(data, ov)) for ov in overrides]
+    lines = line_map(root)
+    for ov, key, value in applied:  # in order: a later --set of the same key is the one cited
+        cite_override(lines, ov, key, value)
+    return scene_from_data(data, source, lines)
 
 
 def scene_from_data(data: dict, source: str = "<string>", lines: dict | None = None) -> Scene:

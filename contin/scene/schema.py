@@ -22,7 +22,8 @@ class SceneError(ValueError):
 
     def __init__(self, key: str, expected: str, found: Any = None, line: int | None = None, hint: str = ""):
         self.key, self.expected, self.found, self.line = key, expected, found, line
-        where = f" (line {line})" if line else ""
+        # a str cites where the value came from instead of a line (a --set, contin.scene.parse.cite_override)
+        where = f" ({line})" if isinstance(line, str) else f" (line {line})" if line else ""
         found_txt = "" if found is None else f", found {found!r}"
         super().__init__(f"{key}{where}: expected {expected}{found_txt}{hint}")
 

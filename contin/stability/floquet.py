@@ -24,6 +24,7 @@ import warnings
 
 import numpy as np
 
+from contin.util.warning import ContinWarning
 from contin.stability.hill import hill_spectrum
 from contin.stability.monodromy import monodromy_orbit_ivp, monodromy_reference, monodromy_rk4, switching_events
 from contin.stability.multiplier_pairing import multiplier_distance
@@ -113,7 +114,7 @@ def floquet_multipliers(hb, u: np.ndarray, lam: float, options: StabilityOptions
     Where the orbit crosses a switching surface at which the force jumps,
     Hill's multipliers miss the saltation: method BOTH then reports the
     monodromy's (``disagreement`` when the counts differ), and method HILL
-    flags the result ``ambiguous`` with a ``RuntimeWarning``.
+    flags the result ``ambiguous`` with a :class:`~contin.util.warning.ContinWarning`.
 
     Parameters
     ----------
@@ -153,7 +154,7 @@ def floquet_multipliers(hb, u: np.ndarray, lam: float, options: StabilityOptions
         if jumps:
             warnings.warn(
                 f"at {hb.parameter}={lam:.10g} the orbit crosses a contact surface where the force jumps: Hill's "
-                "multipliers miss the saltation there (use stability 'both' or 'floquet')", RuntimeWarning,
+                "multipliers miss the saltation there (use stability 'both' or 'floquet')", ContinWarning,
                 stacklevel=2)
             return dataclasses.replace(hill, ambiguous=True)
         return hill

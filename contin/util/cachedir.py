@@ -21,7 +21,7 @@ set, else the user's cache directory from :mod:`platformdirs`, e.g.
 ``~/.cache/contin/kernels`` on Linux) and a per-user directory
 ``contin-kernels-<uid>`` under the system temporary directory
 (:func:`candidate_dirs`). A directory that fails is skipped with one
-:class:`RuntimeWarning` naming it and the reason (once per process,
+:class:`~contin.util.warning.ContinWarning` naming it and the reason (once per process,
 :func:`accepted`). With none acceptable nothing is cached on disk.
 
 This module imports neither numba nor anything from contin: the command line
@@ -38,6 +38,8 @@ import warnings
 from pathlib import Path
 
 import platformdirs
+
+from contin.util.warning import ContinWarning
 
 __all__ = ["accepted", "candidate_dirs", "check_private_dir", "claim_source_dir", "is_claimed", "kernel_cache_dir",
            "numba_cache_dir"]
@@ -178,7 +180,7 @@ def accepted(d) -> Path | None:
         return Path(key)
     if (key, reason) not in _WARNED:
         _WARNED.add((key, reason))
-        warnings.warn(f"contin: not caching compiled kernels in {key}: {reason}", RuntimeWarning, stacklevel=3)
+        warnings.warn(f"contin: not caching compiled kernels in {key}: {reason}", ContinWarning, stacklevel=3)
     return None
 
 

@@ -1,3 +1,3 @@
-"""The package's version, in one place (setup.cfg reads it: ``version = attr: ...``)."""
+"""The package's version, in one place (pyproject.toml reads it: ``[tool.setuptools.dynamic]``)."""
 
 __version__ = "0.1.0"

@@ -8,7 +8,8 @@ of any number in ``branches.csv``, whether ``special_points.csv`` has the same
 points (kind, row index, parameter to 1e-9) and whether every branch of
 ``summary.json`` ends the same (points, status, message, special-point
 counts), and the wall time of the killed and the resumed run together against
-the uninterrupted one.
+the uninterrupted one. The size of the uninterrupted run's checkpoint (``state.jsonl``,
+``state.bin``, ``state_last.npz``) is printed with it.
 
     python scripts/bench/bench_resume.py            # scenes/mathieu_duffing_pd.yaml and scenes/rotor_f0_05.yaml
     python scripts/bench/bench_resume.py --quick    # the Mathieu-Duffing scene, two kills
@@ -60,6 +61,15 @@ def killed(scene: str, out: Path, at_rows: int) -> float:
     return time.perf_counter() - t0
 
 
+STATE_FILES = ("state.jsonl", "state.bin", "state_last.npz")
+
+
+def state_size(out: Path) -> str:
+    """The checkpoint's files and their bytes."""
+    sizes = {name: (out / name).stat().st_size for name in STATE_FILES if (out / name).is_file()}
+    return f"{sum(sizes.values()) / 1e6:.3f} MB (" + ", ".join(f"{k} {v / 1e6:.3f}" for k, v in sizes.items()) + ")"
+
+
 def branches(out: Path) -> list:
     keys = ("points", "status", "message", "special_points")
     summary = json.loads((out / "summary.json").read_text())
@@ -89,7 +99,8 @@ def main(argv=None) -> int:
         for scene, kills in scenes.items():
             ref = Path(tmp) / "ref"
             code, t_ref = contin(scene, ref)
-            print(f"{scene}: uninterrupted run {t_ref:.1f} s, {rows_in(ref / 'branches.csv')} rows, exit {code}")
+            print(f"{scene}: uninterrupted run {t_ref:.1f} s, {rows_in(ref / 'branches.csv')} rows, exit {code}, "
+                  f"checkpoint {state_size(ref)}")
             print(f"  {'killed at row':>13} {'resume exit':>11} {'rows':>8} {'max |diff|':>10} {'special points':>14} "
                   f"{'branch ends':>11} {'killed + resumed':>16}")
             for k in kills:

@@ -111,7 +111,7 @@ def test_bad_shooting_input_names_the_key(override, key, message, tmp_path, caps
     sets = [x for o in override for x in ("--set", o)]
     code = main(["run", str(ROOT / "scenes/duffing_fold_curve.yaml"), "-o", str(tmp_path / "x"), "-q"] + sets)
     assert code == 2
-    err = capsys.readouterr().err
+    err = " ".join(capsys.readouterr().err.split())  # the message is wrapped for the terminal
     assert key in err and message in err, err
 
 
@@ -140,6 +140,6 @@ def test_bad_input_names_the_key(override, key, message, tmp_path, capsys):
     sets = ["--set", override] + (["--set", "analysis.curves=[pd]"] if "pd_test" in override else [])
     code = main(["run", str(ROOT / "scenes/duffing_fold_curve.yaml"), "-o", str(tmp_path / "x"), "-q"] + sets)
     assert code == 2
-    err = capsys.readouterr().err
+    err = " ".join(capsys.readouterr().err.split())  # the message is wrapped for the terminal
     assert key in err and message in err, err
     assert not (tmp_path / "x" / "curves.csv").exists()

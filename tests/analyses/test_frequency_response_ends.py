@@ -97,7 +97,9 @@ def test_the_rotor_at_three_harmonics_is_incomplete_at_its_spurious_grazing_poin
     assert b0["end"] == "truncation" and 1.64 <= b0["end_check"]["parameter"] <= 1.72
     assert b0["uncovered"][1] == 2.6
     (line,) = s["shortfalls"]
-    assert line.startswith("branch 0 (nu=1) ended at a grazing point at w=1.6") and "harmonics 3 does not" in line
+    # at H' = 11 Newton does not converge from the padded orbit: the end is not confirmed (nor is it at H = 40,
+    # whose harmonic branch has no grazing there: tests/models/test_rotor_floquet.py)
+    assert line.startswith("branch 0 (nu=1) ended at a grazing point at w=1.6") and "harmonics 3 may not" in line
     # the subharmonic branches keep their own 80 harmonics: their grazing ends are the orbit's
     assert b1["end_check"]["verdict"] == b2["end_check"]["verdict"] == "grazing"
 

@@ -52,3 +52,13 @@ def test_nothing_global_changes_and_the_temporary_directory_goes_with_the_result
     del r
     gc.collect()
     assert not where.exists()
+
+
+def test_a_wrong_keyword_is_a_type_error_naming_it_before_anything_runs(tmp_path):
+    # before: a SceneError in scene words ("analysis.harmonics: expected one of the keys ...")
+    with pytest.raises(TypeError, match=r"^modes\(\) got an unexpected keyword argument 'harmonics'; its keywords "
+                                        r"are outdir, output, progress and the keys of a modes scene's analysis"):
+        contin.modes("duffing", harmonics=5, outdir=tmp_path / "r")
+    with pytest.raises(TypeError, match=r"'Range' \(did you mean 'range'\?\)"):
+        contin.frf("duffing", Range=[0, 1], outdir=tmp_path / "r")
+    assert not (tmp_path / "r").exists()

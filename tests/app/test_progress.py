@@ -61,8 +61,24 @@ def test_a_log_gets_few_plain_lines_without_carriage_returns():
     assert len(lines) == 4, text
     assert lines[0].startswith("branch 0  w=1.111  point 10") and " 6%, 00:01 elapsed, 00:16 left" in lines[0]
     assert lines[1].startswith("branch 0  w=2.222  point 110") and " 61%" in lines[1]
-    assert lines[2].startswith("branch 0  w=3  point 180") and " 100%, 00:18 elapsed, 00:00 left" in lines[2]
-    assert lines[3].startswith("branch 1  w=1  point 20") and " 100%" in lines[3]
+    assert lines[2] == "branch 0  w=3  point 180  ended: covered [1, 3] of [1, 3], 00:18 elapsed"
+    assert lines[3] == "branch 1  w=1  point 20  ended: covered [1, 3] of [1, 3], 00:02 elapsed"
+
+
+def test_a_branch_that_stops_early_ends_its_log_with_the_interval_covered():
+    # before: "branch 0  w=1.16  point 8  8%, 00:03 elapsed, 00:34 left", a percentage and a time left
+    # that went stale when the branch stopped
+    clock, log = Clock(), io.StringIO()
+    p = Progress(stream=log, clock=clock, delay=0.0, log_interval=100.0)
+    lam = [1.0, 1.05, 1.1, 1.2, 1.16]  # turned back at a fold, then stopped
+    for i in range(len(lam)):
+        clock.t = 0.75 * i
+        p.update(f"branch 0  w={lam[i]:.4g}  point {i}", parameter=np.array(lam[:i + 1]), bounds=(3.0, 1.0),
+                 task="branch 0")
+    p.close()
+    lines = log.getvalue().splitlines()
+    assert lines[-1] == "branch 0  w=1.16  point 4  ended: covered [1, 1.2] of [1, 3], 00:03 elapsed"
+    assert not any(re.search(r"left|\d+%", line) for line in lines[1:]), lines
 
 
 def test_short_runs_print_nothing():
@@ -86,7 +102,7 @@ def test_counts_and_text_only_tasks():
     p.close()
     lines = log.getvalue().splitlines()
     assert lines[0].startswith("setting 1/4  0%")
-    assert lines[1] == "setting 4/4  75%, 00:12 elapsed, 00:04 left"  # at the end of the task, when the next starts
+    assert lines[1] == "setting 4/4  ended: 3 of 4 done, 00:12 elapsed"  # at the end of the task, when the next starts
     assert lines[-1] == "shooting at F=0.5  (00:02 elapsed)"
 
 

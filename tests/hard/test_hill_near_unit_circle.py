@@ -15,6 +15,7 @@ import yaml
 from scipy.optimize import brentq
 from scipy.special import mathieu_a, mathieu_b
 
+from contin import ContinWarning
 from contin.engine.branch import SpecialKind
 from contin.model.catalog import build_model
 from contin.app.cli import main
@@ -102,10 +103,11 @@ def test_inaccurate_hill_near_minus_one_falls_back_to_the_monodromy():
     assert not ok.fallback and ok.method is StabilityMethod.HILL and ok.gap < 1e-8
 
 
-@pytest.mark.filterwarnings("ignore:Hill.s method and the monodromy disagree")
+@pytest.mark.filterwarnings("ignore:Hill.s multipliers disagreed with the monodromy.s on the stability")
 def test_fallback_is_reported_in_the_branch_message_a_warning_and_summary(tmp_path):
     hb = mathieu(0.3, 0.02, 1)
-    with pytest.warns(RuntimeWarning, match="differ from the monodromy"):
+    with pytest.warns(ContinWarning, match=r"disagreed with the monodromy's near \+-1 .* at \d+ of the branch's "
+                                           r"\d+ points"):
         diagram = follow(hb, np.zeros(hb.size), 1.6, (1.6, 1.85), {"ds": 0.05},
                          stability={"method": "both", "agreement": 1e-3, "unit_check": 0.3}, switch=(), max_depth=0,
                          parameter_name="w")
@@ -122,7 +124,7 @@ def test_fallback_is_reported_in_the_branch_message_a_warning_and_summary(tmp_pa
     path = tmp_path / "mathieu_h1.yaml"
     path.write_text(yaml.safe_dump(scene))
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
+        warnings.simplefilter("ignore", ContinWarning)
         assert main(["run", str(path), "-o", str(tmp_path / "out"), "-q"]) == 0
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     (b,) = summary["analysis"]["branches"]

@@ -24,6 +24,7 @@ from pathlib import Path
 
 import pytest
 
+from contin import ContinWarning
 from contin.model import codegen
 
 pytestmark = pytest.mark.skipif(not hasattr(os, "geteuid"), reason="POSIX owners and modes")
@@ -84,7 +85,7 @@ def load(source: str):
     with warnings.catch_warnings(record=True) as record:
         warnings.simplefilter("always")
         module = codegen.load_module(source)
-    return module, [str(w.message) for w in record if issubclass(w.category, RuntimeWarning)]
+    return module, [str(w.message) for w in record if issubclass(w.category, ContinWarning)]
 
 
 def warned(messages, text):
@@ -228,6 +229,6 @@ def test_each_refused_directory_is_warned_about_once(sandbox, monkeypatch, recwa
     for _ in range(3):
         assert codegen.load_module(unique_source()).VALUE == "genuine"
     about = [w for w in recwarn if str(shared) in str(w.message)]
-    assert len(about) == 1 and issubclass(about[0].category, RuntimeWarning)
+    assert len(about) == 1 and issubclass(about[0].category, ContinWarning)
     assert not list(shared.iterdir())
 

@@ -51,3 +51,18 @@ def test_curves_of_one_kind_share_a_legend_entry_and_axes_show_symbols(tmp_path)
                                   labels={"eps": "parametric excitation"}, units={"delta": "1"})
     assert names == ["curves.png", "curves.svg"]
     assert all((tmp_path / n).stat().st_size > 1000 for n in names)
+
+
+def test_an_unlocated_one_parameter_point_is_grey_and_said_so():
+    eps = np.linspace(0.05, 1.0, 6)
+    curves = [{"kind": "fold", "x": 1.0 + 0.3 * eps, "y": eps, "id": 0, "label": "fold"}]
+    points = [{"kind": "fold", "x": 1.12, "y": 0.4, "located": True},
+              {"kind": "fold", "x": 1.24, "y": 0.8, "located": False}]
+    ax = Figure().add_subplot()
+    draw_two_parameter(ax, curves, [], points, "w", "F", xlim=(0.9, 1.5), ylim=(0.05, 1.0))
+    found, lost = ([ln for ln in ax.lines if ln.get_xydata().shape == (1, 2)
+                    and np.allclose(ln.get_xydata(), [[q["x"], q["y"]]])][0] for q in points)
+    assert found.get_color() == "tab:red" and lost.get_color() == "0.45"
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert "found by the one-parameter runs: fold (not located)" in labels
+    assert "located by the one-parameter runs: fold" in labels

@@ -9,6 +9,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
+from contin import ContinWarning
 from conftest import fd_jacobian
 
 from contin.model import codegen
@@ -463,7 +465,7 @@ def test_unwritable_cache_directory_falls_back(tmp_path, monkeypatch):
     blocker = tmp_path / "file"
     blocker.write_text("not a directory")
     monkeypatch.setenv("CONTIN_CACHE_DIR", str(blocker / "kernels"))
-    with pytest.warns(RuntimeWarning, match="kernels"):  # the refused directory is named
+    with pytest.warns(ContinWarning, match="kernels"):  # the refused directory is named
         mod = codegen.load_module("# fallback test\nVALUE = 7\n")
     assert mod.VALUE == 7 and not str(mod.__file__).startswith(str(blocker))
 

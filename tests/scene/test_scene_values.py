@@ -85,7 +85,9 @@ def test_the_continued_parameter_is_held_to_its_constraint():
 
 
 def test_a_further_start_outside_the_frequencies_is_named():
-    with pytest.raises(SceneError, match=r"^analysis\.starts\[0\]\.start: expected values of w"):
+    # the value came from --set, and the message cites it as such
+    with pytest.raises(SceneError, match=r"^analysis\.starts\[0\]\.start \(--set analysis\.starts=\[\{start: -1\}\]\): "
+                                         r"expected values of w"):
         parse_scene(DUFFING, overrides=["analysis.range=[3.0, 0.0]", "analysis.starts=[{start: -1}]"])
 
 

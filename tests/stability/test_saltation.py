@@ -23,6 +23,8 @@ the measured one-period orbit error.
 
 import numpy as np
 import pytest
+
+from contin import ContinWarning
 from conftest import fd_jacobian
 from contin.models.polynomial import polynomial_model
 
@@ -202,7 +204,7 @@ def test_hill_misses_the_saltation_and_both_reports_the_monodromy(gap_orbit):
     assert np.abs(np.sort_complex(both.multipliers) - truth).max() < 1e-3
     for mode in ("none", "interval", "exact"):
         problem = HarmonicBalance(model, "w", HBOptions(harmonics=40, samples=2048, crossings=mode))
-        with pytest.warns(RuntimeWarning, match="saltation"):
+        with pytest.warns(ContinWarning, match="saltation"):
             hill = floquet_multipliers(problem, u, w, StabilityOptions(method="hill"))
         assert hill.ambiguous
         if clip and mode != "exact":

@@ -15,6 +15,7 @@ import warnings
 import numpy as np
 import pytest
 
+from contin import ContinWarning
 import contin.stability.floquet as floquet_module
 import contin.stability.rk4_step_limit as rk4_step_limit_module
 import contin.stability.verdict as verdict_module
@@ -140,7 +141,7 @@ def test_a_point_without_a_verdict_is_kept_and_the_branch_goes_on(stiff_duffing,
                                               r">= \d+ \(the adaptive integration would take about"):
         floquet_multipliers(hb, u, w, opts)
     mon = StabilityMonitor(hb, opts)
-    with pytest.warns(RuntimeWarning, match="no stability verdict at w=1 .*max_steps_per_period"):
+    with pytest.warns(ContinWarning, match="no stability verdict at w=1 .*max_steps_per_period"):
         data = mon(u, w)
     assert set(data) == KEYS and data["evaluated"] is False and data["stable"] is False
     assert all(np.all(np.isfinite(np.asarray(v))) for v in data.values())
@@ -252,7 +253,7 @@ def _crossing_at(lam_c):
 
 def _run(mon, events):
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
+        warnings.simplefilter("ignore", ContinWarning)
         return continuation(_Line(), [0.0], 0.0, (0.0, 1.0), ContinuationOptions(ds=0.05, ds_max=0.05),
                             monitors=[mon], events=events)
 
@@ -314,7 +315,7 @@ def test_step_limits_ignore_points_without_a_verdict():
     pts = []
     for s, lam in ((0.0, 0.0), (0.3, 0.3), (0.5, 0.5), (0.7, 0.7)):
         with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)
+            warnings.simplefilter("ignore", ContinWarning)
             data = mon(np.array([lam]), lam)
         pts.append(PointInfo(np.array([lam]), lam, np.ones(2), None, None, 1, data, s=s))
         ev.test(pts[-1])

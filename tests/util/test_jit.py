@@ -33,6 +33,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 from numba.core import caching
 
+from contin import ContinWarning
 from contin.hb import aft
 from contin.model import codegen
 
@@ -216,7 +217,7 @@ def test_no_acceptable_directory_means_no_disk_cache(sandbox, monkeypatch):
     from contin.util.jit import NoPrivateCache, njit
 
     monkeypatch.setattr(os, "geteuid", lambda: os.stat(sandbox).st_uid + 1)
-    with pytest.warns(RuntimeWarning, match="it belongs to another user"):
+    with pytest.warns(ContinWarning, match="it belongs to another user"):
         kernel = njit(cache=True)(aft._cs.py_func)
     # numba's own njit on a contin file is refused outright rather than sent to numba's locators
     with pytest.raises(NoPrivateCache, match="no private cache directory for the kernels of .*aft.py"):

@@ -20,7 +20,6 @@ one solution period ``2 pi nu / w``. Writes ``belt_subharmonics.png``.
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +27,7 @@ import numpy as np
 from contin.util.blas import limit_blas_threads
 from contin.model.catalog import build_model
 from contin.output.results import read_csv
+from contin.app.pointplot import load_state_row
 from contin.app.runner import run_scene
 from contin.scene.parse import load_scene
 from contin.timedomain.simulation import simulate
@@ -46,11 +46,7 @@ def check_by_time_integration(outdir, scene_name, row):
     scene = load_scene(ROOT / "scenes" / scene_name)
     m = scene.model
     model = build_model("timing_belt", m["parameters"], m["effects"])
-    rec = None
-    for line in open(outdir / "state.jsonl"):
-        r = json.loads(line)
-        if r.get("type") == "point" and r["row"] == row:
-            rec = r
+    rec = load_state_row(outdir, row)
     u, w, nu = np.array(rec["u"]), rec["lam"], rec["nu"]
     U = u.reshape(-1, model.n_dof)
     H = (U.shape[0] - 1) // 2

@@ -6,6 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from contin import ContinWarning
 from contin.scene.registry import shortfalls
 from contin.app.cli import main
 from contin.output.results import read_csv
@@ -101,7 +102,7 @@ def test_points_without_a_stability_verdict_keep_the_branch_and_get_empty_cells(
     scene = tmp_path / "stiff.yaml"
     scene.write_text(STIFF)
     out = tmp_path / "run"
-    with pytest.warns(RuntimeWarning, match="no stability verdict at w=1 .*max_steps_per_period"):
+    with pytest.warns(ContinWarning, match="no stability verdict at w=1 .*max_steps_per_period"):
         assert main(["run", str(scene), "-o", str(out), "-q"]) == 0
     summary = json.loads((out / "summary.json").read_text())
     (b,) = summary["analysis"]["branches"]
