@@ -10,6 +10,14 @@ from contin.util.blas import limit_blas_threads
 
 limit_blas_threads(1)
 
+# In CI (CI=true) the property tests draw the same examples on every run, so that a landing is judged on the
+# change, not on the draw; elsewhere they draw anew each run, and a failure found is kept in .hypothesis/.
+from hypothesis import settings as _hypothesis_settings  # noqa: E402
+
+_hypothesis_settings.register_profile("ci", derandomize=True)
+if os.environ.get("CI"):
+    _hypothesis_settings.load_profile("ci")
+
 
 def pytest_configure(config):
     """The slow tier (``-m slow``, ``-m ""``) runs the property tests at their full depth (see fuzz_examples);
