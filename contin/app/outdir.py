@@ -34,7 +34,7 @@ __all__ = ["LOCK_NAME", "OutdirLock", "check_outdir", "clean_temporary_files", "
 #: the lock file, and the mark of a directory contin writes
 LOCK_NAME = ".contin.lock"
 #: suffixes of the files contin writes into a result directory
-_RESULT_SUFFIXES = (".csv", ".json", ".jsonl", ".npz", ".mat", ".png", ".pdf", ".svg")
+_RESULT_SUFFIXES = (".csv", ".json", ".jsonl", ".bin", ".npz", ".mat", ".png", ".pdf", ".svg")
 #: directories contin makes inside one (convergence runs, sweep points)
 _RESULT_DIRS = ("runs", "points")
 #: a summary.json larger than this is no summary of contin's (a run's is kilobytes to a few megabytes)
