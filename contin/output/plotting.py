@@ -92,7 +92,6 @@ def _groups(branches) -> list:
             out.append([i])
         else:
             out[keys[key]].append(i)
-    nus = [branches[g[0]].get("nu") for g in out]
     labels = []
     for g in out:
         br = branches[g[0]]

@@ -3,7 +3,6 @@
 import warnings
 
 import numpy as np
-import pytest
 
 from contin import ContinWarning
 from contin.bifurcation.diagram import follow

@@ -13,7 +13,6 @@ numba would look, or checks where the compiled code goes.
 
 from __future__ import annotations
 
-import hashlib
 import importlib
 import importlib.util
 import inspect
@@ -22,7 +21,6 @@ import pathlib
 import pickle
 import subprocess
 import sys
-import tempfile
 import warnings
 from pathlib import Path
 
