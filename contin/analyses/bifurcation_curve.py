@@ -272,6 +272,7 @@ def run(ctx) -> dict:
     opts, curve_opts, cur_opts, setup = plan["opts"], plan["curve_opts"], plan["cur_opts"], plan["setup"]
 
     rec = BranchRecorder(ctx.outdir, model.dof_names, p1, scene.output["harmonic_columns"], hb.H, model=model)
+    rec.expansion.full = hb
     ctx.recorder = rec
     runs_info: list[dict] = []
     kinds = tuple(a["curves"])

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 
 import numpy as np
 
@@ -10,6 +9,7 @@ from contin.hb.measures import measure_names, point_measures
 from contin.hb.torus import QuasiPeriodicBalance, torus_measure_names, torus_measures
 from contin.output.checkpoint import read_records, special_record
 from contin.output.dense import checkpoint_solutions
+from contin.output.expansion import ENGINE_UNKNOWNS, StoredExpansion
 from contin.output.results import CsvStream, read_csv
 from contin.output.state_store import INLINE
 from contin.output.state_writer import StateWriter
@@ -66,6 +66,8 @@ class BranchRecorder:
         self.curves: dict[int, dict] = {}
         self.special_list: list[dict] = []
         self.problems: dict = {}  # branch id -> its problem, to expand condensed unknowns
+        # the stored unknowns' full coefficients (its full problem set by the analysis: expansion.full = hb)
+        self.expansion = StoredExpansion(None, self.problems)
 
     def _full(self, branch_id: int, u, lam: float, problem=None):
         """Full coefficients of the engine's ``u`` (expanded when the branch's problem is condensed)."""
@@ -109,10 +111,13 @@ class BranchRecorder:
                               "unknown_scale": None if su is None else np.asarray(su),
                               "parameter_scale": branch.info.get("parameter_scale"),
                               "dofs": None if kept is None else [int(d) for d in kept],
+                              "unknowns": ENGINE_UNKNOWNS,  # the engine's (kept dofs'): contin.output.expansion
                               "torus": _torus_header(self.problems.get(branch_id))})
+        su, sl = branch.info.get("unknown_scale"), branch.info.get("parameter_scale")
         self.state.write({
-            "type": "point", "row": self.n_rows, "branch": branch_id, "nu": nu, "H": H, "lam": lam, "u": _vector(u),
-            "tangent": _vector(branch.tangents[i]), "s": float(branch.arclength[i]),
+            "type": "point", "row": self.n_rows, "branch": branch_id, "nu": nu, "H": H, "lam": lam,
+            "u": _vector(branch.unknowns[i]), "tangent": _vector(branch.tangents[i]),
+            "scale": [None if su is None else np.asarray(su), sl], "s": float(branch.arclength[i]),
             "step": float(branch.step_sizes[i]), "iterations": int(branch.newton_iterations[i]),
             "residual": float(branch.residual_norms[i]),
             "data": {k: v[i] for k, v in pd.items()}})
@@ -124,8 +129,7 @@ class BranchRecorder:
         c["rows"].append(row)
         c["stable"].append(row.get("stable"))
         kept = getattr(self.problems.get(branch_id), "dofs", None)
-        self._keep_solution(c, u, branch.tangents[i], branch.info.get("unknown_scale"),
-                            branch.info.get("parameter_scale"), kept, H)
+        self._keep_solution(c, u, branch.tangents[i], su, sl, kept, H)
 
     def _keep_solution(self, c: dict, u, tangent, su, sl, kept, H) -> None:
         """Keep a point's full coefficients ``u`` and its tangent in the unknowns' units (for the dense curves).
@@ -153,26 +157,21 @@ class BranchRecorder:
         for sp in branch.special_points[done:]:
             if sp.kind.value == "start" or self._duplicate(branch_id, sp):
                 # kept in the checkpoint all the same: a resumed branch holds every special point
-                self.state.write(special_record(branch_id, self._full_point(branch_id, sp), csv=False))
+                self.state.write(special_record(branch_id, sp, csv=False))
                 continue
             i = min(max(sp.index, 0), len(branch) - 1)
             if i + 1 < len(branch) and abs(branch.parameter[i + 1] - sp.parameter) < abs(branch.parameter[i] - sp.parameter):
                 i += 1
             row = {"branch": branch_id, "kind": sp.kind.value, self.parameter: float(sp.parameter), "index": off + i}
-            sp = self._full_point(branch_id, sp)
-            row.update(self._measures(sp.unknowns, len(self.dof_names), self.curves.get(branch_id, {}).get("nu", 1),
-                                      self.problems.get(branch_id), float(sp.parameter)))
+            row.update(self._measures(self._full(branch_id, sp.unknowns, float(sp.parameter)), len(self.dof_names),
+                                      self.curves.get(branch_id, {}).get("nu", 1), self.problems.get(branch_id),
+                                      float(sp.parameter)))
             lo, hi = sp.bracket
             row.update({"interval_lo": float(lo), "interval_hi": float(hi), "located": bool(sp.located),
                         "detail": _detail(sp)})
             self.special.write(row)
             self.special_list.append(dict(row, _before=off + min(max(sp.index, 0), len(branch) - 1)))
             self.state.write(special_record(branch_id, sp))
-
-    def _full_point(self, branch_id: int, sp):
-        """``sp`` with full coefficients (expanded when the branch's problem is condensed)."""
-        u_full = self._full(branch_id, sp.unknowns, float(sp.parameter))
-        return sp if u_full is sp.unknowns else dataclasses.replace(sp, unknowns=u_full)
 
     def checkpoint(self, branch_id: int, branch, state: dict) -> None:
         """The engine's state after a step (or its monitors' at the branch's end): see :mod:`contin.output.checkpoint`."""
@@ -184,8 +183,15 @@ class BranchRecorder:
             self.state.write({"type": "end", "branch": branch_id, "status": branch.status.value,
                               "message": branch.message, "info": info, "monitors": state.get("monitors") or []})
 
-    def restore(self, previous: dict) -> None:
-        """Take up the rows and special points of an interrupted run (``--resume``)."""
+    def restore(self, previous: dict, full=None) -> None:
+        """Take up the rows and special points of an interrupted run (``--resume``).
+
+        ``full``: the run's full problem, which expands the stored unknowns of condensed branches
+        (:class:`contin.output.expansion.StoredExpansion`).
+        """
+        if full is not None:
+            self.expansion.full = full
+        expansion = self.expansion
         rows = read_csv(self.rows.path)
         self.n_rows = len(rows.get("branch", []))  # the rows of this run continue the numbering
         solutions = checkpoint_solutions(read_records(self.state.path))
@@ -199,7 +205,11 @@ class BranchRecorder:
             c["rows"].append(row)
             c["stable"].append(st)
             if r in solutions:
-                self._keep_solution(c, *solutions[r])
+                u, tangent, su, sl, kept, H, header, lam = solutions[r]
+                u_full = expansion(header, u, lam)
+                if u_full is None:
+                    raise ValueError(f"row {r} of the checkpoint holds the kept dofs only, and no problem expands it")
+                self._keep_solution(c, u_full, tangent, su, sl, kept, H)
         sp = read_csv(self.special.path)
         for r in range(len(sp.get("branch", []))):
             row = {c: sp[c][r] for c in self.special_columns if c in sp}

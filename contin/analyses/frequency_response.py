@@ -237,6 +237,7 @@ def run(ctx) -> dict:
     except ValueError as exc:  # the files to continue have other columns
         raise SceneError("--resume", "result files of this scene", str(exc),
                          hint="; run again without --resume, or use another -o") from None
+    rec.expansion.full = hb
     if previous:
         rec.restore(previous)
     ctx.recorder = rec

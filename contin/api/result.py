@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from contin.app.pointplot import stored_expansion
 from contin.output.exports import EXPORT_FORMATS, collect_run, stability_code, write_exports
 from contin.output.plotting import branch_label
 from contin.output.results import read_csv
@@ -186,7 +187,7 @@ class Result:
     def data(self) -> dict:
         """Every array of the run (:func:`contin.output.exports.collect_run`), read once."""
         if self._data is None:
-            self._data = collect_run(self.outdir)
+            self._data = collect_run(self.outdir, expand=stored_expansion(self.outdir))
         return self._data
 
     # ------------------------------------------------------------ access
@@ -326,7 +327,7 @@ class Result:
                     shutil.copytree(item, target, dirs_exist_ok=True)
                 else:
                     shutil.copy2(item, target)
-        write_exports(path, exports)
+        write_exports(path, exports, expand=stored_expansion(path))
         return path
 
     @property

@@ -14,12 +14,13 @@ from contin.app.point_drawing import (closed_period, contact_geometry, contact_p
 from contin.hb import aft
 from contin.hb.harmonics import coefficient_blocks, harmonic_amplitudes
 from contin.output.checkpoint import CheckpointError, read_records
+from contin.output.expansion import StoredExpansion, stores_kept
 from contin.output.figures import figure_style, new_figure, save_figure
 from contin.output.labels import axis_label, math
 from contin.scene.files import SUMMARY_CAP, read_input
 from contin.scene.parse import SceneError, parse_scene
 
-__all__ = ["load_state_row", "plot_point", "draw_point"]
+__all__ = ["load_state_row", "plot_point", "draw_point", "read_run_scene", "stored_expansion"]
 
 
 def load_state_row(outdir: Path, row: int) -> dict:
@@ -35,9 +36,12 @@ def load_state_row(outdir: Path, row: int) -> dict:
         records = read_records(path)
     except (CheckpointError, OSError) as exc:
         raise SceneError(str(path), "a state.jsonl written by `contin run`", None, hint=f" ({exc})") from None
+    headers = {}
     for rec in records:
-        if rec["type"] == "point" and rec["row"] == row:
-            return rec
+        if rec["type"] == "branch":
+            headers[rec["branch"]] = rec
+        elif rec["type"] == "point" and rec["row"] == row:
+            return dict(rec, branch_record=headers.get(rec["branch"], {}))
     raise SceneError("--point", f"a row number of {path.parent / 'branches.csv'} stored in state.jsonl", row)
 
 
@@ -48,14 +52,50 @@ def _check_row_size(path: Path, row: int, rec: dict, model, H: int) -> None:
     from contin.scene.budget import Limits, check_demands, harmonic_balance_demands
 
     n = model.n_dof
-    size = n * (2 * H + 1)
+    header = rec.get("branch_record") or {}
+    kept = header.get("dofs") if stores_kept(header) else None
+    if kept is not None and not (isinstance(kept, list) and all(isinstance(d, int) and 0 <= d < n for d in kept)):
+        raise SceneError(str(path), f"row {row}'s branch record with kept dofs among the model's {n}", kept)
+    n_stored = n if kept is None else len(kept)
+    size = n_stored * (2 * H + 1)
     u = rec.get("u")  # a list when short, else the array read from state.bin
     if not isinstance(u, (list, np.ndarray)) or len(u) != size:
         found = f"{len(u)} values" if isinstance(u, (list, np.ndarray)) else type(u).__name__
-        dofs = "1 dof" if n == 1 else f"{n} dofs"
+        dofs = "1 dof" if n_stored == 1 else f"{n_stored} dofs"
         raise SceneError(str(path), f"row {row} with {size} coefficients ({dofs} x (2H+1), H = {H})", found)
     N = max(default_samples(H, model.degree), model.min_samples)
     check_demands([harmonic_balance_demands(n, H, N, f"{path} row {row} (H = {H})")], Limits.of_machine())
+
+
+def read_run_scene(outdir: Path):
+    """The summary of the run in ``outdir`` (``summary.json``) and the scene it holds (parsed again)."""
+    outdir = Path(outdir)
+    if not (outdir / "summary.json").is_file():
+        raise SceneError(str(outdir), "a result directory written by `contin run` (with summary.json)", None)
+    try:
+        raw, _ = read_input(outdir / "summary.json", SUMMARY_CAP)  # a regular file, not a pipe or a device
+        summary = json.loads(raw.decode("utf-8"))
+    except OSError as exc:
+        raise SceneError(str(outdir / "summary.json"), "a summary written by `contin run`", None,
+                         hint=f" ({exc.strerror})") from None
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise SceneError(str(outdir / "summary.json"), "a summary written by `contin run`", None,
+                         hint=f" ({exc})") from None
+    if not (isinstance(summary, dict) and isinstance(summary.get("scene"), dict)):
+        raise SceneError(str(outdir / "summary.json"), "a summary written by `contin run` (with its scene)", None)
+    return summary, parse_scene(yaml.safe_dump(summary["scene"]), str(outdir / "summary.json"))
+
+
+def stored_expansion(outdir: Path) -> StoredExpansion:
+    """What expands the stored unknowns of the run in ``outdir`` (its problem built only when a row needs it)."""
+    from contin.analyses.frequency_response import build_problem
+    from contin.scene.build import build_model
+
+    def make():
+        _, scene = read_run_scene(outdir)
+        return build_problem(scene, build_model(scene))
+
+    return StoredExpansion(make=make)
 
 
 def plot_point(outdir: Path, row: int, samples: int = 512) -> Path:
@@ -71,20 +111,7 @@ def plot_point(outdir: Path, row: int, samples: int = 512) -> Path:
     from contin.scene.build import build_model
 
     outdir = Path(outdir)
-    if not (outdir / "summary.json").is_file():
-        raise SceneError(str(outdir), "a result directory written by `contin run` (with summary.json)", None)
-    try:
-        raw, _ = read_input(outdir / "summary.json", SUMMARY_CAP)  # a regular file, not a pipe or a device
-        summary = json.loads(raw.decode("utf-8"))
-    except OSError as exc:
-        raise SceneError(str(outdir / "summary.json"), "a summary written by `contin run`", None,
-                         hint=f" ({exc.strerror})") from None
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise SceneError(str(outdir / "summary.json"), "a summary written by `contin run`", None,
-                         hint=f" ({exc})") from None
-    if not (isinstance(summary, dict) and isinstance(summary.get("scene"), dict)):
-        raise SceneError(str(outdir / "summary.json"), "a summary written by `contin run` (with its scene)", None)
-    scene = parse_scene(yaml.safe_dump(summary["scene"]), str(outdir / "summary.json"))
+    _, scene = read_run_scene(outdir)
     rec = load_state_row(outdir, row)
     nu = rec.get("nu") if isinstance(rec.get("nu"), int) and rec["nu"] >= 1 else scene.analysis.get("subharmonic", 1)
     scene.analysis["subharmonic"] = nu  # the row's own order and harmonic count
@@ -94,7 +121,7 @@ def plot_point(outdir: Path, row: int, samples: int = 512) -> Path:
     model = build_model(scene)
     _check_row_size(outdir / "state.jsonl", row, rec, model, scene.analysis.get("harmonics", 5))
     hb = build_problem(scene, model)
-    u = np.asarray(rec["u"], float)
+    u = StoredExpansion(hb)(rec["branch_record"], rec["u"], rec["lam"])
     if u.shape != (hb.size,) or not np.all(np.isfinite(u)):
         raise SceneError(str(outdir / "state.jsonl"), f"row {row} with {hb.size} finite coefficients",
                          f"{u.size} values")

@@ -190,7 +190,8 @@ def _run(ctx: RunContext, summary: dict, t0: float, resume_command: str | None) 
         summary["message"] = f"interrupted{by}" + (f"; to resume from the last stored point: {resume_command}"
                                                    if resume_command else "")
     try:
-        summary["exports"] = write_exports(outdir, scene.output["exports"], summary)
+        expand = getattr(getattr(ctx, "recorder", None), "expansion", None)  # condensed branches' full coefficients
+        summary["exports"] = write_exports(outdir, scene.output["exports"], summary, expand)
         write_json_atomic(outdir / "summary.json", summary)
     except OSError as exc:
         _failed_write(summary, outdir, WriteFailed(exc), resume_command, ctx.timings)

@@ -24,7 +24,7 @@ import uuid
 from contin.app.sweep_point import _now, _prepare_process, run_point
 from contin.scene.schema import SceneError
 
-__all__ = ["WarmUp", "warm_up", "require_distributed", "MissingDependencyError"]
+__all__ = ["WarmUp", "warm_up", "require_distributed", "MissingDependencyError"]  # noqa: F822 (WarmUp: __getattr__)
 
 #: what ``contin sweep`` says when Dask is needed and not installed
 DASK_MISSING = ("contin sweep runs its points on Dask (the dask.distributed package), which is not installed. "

@@ -2,19 +2,23 @@
 
 One JSON record per line, appended and flushed as the run goes:
 
-- ``{"type": "branch", "branch": j, "nu", "H", "unknown_scale", "parameter_scale", "dofs"}`` when branch ``j``
-  stores its first point (``dofs``: the kept dofs of a condensed problem, else None);
-- ``{"type": "point", "row", "branch", "nu", "H", "lam", "u", "tangent", "s", "step", "iterations",
-  "residual", "data"}`` for every row of ``branches.csv`` (``data``: the monitored values);
+- ``{"type": "branch", "branch": j, "nu", "H", "unknown_scale", "parameter_scale", "dofs", "unknowns"}`` when
+  branch ``j`` stores its first point (``dofs``: the kept dofs of a condensed problem, else None;
+  ``"unknowns": "engine"``: its points hold the engine's unknowns, :mod:`contin.output.expansion`);
+- ``{"type": "point", "row", "branch", "nu", "H", "lam", "u", "tangent", "scale", "s", "step", "iterations",
+  "residual", "data"}`` for every row of ``branches.csv`` (``u``: the engine's unknowns, the kept dofs'
+  coefficients of a condensed problem; ``scale``: the engine's scales ``[su, sl]`` of its tangent;
+  ``data``: the monitored values);
 - ``{"type": "special", "branch": j, "point": {...}, "csv": bool}`` for every special point of the branch
   (full :class:`SpecialPoint`; ``csv``: whether it is a row of ``special_points.csv``);
 - ``{"type": "engine", "branch": j, "state": {...}}`` after each step that stored a point: everything the
-  continuation engine carries to its next step (:func:`contin.engine.continuation.continuation`, ``checkpoint``);
+  continuation engine carries to its next step (:func:`contin.engine.continuation.continuation`, ``checkpoint``),
+  held for the last two such records only (in ``state_last.npz``; the earlier ones are ``stale``);
 - ``{"type": "end", "branch": j, "status", "message", "info", "monitors"}`` when branch ``j`` ends.
 
 The arrays (a point's coefficients ``u`` and its tangent, the engine's
 vectors) are not in the lines: an array of more than
-:data:`~contin.output.state_store.INLINE` values is a reference to its float64
+:data:`~contin.output.state_store.INLINE` numbers is a reference to its
 bytes in ``state.bin`` (or, for the engine's last positions, in
 ``state_last.npz``), read back exactly (:mod:`contin.output.state_store`).
 :func:`read_records` gives the records with numpy arrays in their place. A
@@ -44,7 +48,8 @@ import numpy as np
 
 from contin.engine.branch import Branch, BranchBuilder, BranchStatus, SpecialPoint
 from contin.engine.state import RESTART_KEYS
-from contin.output.state_store import INLINE, ArrayReader, CheckpointError, TornRecord
+from contin.output.expansion import stores_kept
+from contin.output.state_store import INLINE, VOLATILE, ArrayReader, CheckpointError, TornRecord
 
 __all__ = ["CheckpointError", "encode", "decode", "dumps", "keep_records", "read_records", "rebuild_branches",
            "resumable_prefix", "special_record"]
@@ -53,6 +58,10 @@ __all__ = ["CheckpointError", "encode", "decode", "dumps", "keep_records", "read
 #: the keys each kind of record holds (what :func:`rebuild_branches` reads)
 RECORD_KEYS = {"point": ("row", "branch", "lam", "u", "tangent"), "branch": ("branch",),
                "special": ("branch", "point"), "engine": ("branch", "state"), "end": ("branch", "status")}
+
+
+#: the longest array contin has written as a JSON list (longer ones: a checkpoint before state.bin)
+_LISTED = 16
 
 
 def _is_numbers(v) -> bool:
@@ -73,7 +82,7 @@ def _checked(rec, path, lineno: int) -> dict:
         raise CheckpointError(f"{where}: a {kind} record with the keys {', '.join(missing)}")
     if not (isinstance(rec["branch"], int) and rec["branch"] >= 0):
         raise CheckpointError(f"{where}: a branch number, found {rec['branch']!r}")
-    if kind == "point" and any(isinstance(rec[k], list) and len(rec[k]) > INLINE for k in ("u", "tangent")):
+    if kind == "point" and any(isinstance(rec[k], list) and len(rec[k]) > _LISTED for k in ("u", "tangent")):
         raise CheckpointError(f"{where}: written by an older contin (its arrays as JSON lists, without "
                               "state.bin), which this one does not resume")
     if kind == "point" and not (isinstance(rec["row"], int) and isinstance(rec["lam"], (int, float))
@@ -81,7 +90,7 @@ def _checked(rec, path, lineno: int) -> dict:
                                 and len(rec["tangent"]) >= 1):
         raise CheckpointError(f"{where}: a point record with an integer row, a number lam and lists of numbers "
                               "u and tangent")
-    if kind == "engine" and not (isinstance(rec["state"], dict) and all(k in rec["state"] for k in ENGINE_KEYS)):
+    if kind == "engine" and not rec.get("stale") and not (isinstance(rec["state"], dict) and all(k in rec["state"] for k in ENGINE_KEYS)):
         raise CheckpointError(f"{where}: an engine record whose state has the keys {', '.join(ENGINE_KEYS)}")
     if kind == "end" and rec["status"] not in {s.value for s in BranchStatus}:
         raise CheckpointError(f"{where}: an end record with a branch status, found {rec['status']!r}")
@@ -112,11 +121,12 @@ def encode(obj, store=None):
     """JSON-able form of numpy arrays, complex numbers and non-finite floats (inverse: :func:`decode`).
 
     ``store(array)``, when given, takes every array of more than
-    :data:`~contin.output.state_store.INLINE` values and returns what stands for it
+    :data:`~contin.output.state_store.INLINE` numbers and returns what stands for it
     (a reference to its bytes: :class:`contin.output.state_store.StateWriter`).
     """
     if isinstance(obj, np.ndarray):
-        if store is not None and obj.size > INLINE and obj.ndim <= 2 and obj.dtype.kind in "biufc":
+        if store is not None and obj.size * (1 + (obj.dtype.kind == "c")) > INLINE and obj.ndim <= 2 \
+                and obj.dtype.kind in "biufc":
             return store(obj if obj.dtype.kind in "bic" else np.asarray(obj, dtype=np.int64 if obj.dtype.kind == "u"
                                                                          else float))
         if np.iscomplexobj(obj):
@@ -282,8 +292,9 @@ def _resolved(rec, arrays: ArrayReader, where: str):
     ``state_last.npz`` no longer holds is marked ``stale`` (no point to resume from)."""
     out = arrays.resolve(rec, where)
     if isinstance(rec, dict) and rec.get("type") == "engine" and isinstance(rec.get("state"), dict):
-        lost = [k for k, v in rec["state"].items() if isinstance(v, dict) and "__last__" in v]
-        if any(out["state"].get(k) is None for k in lost):
+        if out["state"] is None:  # an earlier step's state, no longer held
+            out["state"], out["stale"] = {}, True
+        elif any(v is None for k, v in out["state"].items() if k in VOLATILE):
             out["stale"] = True
     return out
 
@@ -296,10 +307,14 @@ def _not_json(token: str):
     raise _NonFinite(token)
 
 
-def _kept(u, dofs, H) -> np.ndarray:
-    """The coefficients of the kept ``dofs`` out of a full coefficient vector (harmonic-major)."""
+def _kept(u, header: dict, H) -> np.ndarray:
+    """The engine's unknowns of a stored vector: as stored (:func:`contin.output.expansion.stores_kept`), or in
+    a checkpoint of an earlier contin, the coefficients of the kept dofs out of the full ones (harmonic-major)."""
     u = np.asarray(u, dtype=float)
-    return u if dofs is None else u.reshape(2 * int(H) + 1, -1)[:, np.asarray(dofs, dtype=int)].reshape(-1)
+    dofs = header.get("dofs")
+    if dofs is None or stores_kept(header):
+        return u
+    return u.reshape(2 * int(H) + 1, -1)[:, np.asarray(dofs, dtype=int)].reshape(-1)
 
 
 def rebuild_branches(records: list[dict], parameter_name: str) -> dict[int, Branch]:
@@ -308,7 +323,7 @@ def rebuild_branches(records: list[dict], parameter_name: str) -> dict[int, Bran
     The records are a :func:`resumable_prefix`. The branches hold the
     continuation engine's unknowns: the coefficients of the dofs a branch
     record lists as ``dofs`` when its problem was condensed
-    (:mod:`contin.hb.condensation`; ``u`` is stored full), all of them otherwise.
+    (:mod:`contin.hb.condensation`; :mod:`contin.output.expansion` gives the full ones), all of them otherwise.
     A branch with an ``end`` record has its status, message and ``info``
     (``info["monitor_states"]``: its monitors' final states); the others are
     ``INTERRUPTED`` with ``info["restart"]``, the engine state of their last
@@ -323,8 +338,7 @@ def rebuild_branches(records: list[dict], parameter_name: str) -> dict[int, Bran
         if rec["type"] == "branch":
             headers[j] = decode(rec)
         elif rec["type"] == "point":
-            dofs = headers.get(j, {}).get("dofs")
-            u = _kept(rec["u"], dofs, rec.get("H") or headers.get(j, {}).get("H"))
+            u = _kept(rec["u"], headers.get(j, {}), rec.get("H") or headers.get(j, {}).get("H"))
             if j not in builders:
                 builders[j] = BranchBuilder(parameter_name, u.size)
             b = builders[j].branch
@@ -334,9 +348,9 @@ def rebuild_branches(records: list[dict], parameter_name: str) -> dict[int, Bran
                                      decode(rec.get("data") or {}))
         elif rec["type"] == "special" and j in builders:
             point = decode(rec["point"])
-            point["unknowns"] = _kept(point["unknowns"], headers.get(j, {}).get("dofs"), headers.get(j, {}).get("H"))
+            point["unknowns"] = _kept(point["unknowns"], headers.get(j, {}), headers.get(j, {}).get("H"))
             builders[j].add_special(SpecialPoint.from_dict(point))
-        elif rec["type"] == "engine":
+        elif rec["type"] == "engine" and not rec.get("stale"):
             states[j] = decode(rec["state"])
         elif rec["type"] == "end":
             ends[j] = rec

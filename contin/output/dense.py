@@ -318,25 +318,31 @@ def _nearest_segment(xs, ys, where, sp, log_x, log_y) -> int:
 
 
 def checkpoint_solutions(records) -> dict:
-    """Row -> ``(u, tangent, su, sl, kept dofs, H)`` of every point record of a checkpoint
+    """Row -> ``(u, tangent, su, sl, kept dofs, H, branch record, lam)`` of every point record of a checkpoint
     (:mod:`contin.output.checkpoint`), for the dense curves of a resumed run.
 
-    A point's tangent is in the scales the engine had when it stored the point:
-    those of its branch record, then of the engine record after each step
-    (the scales grow with the unknowns).
+    ``u`` is as stored: the kept dofs' coefficients when the branch record says
+    so (:func:`contin.output.expansion.stores_kept`). A point's tangent is in
+    the scales the engine had when it stored the point: the point record's
+    ``scale``; in a checkpoint of an earlier contin, those of its branch
+    record, then of the engine record after each step.
     """
-    scales, kept, harmonics, out = {}, {}, {}, {}
+    scales, headers, out = {}, {}, {}
     for rec in records:
         j = rec["branch"]
         if rec["type"] == "branch":
             scales[j] = (rec.get("unknown_scale"), rec.get("parameter_scale"))
-            kept[j], harmonics[j] = rec.get("dofs"), rec.get("H")
-        elif rec["type"] == "engine":
+            headers[j] = rec
+        elif rec["type"] == "engine" and not rec.get("stale"):
             st = rec["state"]
             scales[j] = (st.get("su"), st.get("sl"))
         elif rec["type"] == "point":
+            if isinstance(rec.get("scale"), list) and len(rec["scale"]) == 2:  # the scales it was stored in
+                scales[j] = tuple(rec["scale"])
             su, sl = (decode(v) for v in scales.get(j, (None, None)))
-            out[rec["row"]] = (rec["u"], rec["tangent"], su, sl, kept.get(j), rec.get("H") or harmonics.get(j))
+            h = headers.get(j, {})
+            out[rec["row"]] = (rec["u"], rec["tangent"], su, sl, h.get("dofs"), rec.get("H") or h.get("H"), h,
+                               rec["lam"])
     return out
 
 

@@ -41,6 +41,7 @@ import numpy as np
 
 from contin.hb.qp_basis import QPBasis
 from contin.output.checkpoint import read_records
+from contin.output.expansion import stores_kept
 from contin.output.results import read_csv
 from contin.util.safe_files import replace_file
 
@@ -93,7 +94,7 @@ def _table(path: Path) -> dict:
     return out
 
 
-def collect_run(outdir: str | Path, summary: dict | None = None) -> RunData:
+def collect_run(outdir: str | Path, summary: dict | None = None, expand=None) -> RunData:
     """Read a result directory's tables, summary and point coefficients into arrays.
 
     Parameters
@@ -101,6 +102,11 @@ def collect_run(outdir: str | Path, summary: dict | None = None) -> RunData:
     outdir : path
     summary : dict, optional
         The run's summary, when it is not yet written to ``summary.json``.
+    expand : StoredExpansion, optional
+        Gives the full coefficients of the rows of condensed branches, which
+        ``state.jsonl`` holds for the kept dofs only
+        (:class:`contin.output.expansion.StoredExpansion`); without it, a run
+        with such rows has no ``coefficients``.
 
     Returns
     -------
@@ -122,12 +128,21 @@ def collect_run(outdir: str | Path, summary: dict | None = None) -> RunData:
     path = outdir / "state.jsonl"
     if not path.is_file():
         return data
-    points, tori = {}, {}
+    points, tori, headers = {}, {}, {}
     for rec in read_records(path):
         if rec.get("type", "point") == "point":
             points[int(rec["row"])] = rec  # a resumed run rewrites its last rows: the latest wins
-        elif rec.get("type") == "branch" and rec.get("torus") is not None:
-            tori[int(rec["branch"])] = rec["torus"]
+        elif rec.get("type") == "branch":
+            headers[int(rec["branch"])] = rec
+            if rec.get("torus") is not None:
+                tori[int(rec["branch"])] = rec["torus"]
+    for r, rec in points.items():
+        header = headers.get(int(rec["branch"]))
+        if stores_kept(header):
+            u = None if expand is None else expand(header, rec["u"], rec["lam"])
+            if u is None:
+                return data  # the kept dofs only, and nothing to expand them: left in state.jsonl
+            points[r] = dict(rec, u=u)
     if not points:
         return data
     n = len(data["dofs"])
@@ -232,7 +247,7 @@ def _matlab_name(name: str) -> str:
     return text[:63]
 
 
-def write_exports(outdir: str | Path, formats=("npz",), summary: dict | None = None) -> list[str]:
+def write_exports(outdir: str | Path, formats=("npz",), summary: dict | None = None, expand=None) -> list[str]:
     """Write ``coefficients.csv`` (when the run stored solutions) and ``results.<fmt>`` for each format.
 
     Parameters
@@ -243,6 +258,8 @@ def write_exports(outdir: str | Path, formats=("npz",), summary: dict | None = N
         Among :data:`EXPORT_FORMATS`.
     summary : dict, optional
         The run's summary (read from ``summary.json`` if omitted).
+    expand : StoredExpansion, optional
+        Full coefficients of condensed branches' rows (as :func:`collect_run`).
 
     Returns
     -------
@@ -250,7 +267,7 @@ def write_exports(outdir: str | Path, formats=("npz",), summary: dict | None = N
         The file names written.
     """
     outdir = Path(outdir)
-    data = collect_run(outdir, summary)
+    data = collect_run(outdir, summary, expand)
     names = []
     name = write_coefficients_csv(outdir, data)
     if name:

@@ -1,7 +1,7 @@
 """The arrays of the run's checkpoint, in binary beside ``state.jsonl``.
 
 ``state.jsonl`` holds small records in strict JSON (:mod:`contin.output.checkpoint`);
-an array of more than :data:`INLINE` values is not written there as a list of
+an array of more than :data:`INLINE` numbers is not written there as a list of
 numbers but as a reference to its bytes:
 
 - ``state.bin``: every array of the points, special points, branch headers and
@@ -10,12 +10,15 @@ numbers but as a reference to its bytes:
   "crc": crc32}``; an array equal to one written a moment before (the engine's
   tangent, its start and scales, stored again at every step) refers to the same
   bytes.
-- ``state_last.npz``: the arrays only the latest engine record needs (its point
-  ``x`` and the one before, ``prev_x``, in the engine's scaled coordinates),
-  replaced whole (:func:`contin.util.safe_files.replace_file`) at every step.
-  It holds those of the last two engine records, so the engine record before
-  the one being written still resolves when the run is killed between the two
-  writes. A record refers to one as ``{"__last__": "a<crc32>n<size>"}``.
+- ``state_last.npz``: what only the latest engine record needs: its state
+  (the engine's step sizes, monitors and counters, as the bytes of a JSON
+  object) and the arrays that change at every step (its point ``x`` and the
+  one before, ``prev_x``, in the engine's scaled coordinates), replaced whole
+  (:func:`contin.util.safe_files.replace_file`) at every step. It holds those
+  of the last two engine records, so the engine record before the one being
+  written still resolves when the run is killed between the two writes. A
+  record refers to one as ``{"__last__": "a<crc32>n<size>"}``; an earlier
+  engine record, whose state is no longer held, is not resumed from.
 
 Order of the writes: the bytes of a record's arrays are flushed to
 ``state.bin`` (and ``state_last.npz`` replaced) before its JSON line is
@@ -41,8 +44,9 @@ __all__ = ["ARRAYS_NAME", "LAST_NAME", "INLINE", "VOLATILE", "ArrayReader", "Che
 #: the append-only file of arrays, and the file of the engine's last positions (beside ``state.jsonl``)
 ARRAYS_NAME = "state.bin"
 LAST_NAME = "state_last.npz"
-#: arrays of at most this many values stay in the JSON line (a reference would be no shorter)
-INLINE = 16
+#: arrays of at most this many numbers (a complex one counts two) stay in the JSON line (a reference would be
+#: about as long)
+INLINE = 8
 #: the engine state's arrays that change at every step and are needed for the last record only
 VOLATILE = ("x", "prev_x")
 #: the dtypes an array of the checkpoint has (floats, complex numbers, the engine's integer groups, flags)
@@ -81,11 +85,25 @@ def read_last(path: Path) -> dict:
             out = {}
             for key in z.files:
                 a = z[key]
-                if a.ndim == 1 and a.dtype == np.float64 and key == last_key(a):
+                if a.ndim == 1 and a.dtype in (np.float64, np.uint8) and key == last_key(a):
                     out[key] = a
             return out
     except (OSError, ValueError, EOFError, zlib.error, KeyError, zipfile.BadZipFile):
         return {}  # its records are not resumed from (their engine record is stale)
+
+
+def _json_object(a: np.ndarray, where: str) -> dict:
+    """The JSON object whose bytes ``a`` holds (strict JSON, as contin writes it)."""
+    def refuse(token):
+        raise CheckpointError(f"{where}: strict JSON in {LAST_NAME}, found the token {token}")
+
+    try:
+        obj = json.loads(a.tobytes().decode("utf-8"), parse_constant=refuse)
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise CheckpointError(f"{where}: a JSON object in {LAST_NAME} ({exc})") from None
+    if not isinstance(obj, dict):
+        raise CheckpointError(f"{where}: a JSON object in {LAST_NAME}, found {type(obj).__name__}")
+    return obj
 
 
 class ArrayReader:
@@ -132,7 +150,10 @@ class ArrayReader:
         if "__last__" in obj:
             if self._last is None:
                 self._last = read_last(self._last_path)
-            return self._last.get(obj["__last__"]) if isinstance(obj["__last__"], str) else None
+            a = self._last.get(obj["__last__"]) if isinstance(obj["__last__"], str) else None
+            if a is not None and a.dtype == np.uint8:  # an engine state: a JSON object with references of its own
+                return self.resolve(_json_object(a, where), where)
+            return a
         return {k: self.resolve(v, where) for k, v in obj.items()}
 
     def _array(self, ref: dict, where: str) -> np.ndarray:

@@ -72,7 +72,13 @@ class StateWriter:
         self.lines.flush()
 
     def engine(self, record: dict) -> None:
-        """Append an engine record: its :data:`VOLATILE` arrays in ``state_last.npz``, the rest as :meth:`write`."""
+        """Append an engine record: its state in ``state_last.npz`` (JSON, its :data:`VOLATILE` arrays beside it,
+        its other arrays in ``state.bin``); the line refers to it.
+
+        Only the last engine record of a run is resumed from, so ``state_last.npz`` holds those of the last two
+        records (the one before still resolves when the run is killed between the two writes) and the
+        ``state.jsonl`` lines of the earlier ones resolve to nothing (``stale``).
+        """
         state = dict(record["state"])
         current = {}
         for name in VOLATILE:
@@ -81,12 +87,15 @@ class StateWriter:
                 key = last_key(a)
                 current[key] = a
                 state[name] = {"__last__": key}
-        line = self._encode(dict(record, state=state))
+        text = json.dumps(encode(state, store=self._store), allow_nan=False).encode("utf-8")
+        blob = np.frombuffer(text, dtype=np.uint8)
+        key = last_key(blob)
+        current[key] = blob
+        line = json.dumps(encode(dict(record, state={"__last__": key})), allow_nan=False) + "\n"
         self.arrays.flush()
-        if current:
-            keep = {**self._last, **current}  # this record's and the one before's: either may be the last read
-            replace_file(self.path.with_name(LAST_NAME), lambda fh: np.savez(fh, **keep), binary=True, sync=False)
-            self._last = current
+        keep = {**self._last, **current}  # this record's and the one before's: either may be the last read
+        replace_file(self.path.with_name(LAST_NAME), lambda fh: np.savez(fh, **keep), binary=True, sync=False)
+        self._last = current
         self.lines.write(line)
         self.lines.flush()
 

@@ -98,6 +98,7 @@ def from_the_diagram(outdir: Path, scene, rows, w: float, revolutions: int):
     from contin.analyses.frequency_response import build_problem
     from contin.app.pointplot import load_state_row
     from contin.timedomain.poincare import steady_state
+    from contin.output.expansion import StoredExpansion
     from contin.scene.build import build_model
     from contin.stability import orbit_state
 
@@ -108,7 +109,8 @@ def from_the_diagram(outdir: Path, scene, rows, w: float, revolutions: int):
     rec = load_state_row(outdir, row)
     model = build_model(scene)
     hb = build_problem(scene, model)
-    z = orbit_state(getattr(hb, "full", hb), np.asarray(rec["u"], float), float(rec["lam"]), 0.0)
+    u = StoredExpansion(hb)(rec["branch_record"], rec["u"], rec["lam"])  # the full coefficients
+    z = orbit_state(getattr(hb, "full", hb), u, float(rec["lam"]), 0.0)
     n = model.n_dof
     _, res = steady_state(model, {"w": float(rec["lam"])}, x0=z[:n], v0=z[n:], transient=revolutions - RECORD,
                           record=RECORD)
@@ -139,8 +141,8 @@ def floor_per_point(outdir: Path, scene) -> dict:
         if rec is None or nu in out:
             continue
         full = getattr(hb, "full", hb)
-        u_full, lam = np.array(rec["u"]), float(rec["lam"])
-        u = hb.restrict(u_full) if hasattr(hb, "restrict") else u_full
+        u, lam = np.array(rec["u"]), float(rec["lam"])  # the engine's unknowns (kept dofs when condensed)
+        u_full = hb.expand(u, lam) if hasattr(hb, "expand") else u
         _, Ju, Jlam = hb.linearize(u, lam)
         A = np.zeros((Ju.shape[0] + 1, Ju.shape[0] + 1))
         A[:-1, :-1], A[:-1, -1], A[-1] = Ju, Jlam, 1.0

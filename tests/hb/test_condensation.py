@@ -279,7 +279,7 @@ def test_scene_key_condense(tmp_path):
     assert "fold" in list(st["kind"])  # the hardening spring bends the first resonance over
     np.testing.assert_allclose(st["w"], sf["w"], atol=1e-8)
     np.testing.assert_allclose(st["amp_x1"], sf["amp_x1"], atol=1e-8)
-    # the checkpoint holds full coefficients, solutions of the full problem, whose measures are the rows'
+    # the checkpoint holds the kept dofs' coefficients; expanded, they solve the full problem, with the rows' measures
     from contin.analyses.frequency_response import build_problem
     from contin.hb.measures import point_measures
     from contin.scene.build import build_model as scene_model
@@ -290,12 +290,17 @@ def test_scene_key_condense(tmp_path):
     hb = build_problem(scene, model)
     from contin.output.checkpoint import read_records
 
+    from contin.output.expansion import StoredExpansion
+
     rec = read_records(ot / "state.jsonl")  # the arrays read back from state.bin
-    assert [r["dofs"] for r in rec if r["type"] == "branch"] == [[1]]
+    headers = [r for r in rec if r["type"] == "branch"]
+    assert [r["dofs"] for r in headers] == [[1]] and headers[0]["unknowns"] == "engine"
     points = [r for r in rec if r.get("type", "point") == "point"]
     assert len(points) == len(rt["w"])
+    expand = StoredExpansion(hb)
     for r in points:
-        u = np.asarray(r["u"])
+        assert np.asarray(r["u"]).size == hb.size // 2  # x2's coefficients: half the bytes
+        u = expand(headers[0], r["u"], r["lam"])
         assert u.size == hb.size and np.abs(hb.residual(u, r["lam"])).max() < 1e-9
         m = point_measures(u, 2, list(model.dof_names), 5)
         assert abs(m["amp_x1"] - rt["amp_x1"][r["row"]]) < 1e-12

@@ -12,6 +12,7 @@ import pytest
 
 from contin.model.catalog import build_model
 from contin.output.checkpoint import read_records
+from contin.output.expansion import StoredExpansion
 from contin.hb.problem import HarmonicBalance, HBOptions
 from contin.app.cli import main
 from contin.models.bearing_rotor import stable_subharmonic_interval
@@ -116,10 +117,11 @@ def test_no_period_doubling_and_no_subharmonic(tmp_path_factory, scene):
     assert not np.isin(sp["kind"], ["pd", "ns"]).any()
     params = {"f0": 0.0} if scene == "rotor_f0_0" else {"f0": 0.5, "c2": 5.0}
     model = build_model("bearing_rotor", params)
-    point = min((r for r in read_records(out / "state.jsonl") if r.get("type") == "point"),
-                key=lambda r: abs(r["lam"] - 2.17))
-    u = np.asarray(point["u"])
-    hb = HarmonicBalance(model, "w", HBOptions(harmonics=(len(u) // 4 - 1) // 2, samples=1024))
+    records = read_records(out / "state.jsonl")
+    point = min((r for r in records if r.get("type") == "point"), key=lambda r: abs(r["lam"] - 2.17))
+    header = next(r for r in records if r["type"] == "branch" and r["branch"] == point["branch"])
+    hb = HarmonicBalance(model, "w", HBOptions(harmonics=point["H"], samples=1024))
+    u = StoredExpansion(hb)(header, point["u"], point["lam"])  # the kept dofs' coefficients, expanded
     x, xd, _ = hb.samples_of(u, point["lam"])
     _, res = steady_state(model, {"w": point["lam"]}, x0=x[0], v0=xd[0], transient=300, record=20)
     assert res.label == "period-1", res.note

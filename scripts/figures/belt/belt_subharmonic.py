@@ -27,7 +27,7 @@ import numpy as np
 from contin.util.blas import limit_blas_threads
 from contin.model.catalog import build_model
 from contin.output.results import read_csv
-from contin.app.pointplot import load_state_row
+from contin.app.pointplot import load_state_row, stored_expansion
 from contin.app.runner import run_scene
 from contin.scene.parse import load_scene
 from contin.timedomain.simulation import simulate
@@ -47,7 +47,7 @@ def check_by_time_integration(outdir, scene_name, row):
     m = scene.model
     model = build_model("timing_belt", m["parameters"], m["effects"])
     rec = load_state_row(outdir, row)
-    u, w, nu = np.array(rec["u"]), rec["lam"], rec["nu"]
+    u, w, nu = stored_expansion(outdir)(rec["branch_record"], rec["u"], rec["lam"]), rec["lam"], rec["nu"]
     U = u.reshape(-1, model.n_dof)
     H = (U.shape[0] - 1) // 2
     k = np.arange(1, H + 1)

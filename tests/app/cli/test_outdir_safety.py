@@ -302,10 +302,39 @@ def strict(text: str):
     return json.loads(text, parse_constant=refuse)
 
 
+def engine_states(outdir: Path) -> dict:
+    """The engine states held in state_last.npz, as the text of their JSON, by key."""
+    with np.load(outdir / "state_last.npz") as z:
+        return {k: z[k].tobytes().decode("utf-8") for k in z.files if z[k].dtype == np.uint8}
+
+
+def edit_last_engine_state(outdir: Path, edit) -> None:
+    """Cut state.jsonl after its last engine line and replace that line's state by ``edit(its JSON text)``."""
+    from contin.output.state_store import last_key
+
+    path = outdir / "state.jsonl"
+    lines = path.read_text().splitlines()
+    last = max(i for i, line in enumerate(lines) if line.startswith('{"type": "engine"'))
+    rec = json.loads(lines[last])
+    with np.load(outdir / "state_last.npz") as z:
+        arrays = {k: z[k] for k in z.files}
+    blob = np.frombuffer(edit(arrays[rec["state"]["__last__"]].tobytes().decode("utf-8")).encode("utf-8"),
+                         dtype=np.uint8)
+    arrays[last_key(blob)] = blob
+    rec["state"]["__last__"] = last_key(blob)
+    lines[last] = json.dumps(rec)
+    path.write_text("\n".join(lines[:last + 1]) + "\n")
+    np.savez(outdir / "state_last.npz", **arrays)
+
+
 def test_state_and_summary_are_strict_json(unfinished):
     lines = (unfinished / "state.jsonl").read_text().splitlines()
     records = [strict(line) for line in lines]
-    assert any('"__float__": "inf"' in line for line in lines)  # the engine's event cap: none ahead
+    states = engine_states(unfinished)
+    assert len(states) == 2  # the last two engine records' states
+    for text in states.values():
+        strict(text)
+    assert any('"__float__": "inf"' in text for text in states.values())  # the engine's event cap: none ahead
     strict((unfinished / "summary.json").read_text())
     assert len(records) > 16
 
@@ -320,13 +349,8 @@ def test_state_and_summary_are_strict_json(unfinished):
     ('"fast"', "ds = 'fast'"),
 ])
 def test_a_resume_state_with_a_step_that_is_not_positive_and_finite_is_refused(unfinished, capsys, ds, fragment):
-    path = unfinished / "state.jsonl"
-    lines = path.read_text().splitlines()
-    last = max(i for i, line in enumerate(lines) if line.startswith('{"type": "engine"'))
-    rec = json.loads(lines[last])
-    rec["state"]["ds"] = "@DS@"
-    lines[last] = json.dumps(rec).replace('"@DS@"', ds)
-    path.write_text("\n".join(lines[:last + 1]) + "\n")
+    edit_last_engine_state(unfinished, lambda text: json.dumps(dict(json.loads(text), ds="@DS@"))
+                           .replace('"@DS@"', ds))
     with no_hang(60):  # a step of inf made the resumed run hang
         code, err = run(["run", DUFFING, "-o", str(unfinished), *CHEAP, "--resume"], capsys)
     assert code == 2 and "state.jsonl" in err and fragment in err, err

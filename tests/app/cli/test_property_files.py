@@ -188,12 +188,18 @@ def finished(tmp_path_factory):
     return out
 
 
-def mark_interrupted(out: Path, keep: int):
-    """As a run killed after ``keep`` lines of state.jsonl (what --resume continues)."""
+def mark_interrupted(out: Path, keep: int | None = None):
+    """As a run killed after ``keep`` lines of state.jsonl (what --resume continues).
+
+    By default just after its engine line but one: the earliest line a killed run resumes from (the engine
+    states of the last two steps are held; a cut before them has nothing to resume, and starts again).
+    """
     summary = json.loads((out / "summary.json").read_text())
     summary["status"] = "interrupted"
     (out / "summary.json").write_text(json.dumps(summary))
     lines = (out / "state.jsonl").read_text().splitlines(keepends=True)
+    if keep is None:
+        keep = [i for i, line in enumerate(lines) if line.startswith('{"type": "engine"')][-2] + 1
     (out / "state.jsonl").write_text("".join(lines[:keep]))
 
 
@@ -294,7 +300,7 @@ def test_scene_text_escapes(tmp_path, capsys, text):
 
 @pytest.mark.parametrize("name", ["branches.csv", "special_points.csv"])
 def test_resume_with_a_table_that_is_not_utf8(copy, capsys, name):
-    mark_interrupted(copy, 5)
+    mark_interrupted(copy)
     (copy / name).write_bytes(b"\xe9t\xe9\n")
     code, err = run(["run", DUFFING, "-o", str(copy), *CHEAP, "--resume"], capsys)
     assert code == 2 and name in err
@@ -302,7 +308,7 @@ def test_resume_with_a_table_that_is_not_utf8(copy, capsys, name):
 
 def test_resume_with_special_points_of_other_columns(copy, capsys):
     # (branches.csv is cut to its valid rows and rewritten on resume; special_points.csv is appended to)
-    mark_interrupted(copy, 5)
+    mark_interrupted(copy)
     (copy / "special_points.csv").write_text("[1, 2]\n")
     code, err = run(["run", DUFFING, "-o", str(copy), *CHEAP, "--resume"], capsys)
     assert code == 2 and "special_points.csv" in err
@@ -322,9 +328,9 @@ def test_plot_escapes(copy, capsys, name, content):
 
 
 def test_the_cheap_run_resumes_to_the_same_table(copy, finished, capsys):
-    """The property's positive case, checked exactly: a run cut after a few state lines, resumed, has the
+    """The property's positive case, checked exactly: a run cut two steps before its end, resumed, has the
     rows of the run in one go."""
-    mark_interrupted(copy, 6)
+    mark_interrupted(copy)
     code, err = run(["run", DUFFING, "-o", str(copy), *CHEAP, "--resume"], capsys)
     assert code == 0, err
     consistent(copy)
