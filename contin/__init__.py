@@ -28,19 +28,19 @@ escalate them alone with ``warnings.filterwarnings("ignore", category=contin.Con
 :mod:`contin.models` holds the built-in models (plug-ins of the catalogue).
 """
 
+from contin.scene.registry import ANALYSES
 from contin.util.version import __version__
 from contin.util.warning import ContinWarning
 
 
-#: names of :mod:`contin.api` offered at the top level
-_API = ("System", "Result", "BranchResult", "LocatedPoint", "load", "run", "frequency_response", "backbone", "static",
-        "modes", "frf", "simulate", "bifurcation_curve", "convergence")
+#: names of :mod:`contin.api` offered at the top level (one call per analysis of the table)
+_API = ("System", "Result", "BranchResult", "LocatedPoint", "load", "run", *ANALYSES)
 __all__ = ["__version__", "ContinWarning", *_API]
 
 
 def __getattr__(name):
     if name in _API:
-        import contin.api
+        import contin.api  # deferred: the API loads numba, scipy, matplotlib (1.4 s); ``import contin`` stays light
 
         return getattr(contin.api, name)
     raise AttributeError(f"module 'contin' has no attribute {name!r}")

@@ -34,13 +34,24 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import dataclass
 
+import matplotlib
 import numpy as np
 
-from contin.scene.registry import register_analysis, shortfalls
+from contin.analyses.base import Analysis, RunError, ScaleCheck
+from contin.bifurcation.backbone import BackboneError, BackboneProblem, frequency_extremum_event
+from contin.engine.continuation import ContinuationOptions, continuation
+from contin.hb.measures import measure_names, point_measures
+from contin.modal.equilibrium import ModalError, time_varying_excitations
+from contin.output.dense import dense_branch
+from contin.output.labels import model_symbols, quantity
+from contin.output.plotting import SPECIAL, bifurcation_diagram
+from contin.scene.budget import backbone_demands
+from contin.scene.registry import check_output, shortfalls
 from contin.scene.schema import Key, SceneError, is_int, is_number, mapping, string
 
-__all__ = ["BACKBONE", "check", "result_columns", "run"]
+__all__ = ["BACKBONE", "Backbone", "BackbonePlan", "result_columns"]
 
 
 def _modes_ok(v) -> bool:
@@ -68,8 +79,6 @@ EXTRA = ["interval_lo", "interval_hi", "located", "detail"]
 
 def result_columns(model, H: int) -> dict:
     """``measures`` and the columns of ``branches.csv`` and ``special_points.csv`` of a backbone of ``model``."""
-    from contin.hb.measures import measure_names
-
     measures = measure_names(model.dof_names, 5, H) + (
         list(getattr(model, "observable_names", ())) if getattr(model, "observables", None) else [])
     head = ["branch", "nu", "mode", "amplitude", "frequency", "stable", "n_unstable", "max_multiplier", "unfolding"]
@@ -80,24 +89,20 @@ def result_columns(model, H: int) -> dict:
 class _BackboneRecorder:
     """Streams the rows of ``branches.csv`` and ``special_points.csv``."""
 
-    def __init__(self, outdir, model, H):
-        from contin.output.results import CsvStream
-
+    def __init__(self, sink, model, H):
         self.model = model
         self.observables = getattr(model, "observables", None)
         cols = result_columns(model, H)
         self.measures = cols["measures"]
         self.columns = cols["branches.csv"]
         self.special_columns = cols["special_points.csv"]
-        self.rows = CsvStream(outdir / "branches.csv", self.columns)
-        self.special = CsvStream(outdir / "special_points.csv", self.special_columns)
+        self.rows = sink.table("branches.csv", self.columns)
+        self.special = sink.table("special_points.csv", self.special_columns)
         self.n_rows = 0
         self.curves: dict = {}
         self.special_list: list = []
 
     def _measures(self, u):
-        from contin.hb.measures import point_measures
-
         out = point_measures(u, self.model.n_dof, self.model.dof_names, 5)
         if self.observables is not None:
             out.update(self.observables(u, self.model.n_dof, 1))
@@ -151,124 +156,148 @@ class _BackboneRecorder:
         self.special.close()
 
 
-def check(scene, model) -> dict:
-    """Every check of a ``backbone`` scene with its model; returns its setup.
+@dataclass(frozen=True)
+class BackbonePlan:
+    """The checked choices of a ``backbone`` scene.
 
-    Returns
-    -------
-    dict
-        ``A0``, ``A1`` (the amplitude range), ``log``, ``opts`` (continuation
-        options) and ``problems`` (one :class:`contin.bifurcation.backbone.BackboneProblem`
-        per mode).
+    Attributes
+    ----------
+    A0, A1 : float
+        The amplitude range (start, end).
+    log : bool
+        The points are spaced in ``ln A``.
+    options : ContinuationOptions
+        ``analysis.continuation`` (its direction set per mode by the run).
+    problems : tuple of BackboneProblem
+        One per mode.
+    columns : dict
+        :func:`result_columns`.
     """
-    from contin.scene.registry import check_output
-    from contin.bifurcation.backbone import BackboneProblem
-    from contin.engine.continuation import ContinuationOptions
-    from contin.modal.equilibrium import ModalError
 
-    a = scene.analysis
-    modes = a["mode"] if isinstance(a["mode"], list) else [a["mode"]]
-    A0, A1 = float(a["range"][0]), float(a["range"][1])
-    log = a["spacing"] == "log"
-    if log and min(A0, A1) <= 0:
-        raise scene.error("analysis.range", "two positive amplitudes (spacing: log)", a["range"])
-    if not log and min(A0, A1) < 0:
-        raise scene.error("analysis.range", "two non-negative amplitudes", a["range"])
-    if A0 == 0:
-        raise scene.error("analysis.range", "a start amplitude above zero (the branch starts from the linear mode "
-                          "at a small amplitude)", a["range"])
-    try:
-        opts = ContinuationOptions.from_dict({"ds": 0.01, "ds_max": 0.05, **a["continuation"]})
-    except ValueError as exc:
-        raise SceneError("analysis.continuation", "valid continuation options", None, hint=f": {exc}") from None
-    problems = []
-    for mode in modes:
+    A0: float
+    A1: float
+    log: bool
+    options: ContinuationOptions
+    problems: tuple
+    columns: dict
+
+
+class Backbone(Analysis):
+    """``backbone``: free conservative periodic solutions against their amplitude (module docstring)."""
+
+    name = "backbone"
+    summary = "Free conservative periodic solutions against their amplitude."
+    required = "dof, range"
+    schema = BACKBONE
+
+    def demands(self, scene, model) -> list:
+        return backbone_demands(scene, model)
+
+    def plan(self, scene, model) -> BackbonePlan:
+        """Every check of a ``backbone`` scene with its model (the range, the options, one problem per mode)."""
+        a = scene.analysis
+        modes = a["mode"] if isinstance(a["mode"], list) else [a["mode"]]
+        A0, A1 = float(a["range"][0]), float(a["range"][1])
+        log = a["spacing"] == "log"
+        if log and min(A0, A1) <= 0:
+            raise scene.error("analysis.range", "two positive amplitudes (spacing: log)", a["range"])
+        if not log and min(A0, A1) < 0:
+            raise scene.error("analysis.range", "two non-negative amplitudes", a["range"])
+        if A0 == 0:
+            raise scene.error("analysis.range", "a start amplitude above zero (the branch starts from the linear "
+                              "mode at a small amplitude)", a["range"])
         try:
-            problems.append(BackboneProblem(model, mode, a["dof"], a["harmonics"], a["samples"], a["amplitude"], log))
-        except ModalError as exc:  # the backbone's own errors, and its static problem's
-            key = "analysis.dof" if "neither a dof" in str(exc) or "does not move" in str(exc) else "analysis.mode" \
-                if "mode must" in str(exc) else "model"
-            raise SceneError(key, "a backbone the model can have", None, hint=f": {exc}") from None
+            opts = ContinuationOptions.from_dict({"ds": 0.01, "ds_max": 0.05, **a["continuation"]})
         except ValueError as exc:
-            raise SceneError("analysis", "a discretisation the model can use", None, hint=f": {exc}") from None
-    cols = result_columns(problems[0].model, problems[0].H)
-    check_output(scene, cols["branches.csv"][2:])
-    return {"A0": A0, "A1": A1, "log": log, "opts": opts, "problems": problems, "columns": cols}
-
-
-@register_analysis("backbone", BACKBONE, check=check)
-def run(ctx) -> dict:
-    """Run a ``backbone`` scene; returns its part of ``summary.json``."""
-    from contin.bifurcation.backbone import BackboneError, frequency_extremum_event
-    from contin.engine.continuation import continuation
-    from contin.modal.equilibrium import time_varying_excitations
-    from contin.scene.registry import RunError
-
-    scene, model = ctx.scene, ctx.model
-    a = scene.analysis
-    plan = ctx.plan  # check(), made before anything was written
-    A0, A1, log, opts, problems = plan["A0"], plan["A1"], plan["log"], plan["opts"], plan["problems"]
-    rec = _BackboneRecorder(ctx.outdir, problems[0].model, problems[0].H)
-    t0 = time.perf_counter()
-    info = []
-    try:
-        for bid, prob in enumerate(problems):
-            lam0, lam1 = prob.parameter_of(A0), prob.parameter_of(A1)
+            raise SceneError("analysis.continuation", "valid continuation options", None, hint=f": {exc}") from None
+        problems = []
+        for mode in modes:
             try:
-                v0 = prob.start(A0, opts)
-            except BackboneError as exc:
-                raise RunError(f"backbone of mode {prob.mode}: {exc}") from None
+                problems.append(BackboneProblem(model, mode, a["dof"], a["harmonics"], a["samples"], a["amplitude"],
+                                                log))
+            except ModalError as exc:  # the backbone's own errors, and its static problem's
+                key = "analysis.dof" if "neither a dof" in str(exc) or "does not move" in str(exc) else \
+                    "analysis.mode" if "mode must" in str(exc) else "model"
+                raise SceneError(key, "a backbone the model can have", None, hint=f": {exc}") from None
+            except ValueError as exc:
+                raise SceneError("analysis", "a discretisation the model can use", None, hint=f": {exc}") from None
+        cols = result_columns(problems[0].model, problems[0].H)
+        check_output(scene, cols["branches.csv"][2:])
+        return BackbonePlan(A0=A0, A1=A1, log=log, options=opts, problems=tuple(problems), columns=cols)
 
-            def callback(branch, i, bid=bid, prob=prob):
-                rec.point(bid, prob, branch, i)
-                ctx.progress.update(f"backbone of mode {prob.mode}: amplitude "
-                                    f"{prob.amplitude_target(branch.parameter[i])[0]:.4g}, "
-                                    f"frequency {branch.unknowns[i][prob.m]:.6g}",
-                                    parameter=branch.parameter, bounds=(lam0, lam1), task=f"backbone {bid}")
-                return not ctx.stop_requested
+    def describe(self, plan: BackbonePlan, scene, model) -> list[str]:
+        a = scene.analysis
+        return [f"  free periodic solutions of mode(s) {a['mode']}, {a['amplitude']} amplitude of "
+                f"{a['dof'] or 'the first observable'} over {a['range']} ({a['spacing']} spacing), harmonics "
+                f"H={a['harmonics']}; unknowns: {model.n_dof * (2 * a['harmonics'] + 1) + 2} = {model.n_dof} dof x "
+                f"(2H+1) + frequency + unfolding parameter"]
 
-            o = opts.replace(direction=1 if lam1 > lam0 else -1)
-            br = continuation(prob, v0, lam0, tuple(sorted((lam0, lam1))), o, parameter_name="amplitude",
-                              events=[frequency_extremum_event(prob)], callback=callback, solve_start=False)
-            rec.specials(bid, prob, br)
-            W = br.unknowns[:, prob.m] if len(br) else np.array([])
-            eps = np.abs(br.unknowns[:, prob.m + 1]).max() if len(br) else math.nan
-            info.append({"branch": bid, "nu": 1, "mode": prob.mode, "linear_frequency": prob.omega0,
-                         "points": len(br), "status": br.status.value, "message": br.message,
-                         "frequency_range": [float(W.min()), float(W.max())] if len(br) else None,
-                         "max_abs_unfolding": float(eps),
-                         "frequency_extrema": [float(s.data.get("frequency", math.nan)) for s in br.special_points
-                                               if s.kind.value == "user"]})
-            if ctx.stop_requested:
-                ctx.interrupted = True
-                break
-    finally:
-        rec.close()
-    ctx.timings["continuation"] = time.perf_counter() - t0
-    ctx.plot = lambda: _plot(ctx, rec, problems[0], log)
-    return {
-        "observed": problems[0].observe,
-        "amplitude": a["amplitude"],
-        "harmonics": problems[0].H,
-        "samples": problems[0].hb.N,
-        "unknowns": problems[0].m + 2,
-        "linear_frequencies": [float(w) for w in problems[0].omega_all],
-        "static_equilibrium": [float(v) for v in problems[0].x0],
-        "dropped_excitations": time_varying_excitations(model),
-        "branches": info,
-        "rows": rec.n_rows,
-        "special_points": len(rec.special_list),
-        "shortfalls": shortfalls(info, "amplitude"),
-    }
+    def scale_checks(self, plan: BackbonePlan) -> list[ScaleCheck]:
+        return [ScaleCheck("analysis.continuation.unknown_scale", plan.options, p.m + 2,
+                           f"{p.m} coefficients, the frequency and the amplitude") for p in plan.problems]
+
+    def run(self, plan: BackbonePlan, ctx):
+        """Follow each mode's backbone over the amplitude range; tables and summary."""
+        scene, model = ctx.scene, ctx.model
+        a = scene.analysis
+        A0, A1, log, opts, problems = plan.A0, plan.A1, plan.log, plan.options, plan.problems
+        rec = _BackboneRecorder(ctx.sink, problems[0].model, problems[0].H)
+        t0 = time.perf_counter()
+        info = []
+        try:
+            for bid, prob in enumerate(problems):
+                lam0, lam1 = prob.parameter_of(A0), prob.parameter_of(A1)
+                try:
+                    v0 = prob.start(A0, opts)
+                except BackboneError as exc:
+                    raise RunError(f"backbone of mode {prob.mode}: {exc}") from None
+
+                def callback(branch, i, bid=bid, prob=prob):
+                    rec.point(bid, prob, branch, i)
+                    ctx.progress.update(f"backbone of mode {prob.mode}: amplitude "
+                                        f"{prob.amplitude_target(branch.parameter[i])[0]:.4g}, "
+                                        f"frequency {branch.unknowns[i][prob.m]:.6g}",
+                                        parameter=branch.parameter, bounds=(lam0, lam1), task=f"backbone {bid}")
+                    return not ctx.stop_requested
+
+                o = opts.replace(direction=1 if lam1 > lam0 else -1)
+                br = continuation(prob, v0, lam0, tuple(sorted((lam0, lam1))), o, parameter_name="amplitude",
+                                  events=[frequency_extremum_event(prob)], callback=callback, solve_start=False)
+                rec.specials(bid, prob, br)
+                W = br.unknowns[:, prob.m] if len(br) else np.array([])
+                eps = np.abs(br.unknowns[:, prob.m + 1]).max() if len(br) else math.nan
+                info.append({"branch": bid, "nu": 1, "mode": prob.mode, "linear_frequency": prob.omega0,
+                             "points": len(br), "status": br.status.value, "message": br.message,
+                             "frequency_range": [float(W.min()), float(W.max())] if len(br) else None,
+                             "max_abs_unfolding": float(eps),
+                             "frequency_extrema": [float(s.data.get("frequency", math.nan)) for s in br.special_points
+                                                   if s.kind.value == "user"]})
+                if ctx.stop_requested:
+                    ctx.interrupted = True
+                    break
+        finally:
+            rec.close()
+        ctx.timings["continuation"] = time.perf_counter() - t0
+        missing = shortfalls(info, "amplitude")
+        part = {
+            "observed": problems[0].observe,
+            "amplitude": a["amplitude"],
+            "harmonics": problems[0].H,
+            "samples": problems[0].hb.N,
+            "unknowns": problems[0].m + 2,
+            "linear_frequencies": [float(w) for w in problems[0].omega_all],
+            "static_equilibrium": [float(v) for v in problems[0].x0],
+            "dropped_excitations": time_varying_excitations(model),
+            "branches": info,
+            "rows": rec.n_rows,
+            "special_points": len(rec.special_list),
+            "shortfalls": missing,
+        }
+        draw = (lambda: _plot(ctx, rec, problems[0], log)) if ctx.sink.writes else None
+        return self.outcome(ctx, part, shortfalls=missing, draw=draw)
 
 
 def _plot(ctx, rec, prob, log):
-    import matplotlib
-
-    from contin.output.dense import dense_branch
-    from contin.output.labels import model_symbols, quantity
-    from contin.output.plotting import SPECIAL, bifurcation_diagram
-
     out = ctx.scene.output
     symbols = {**model_symbols(ctx.model), "frequency": r"\omega"}
     measure = f"{'rms' if ctx.scene.analysis['amplitude'] == 'rms' else 'amp'}_{prob.observe}"
@@ -294,6 +323,6 @@ def _plot(ctx, rec, prob, log):
             ax.axvline(c["omega0"], color=colors[k % len(colors)], ls=":", lw=0.8)
         ax.plot([], [], ls=":", lw=0.8, color="0.4", label="linear natural frequency")
 
-    return bifurcation_diagram(curves, special, "frequency", "amplitude", ctx.outdir / "backbone", units=out["units"],
+    return bifurcation_diagram(curves, special, "frequency", "amplitude", ctx.sink.path("backbone"), units=out["units"],
                                labels=labels, symbols=symbols, title=out["title"], extra=natural_frequencies,
                                formats=out["formats"], dpi=out["dpi"], style=out["style"], log_y=log)

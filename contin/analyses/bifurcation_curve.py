@@ -26,32 +26,45 @@ one-parameter runs (branch ``i`` is the run at ``p2 = values[i]``, listed in
 ``summary.json``), and the figure ``bifurcation_curves.<format>`` (:mod:`contin.output.plane_plot`).
 
 The files are written when each stage finishes; an interrupted run (Ctrl-C)
-keeps the curves traced so far. ``--resume`` reruns the analysis.
+keeps the curves traced so far. ``--resume`` reruns the analysis. A run held
+in memory (the Python API) holds the same tables in its outcome and the
+one-parameter runs' solutions in its ``data``; it writes no file and draws no figure.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import time
+from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
-from contin.scene.registry import register_analysis, shortfalls
-from contin.analyses.frequency_response import BranchRecorder, _start, build_problem, continuation_options
+from contin.analyses.base import Analysis, RunContext, RunError, ScaleCheck
+from contin.analyses.bifurcation_curve_shooting import shooting_options, shooting_reference
+from contin.analyses.branch_recorder import BranchRecorder
+from contin.analyses.frequency_response import build_problem, continuation_options, start_guess
+from contin.analyses.simulate import check_time_step
+from contin.analyses.stability_hooks import stability_options
 from contin.bifurcation.curve_system import FlipTestEvent
-from contin.bifurcation.start import integrated_model
 from contin.bifurcation.two_parameter import CurveOptions, curve_from_point, special_point_kind
 from contin.engine.continuation import ContinuationOptions, continuation
-from contin.hb.problem import HarmonicBalance
+from contin.hb.factory import harmonic_balance
 from contin.hb.measures import measure_names, point_measures
-from contin.output.results import CsvStream
-from contin.scene.registry import RunError
-from contin.scene.parse import START_SIMULATION
-from contin.scene.schema import Key, SceneError, integer, is_int, is_number, listing, mapping, number, string
-from contin.timedomain.shooting import ShootingOptions, period_doubling_scan, periodic_orbit
-from contin.stability import orbit_state
+from contin.hb.problem import HarmonicBalance
+from contin.output.labels import math
+from contin.output.outcome import Outcome
+from contin.output.plane_plot import two_parameter_diagram
+from contin.scene.budget import bifurcation_curve_demands
+from contin.scene.parse import check_parameter_values
+from contin.scene.preflight import dofs_text
+from contin.scene.registry import check_output, shortfalls
+from contin.scene.schema import (START_SIMULATION, Key, SceneError, integer, is_int, is_number, listing, mapping,
+                                 number, string)
+from contin.scene.sweep_plan import SweepPlan, parameter_name, sweep_plan
+from contin.stability import StabilityMethod, StabilityMonitor, stability_events
+from contin.timedomain.shooting import ShootingOptions
 
-__all__ = ["BIFURCATION_CURVE", "check", "describe", "run"]
+__all__ = ["BIFURCATION_CURVE", "BifurcationCurve", "BifurcationCurvePlan"]
 
 
 def _pair(v) -> bool:
@@ -103,9 +116,6 @@ def _options(scene, key: str, cls):
 
 def _one_parameter_setup(scene, hb):
     """Events and monitors of the one-parameter runs."""
-    from contin.analyses.stability_hooks import stability_options
-    from contin.stability import StabilityMethod, StabilityMonitor, stability_events
-
     a = scene.analysis
     stab = stability_options(a)
     if a["pd_test"] == "stability" and "pd" in a["curves"] and stab.method is StabilityMethod.NONE:
@@ -152,126 +162,151 @@ def _on_curve(curves, kind: str, p1: float, p2: float):
     return best
 
 
-def _checked(scene, model):
-    """Validate the section against the model; the problem, ranges and start values."""
-    a = scene.analysis
-    hb = build_problem(scene, model)
-    p1 = hb.parameter
-    p2 = a["second_parameter"]
-    if p2 not in model.parameters:
-        raise scene.error("analysis.second_parameter", f"a parameter of the model {list(model.parameters)}", p2)
-    if p2 == p1:
-        raise scene.error("analysis.second_parameter", f"a parameter other than analysis.parameter ({p1})", p2)
-    dependent = getattr(model, "dependent_parameters", None) or {}
-    for key, name in (("analysis.parameter", p1), ("analysis.second_parameter", p2)):
-        if name in dependent:
-            raise scene.error(key, f"an independent parameter (one of {list(model.parameters)})", name)
-    lo2, hi2 = sorted(float(v) for v in a["second_range"])
-    p2_value = float(model.parameters[p2])
-    if not lo2 <= p2_value <= hi2:
-        raise scene.error("analysis.second_range", f"a range containing the model's {p2} = {p2_value:g}",
-                          a["second_range"])
-    lam_a, lam_b = float(a["range"][0]), float(a["range"][1])
-    lam0 = float(a["start"]) if a["start"] is not None else lam_a
-    lo, hi = min(lam_a, lam_b), max(lam_a, lam_b)
-    if not lo <= lam0 <= hi:
-        raise scene.error("analysis.start", f"a value inside range [{lo:g}, {hi:g}]", lam0)
-    if a["guess"] is not None and len(a["guess"]) != hb.size:
-        raise scene.error("analysis.guess", f"{hb.size} numbers (n*(2H+1) coefficients)", f"{len(a['guess'])} numbers")
-    for key, cls in (("continuation", ContinuationOptions), ("curve_continuation", ContinuationOptions),
-                     ("curve_options", CurveOptions)):
-        _options(scene, key, cls)
-    if a["shooting"]:
-        if "pd" not in a["curves"]:
-            raise scene.error("analysis.shooting", "period-doubling curves to check ('pd' in analysis.curves)",
-                              a["shooting"])
-        _shooting_options(scene)
-    _one_parameter_setup(scene, hb)
-    return hb, (lo, hi), lam0, (lo2, hi2), p2_value
+@dataclass(frozen=True)
+class BifurcationCurvePlan:
+    """Every checked choice of a ``bifurcation_curve`` scene.
 
-
-def _shooting_options(scene) -> ShootingOptions:
-    """``analysis.shooting_options``, with the orbit's period ``subharmonic`` forcing periods by default."""
-    d = {"subharmonic": scene.analysis["subharmonic"], **dict(scene.analysis["shooting_options"])}
-    try:
-        return ShootingOptions.from_dict(d)
-    except (ValueError, TypeError) as exc:
-        raise SceneError("analysis.shooting_options", "valid ShootingOptions fields", None,
-                         hint=f": {exc}") from None
-
-
-def validate(data, model, analysis, lines) -> None:
-    """Refuse parameter values that make no physical sense (a negative frequency, mass, ...)."""
-    from contin.scene.parse import check_parameter_values, model_frequency
-
-    a = analysis
-    p1 = a["parameter"] or model_frequency(model, a)
-    check_parameter_values(model, a, p1, [(f"analysis.{k}", a[k]) for k in ("range", "start") if a[k] is not None],
-                           lines)
-    check_parameter_values(model, a, a["second_parameter"],
-                           [(f"analysis.{k}", a[k]) for k in ("second_range", "overlay", "shooting") if a[k]], lines)
-
-
-def check(scene, model) -> dict:
-    """Every check of a ``bifurcation_curve`` scene with its model; returns its setup.
-
-    Returns
-    -------
-    dict
-        ``hb`` (the one-parameter problem), ``range1``, ``lam0``, ``range2``,
-        ``p2_value``, ``opts``, ``curve_opts``, ``cur_opts`` (continuation and
-        curve options) and ``setup`` (events and monitors of the one-parameter
-        runs).
+    Attributes
+    ----------
+    sweep : SweepPlan
+        The one-parameter runs' parameter ``p1``, range, start and direction.
+    hb : HarmonicBalance
+        The one-parameter problem at the model's value of ``second``.
+    second : str
+        The second parameter ``p2``.
+    second_range : (float, float)
+        ``analysis.second_range``, low to high.
+    second_value : float
+        The model's value of ``second`` (where the first one-parameter run is).
+    options : ContinuationOptions
+        Of the one-parameter runs.
+    curve_options : ContinuationOptions
+        Of the curves (``analysis.curve_continuation``).
+    curve : CurveOptions
+        ``analysis.curve_options``.
+    setup : callable
+        ``setup(problem) -> (events, monitors)`` of a one-parameter run.
+    shooting : ShootingOptions or None
+        Of the shooting reference, when ``analysis.shooting`` asks for one.
     """
-    from contin.scene.registry import check_output
-    from contin.analyses.simulate import check_time_step
 
-    a = scene.analysis
-    hb, (lo, hi), lam0, (lo2, hi2), p2_value = _checked(scene, model)
-    p1, p2 = hb.parameter, a["second_parameter"]
-    opts = continuation_options(scene, lam0, float(a["range"][1]) if lam0 != a["range"][1] else float(a["range"][0]))
-    if a["start_from"] == "simulation":  # each one-parameter run may start from a simulation
-        for value in [p2_value] + [float(v) for v in a["overlay"]]:
-            check_time_step(model, {p1: lam0, p2: value}, a["start_simulation"].get("steps_per_period", 4096),
-                            "analysis.start_simulation.steps_per_period", scene.lines, "analysis.start", hb.frequency)
-    obs = list(getattr(model, "observable_names", ()) if getattr(model, "observables", None) else ())
-    measures = measure_names(model.dof_names, scene.output["harmonic_columns"], hb.H) + obs
-    check_output(scene, measures + ["max_multiplier", "n_unstable"], [p1, p2])
-    return {"hb": hb, "range1": (lo, hi), "lam0": lam0, "range2": (lo2, hi2), "p2_value": p2_value, "opts": opts,
-            "curve_opts": _options(scene, "curve_continuation", ContinuationOptions),
-            "cur_opts": _options(scene, "curve_options", CurveOptions), "setup": _one_parameter_setup(scene, hb)}
+    sweep: SweepPlan
+    hb: HarmonicBalance
+    second: str
+    second_range: tuple
+    second_value: float
+    options: ContinuationOptions
+    curve_options: ContinuationOptions
+    curve: CurveOptions
+    setup: Callable
+    shooting: ShootingOptions | None
 
 
-def describe(scene, model, plan: dict | None = None) -> str:
-    """What ``contin check`` prints for this analysis (after validating it; ``plan`` from :func:`check`)."""
-    plan = plan if plan is not None else check(scene, model)
-    hb, (lo, hi), (lo2, hi2), p2_value = plan["hb"], plan["range1"], plan["range2"], plan["p2_value"]
-    a = scene.analysis
-    p1, p2 = hb.parameter, a["second_parameter"]
-    lines = [f"  one-parameter run in {p1} over [{lo:g}, {hi:g}] at {p2}={p2_value:g}, harmonics H={hb.H}, "
-             f"subharmonic nu={hb.nu}, samples N={hb.N}",
-             f"  unknowns: {hb.size} = {hb.n} dof x (2H+1); curve systems: {hb.size + 1} (coefficients and {p1})",
-             f"  curves: {', '.join(a['curves'])} in ({p1}, {p2}), {p2} over [{lo2:g}, {hi2:g}]"
-             + (f"; period doublings located by the {'flip test' if a['pd_test'] == 'flip' else 'multipliers'}"
-                if "pd" in a["curves"] else ""),
-             f"  overlaid one-parameter runs at {p2} = {', '.join(f'{v:g}' for v in a['overlay']) or 'none'}",
-             f"  period doublings of the integrated flow (shooting) at {p2} = "
-             f"{', '.join(f'{v:g}' for v in a['shooting']) or 'none'}"]
-    return "\n".join(lines)
+class BifurcationCurve(Analysis):
+    """Fold and period-doubling curves in the plane of two parameters (this module's docstring says how)."""
+
+    name = "bifurcation_curve"
+    summary = "Fold and period-doubling curves in the plane of two parameters."
+    required = "range, second_parameter, second_range"
+    schema = BIFURCATION_CURVE
+
+    def validate(self, data: dict, model: dict, analysis: dict, lines: dict) -> None:
+        """Refuse parameter values that make no physical sense (a negative frequency, mass, ...)."""
+        a = analysis
+        p1 = parameter_name(model, a)
+        check_parameter_values(model, a, p1, [(f"analysis.{k}", a[k]) for k in ("range", "start")
+                                              if a[k] is not None], lines)
+        check_parameter_values(model, a, a["second_parameter"],
+                               [(f"analysis.{k}", a[k]) for k in ("second_range", "overlay", "shooting") if a[k]],
+                               lines)
+
+    def demands(self, scene, model) -> list:
+        return bifurcation_curve_demands(scene, model)
+
+    def plan(self, scene, model) -> BifurcationCurvePlan:
+        """Every check of the scene with its model, before anything is written."""
+        a = scene.analysis
+        sweep = sweep_plan(scene, model)
+        hb = build_problem(scene, model)
+        p1, p2 = sweep.parameter, a["second_parameter"]
+        if p2 not in model.parameters:
+            raise scene.error("analysis.second_parameter", f"a parameter of the model {list(model.parameters)}", p2)
+        if p2 == p1:
+            raise scene.error("analysis.second_parameter", f"a parameter other than analysis.parameter ({p1})", p2)
+        dependent = getattr(model, "dependent_parameters", None) or {}
+        for key, name in (("analysis.parameter", p1), ("analysis.second_parameter", p2)):
+            if name in dependent:
+                raise scene.error(key, f"an independent parameter (one of {list(model.parameters)})", name)
+        lo2, hi2 = sorted(float(v) for v in a["second_range"])
+        p2_value = float(model.parameters[p2])
+        if not lo2 <= p2_value <= hi2:
+            raise scene.error("analysis.second_range", f"a range containing the model's {p2} = {p2_value:g}",
+                              a["second_range"])
+        if a["guess"] is not None and len(a["guess"]) != hb.size:
+            raise scene.error("analysis.guess", f"{hb.size} numbers (n*(2H+1) coefficients)",
+                              f"{len(a['guess'])} numbers")
+        for key, cls in (("continuation", ContinuationOptions), ("curve_continuation", ContinuationOptions),
+                         ("curve_options", CurveOptions)):
+            _options(scene, key, cls)
+        shooting = None
+        if a["shooting"]:
+            if "pd" not in a["curves"]:
+                raise scene.error("analysis.shooting", "period-doubling curves to check ('pd' in analysis.curves)",
+                                  a["shooting"])
+            shooting = shooting_options(scene)
+        setup = _one_parameter_setup(scene, hb)
+        opts = continuation_options(scene, sweep.start, sweep.end)
+        if a["start_from"] == "simulation":  # each one-parameter run may start from a simulation
+            for value in [p2_value] + [float(v) for v in a["overlay"]]:
+                check_time_step(model, {p1: sweep.start, p2: value},
+                                a["start_simulation"].get("steps_per_period", 4096),
+                                "analysis.start_simulation.steps_per_period", scene.lines, "analysis.start",
+                                hb.frequency)
+        obs = list(getattr(model, "observable_names", ()) if getattr(model, "observables", None) else ())
+        measures = measure_names(model.dof_names, scene.output["harmonic_columns"], hb.H) + obs
+        check_output(scene, measures + ["max_multiplier", "n_unstable"], [p1, p2])
+        return BifurcationCurvePlan(sweep, hb, p2, (lo2, hi2), p2_value, opts,
+                                    _options(scene, "curve_continuation", ContinuationOptions),
+                                    _options(scene, "curve_options", CurveOptions), setup, shooting)
+
+    def describe(self, plan: BifurcationCurvePlan, scene, model) -> list[str]:
+        """The one-parameter run, the unknowns, the curves, the overlaid runs and the shooting reference."""
+        hb, a = plan.hb, scene.analysis
+        p1, p2 = plan.sweep.parameter, plan.second
+        (lo, hi), (lo2, hi2) = (plan.sweep.lo, plan.sweep.hi), plan.second_range
+        return [f"  one-parameter run in {p1} over [{lo:g}, {hi:g}] at {p2}={plan.second_value:g}, harmonics "
+                f"H={hb.H}, subharmonic nu={hb.nu}, samples N={hb.N}",
+                f"  unknowns: {hb.size} = {hb.n} dof x (2H+1); curve systems: {hb.size + 1} (coefficients and {p1})",
+                f"  curves: {', '.join(a['curves'])} in ({p1}, {p2}), {p2} over [{lo2:g}, {hi2:g}]"
+                + (f"; period doublings located by the {'flip test' if a['pd_test'] == 'flip' else 'multipliers'}"
+                   if "pd" in a["curves"] else ""),
+                f"  overlaid one-parameter runs at {p2} = {', '.join(f'{v:g}' for v in a['overlay']) or 'none'}",
+                f"  period doublings of the integrated flow (shooting) at {p2} = "
+                f"{', '.join(f'{v:g}' for v in a['shooting']) or 'none'}"]
+
+    def scale_checks(self, plan: BifurcationCurvePlan) -> list[ScaleCheck]:
+        """The one-parameter problem's unknowns, and the curve systems' (those and ``p1``)."""
+        hb = plan.hb
+        return [ScaleCheck("analysis.continuation.unknown_scale", plan.options, hb.size,
+                           f"{dofs_text(hb.n)} x {2 * hb.H + 1} coefficients"),
+                ScaleCheck("analysis.curve_continuation.unknown_scale", plan.curve_options, hb.size + 1,
+                           f"{hb.size} coefficients and {hb.parameter}")]
+
+    def run(self, plan: BifurcationCurvePlan, ctx: RunContext) -> Outcome:
+        """The one-parameter run, the curves from its points, the overlaid runs and the shooting reference."""
+        return _run(self, plan, ctx)
 
 
-@register_analysis("bifurcation_curve", BIFURCATION_CURVE, validate=validate, check=check)
-def run(ctx) -> dict:
-    """Run a ``bifurcation_curve`` scene; returns its part of ``summary.json``."""
+def _run(analysis: BifurcationCurve, plan: BifurcationCurvePlan, ctx: RunContext) -> Outcome:
     scene, model = ctx.scene, ctx.model
     a = scene.analysis
-    plan = ctx.plan  # check(), made before anything was written
-    hb, (lo, hi), lam0 = plan["hb"], plan["range1"], plan["lam0"]
-    (lo2, hi2), p2_value = plan["range2"], plan["p2_value"]
-    p1, p2 = hb.parameter, a["second_parameter"]
-    opts, curve_opts, cur_opts, setup = plan["opts"], plan["curve_opts"], plan["cur_opts"], plan["setup"]
+    hb, lam0 = plan.hb, plan.sweep.start
+    lo, hi = plan.sweep.lo, plan.sweep.hi
+    (lo2, hi2), p2_value = plan.second_range, plan.second_value
+    p1, p2 = plan.sweep.parameter, plan.second
+    opts, curve_opts, cur_opts, setup = plan.options, plan.curve_options, plan.curve, plan.setup
 
-    rec = BranchRecorder(ctx.outdir, model.dof_names, p1, scene.output["harmonic_columns"], hb.H, model=model)
+    rec = BranchRecorder(ctx.sink, model.dof_names, p1, scene.output["harmonic_columns"], hb.H, model=model)
     rec.expansion.full = hb
     ctx.recorder = rec
     runs_info: list[dict] = []
@@ -282,20 +317,20 @@ def run(ctx) -> dict:
     def start_at(problem, value: float):
         """A start at ``p2 = value``: the first run's start followed in ``p2``, else the model's own start."""
         if "u" in first:
-            hb2 = HarmonicBalance(model, p2, hb.options, {p1: lam0}, hb.frequency)
+            hb2 = harmonic_balance(model, p2, hb.options, {p1: lam0}, hb.frequency)
             step = opts.replace(direction=1 if value > p2_value else -1, detect_branch_points=False)
             br = continuation(hb2, first["u"], p2_value, sorted((p2_value, value)), step, parameter_name=p2,
                               solve_start=False)
             if len(br) and br.parameter[-1] == value:
                 return br.unknowns[-1].copy()
-        return _start(scene, model, problem, lam0)
+        return start_guess(scene, model, problem, lam0)
 
     def one_parameter(index: int, value: float):
-        problem = hb if value == p2_value else HarmonicBalance(model, p1, hb.options, {p2: value}, hb.frequency)
+        problem = hb if value == p2_value else harmonic_balance(model, p1, hb.options, {p2: value}, hb.frequency)
         if index == 0 and a["guess"] is not None:
             u0 = np.array(a["guess"], dtype=float)
         elif index == 0:
-            u0 = _start(scene, model, problem, lam0)
+            u0 = start_guess(scene, model, problem, lam0)
         else:
             try:
                 u0 = start_at(problem, value)
@@ -365,15 +400,14 @@ def run(ctx) -> dict:
         t3 = time.perf_counter()
         shooting = {}
         if a["shooting"] and len(branch0) and not ctx.stop_requested:
-            shooting = _shooting_reference(ctx, problem0, branch0, curves, p1, p2, p2_value, (lo, hi))
+            shooting = shooting_reference(ctx, plan.shooting, problem0, branch0, curves, p1, p2, p2_value, (lo, hi))
         ctx.timings["shooting"] = time.perf_counter() - t3
     finally:
         rec.close()
     checks = _write_one_parameter_points(ctx, [(0, p2_value, branch0)] + overlay, curves, kinds, p1, p2)
     ctx.interrupted = ctx.interrupted or ctx.stop_requested
-    ctx.plot = lambda: _plot(ctx, curves, checks, p1, p2, (lo, hi), (lo2, hi2), [v for _, v, _ in overlay] + [p2_value],
-                             shooting.get("points", []))
-    return {
+    lines = [v for _, v, _ in overlay] + [p2_value]
+    part = {
         "parameters": [p1, p2],
         "range": [lo, hi],
         "second_range": [lo2, hi2],
@@ -391,120 +425,9 @@ def run(ctx) -> dict:
             [{**e, "branch": f"{cid} ({cur.kind.value}), {e['side']} side,"} for cid, cur in enumerate(curves)
              for e in cur.ends], p2, what="curve"),
     }
-
-
-def _mutual_nearest(x: float, xs, crossing):
-    """``(curve, p1)`` of the curve crossing nearest to ``x`` if ``x`` is also the point of ``xs`` nearest to it."""
-    if not crossing:
-        return None
-    cid, q = min(crossing, key=lambda c: abs(c[1] - x))
-    return (cid, q) if min(xs, key=lambda y: abs(y - q)) == x else None
-
-
-def _orbit_towards(model, p1, p2, lam0, a, b, z, opt, max_halvings=6):
-    """The shooting orbit at ``p2 = b`` (``p1 = lam0``) from the one at ``p2 = a``, in smaller steps where needed."""
-    orb = None
-    for k in range(max_halvings + 1):
-        steps = 2 ** k
-        zz, ok = z, True
-        for v in np.linspace(a, b, steps + 1)[1:]:
-            orb = periodic_orbit(model, {p1: lam0, p2: float(v)}, zz, opt)
-            if not orb.converged:
-                ok = False
-                break
-            zz = orb.state
-        if ok:
-            return orb
-    return orb
-
-
-def _shooting_reference(ctx, problem0, branch0, curves, p1, p2, p2_value, range1) -> dict:
-    """Period doublings of the integrated flow (:mod:`contin.timedomain.shooting`) at ``analysis.shooting`` values of ``p2``.
-
-    The orbit at the start of the first one-parameter run is followed in ``p2``
-    (outwards from the scene's value) and, at each value, over a grid of
-    ``shooting_points`` values of ``p1`` from that start to each end of
-    ``range``. Each period doubling is written to ``shooting_points.csv`` with
-    the nearest harmonic-balance curve and its distance. With
-    ``shooting_refine > 0``, where the period doublings vanish between two
-    values, the end of the region is bracketed by that many bisections in ``p2``.
-    """
-    a = ctx.scene.analysis
-    model = integrated_model(problem0)  # integrated at the problem's frequency
-    opt = _shooting_options(ctx.scene)
-    lam0 = float(branch0.parameter[0])
-    z0 = orbit_state(problem0, branch0.unknowns[0], lam0, 0.0)
-    lo, hi = range1
-    k = a["shooting_points"]
-    grids = [g for g in (np.linspace(lam0, hi, k), np.linspace(lam0, lo, k)) if abs(g[-1] - g[0]) > 0]
-    rows, runs, brackets = [], [], []
-
-    def scan_at(value, z):
-        found = []
-        for grid in grids:
-            sc = period_doubling_scan(model, {p2: value}, p1, grid, z, opt)
-            found += [(float(o.params[p1]), ok, o) for o, ok in zip(sc.points, sc.located)]
-            if sc.status != "complete":
-                return found, sc.message
-        return sorted(found, key=lambda t: t[0]), ""
-
-    def add_rows(value, found):
-        crossing = [(cid, q1) for cid, cur in enumerate(curves) if cur.kind.value == "pd"
-                    for q1, _ in cur.crossings(value)]
-        for w, ok, o in found:
-            near = _mutual_nearest(w, [x for x, _, _ in found], crossing)
-            rows.append({p2: value, p1: w, "located": ok, "max_multiplier": float(np.abs(o.multipliers).max()),
-                         "curve": None if near is None else near[0], f"curve_{p1}": None if near is None else near[1],
-                         "distance": None if near is None else abs(near[1] - w)})
-
-    values = sorted({float(v) for v in a["shooting"]})
-    found_at = {}
-    for side in ([v for v in values if v >= p2_value], [v for v in reversed(values) if v < p2_value]):
-        z, cur = z0, p2_value
-        for value in side:
-            if ctx.stop_requested:
-                break
-            ctx.progress.update(f"shooting at {p2}={value:.6g}", task="shooting")
-            orb = _orbit_towards(model, p1, p2, lam0, cur, value, z, opt)
-            if orb is None or not orb.converged:
-                runs.append({p2: value, "status": "failed", "message": f"the orbit at {p1} = {lam0:g} was lost "
-                             f"on the way from {p2} = {cur:g}: {orb.message if orb else ''}"})
-                break
-            z, cur = orb.state, value
-            found, why = scan_at(value, z)
-            found_at[value] = (found, z)
-            add_rows(value, found)
-            runs.append({p2: value, "status": "failed" if why else "complete", "message": why,
-                         "period_doublings": [w for w, ok, _ in found if ok]})
-    keys = sorted(found_at)
-    for u, v in zip(keys, keys[1:]):
-        if bool(found_at[u][0]) == bool(found_at[v][0]) or not a["shooting_refine"]:
-            continue
-        inside, outside = (u, v) if found_at[u][0] else (v, u)
-        z = found_at[inside][1]
-        for _ in range(a["shooting_refine"]):
-            mid = round(0.5 * (inside + outside), 12)
-            orb = _orbit_towards(model, p1, p2, lam0, inside, mid, z, opt)
-            if not orb.converged:
-                break
-            found, _ = scan_at(mid, orb.state)
-            add_rows(mid, found)  # the region narrowing towards its end
-            if found:
-                inside, z = mid, orb.state
-            else:
-                outside = mid
-        brackets.append({"inside": inside, "outside": outside})
-    out = CsvStream(ctx.outdir / "shooting_points.csv",
-                    [p2, p1, "located", "max_multiplier", "curve", f"curve_{p1}", "distance"])
-    try:
-        for r in rows:
-            out.write(r)
-    finally:
-        out.close()
-    dist = [r["distance"] for r in rows if r["distance"] is not None]
-    return {"options": dataclasses.asdict(opt), "runs": runs, "region_ends": brackets,
-            "max_distance_to_curves": max(dist, default=None),
-            "points": [{"kind": "pd", "x": r[p1], "y": r[p2]} for r in rows if r["located"]]}
+    return analysis.outcome(ctx, part, shortfalls=part["shortfalls"], data=rec.run_data(ctx.summary),
+                            draw=lambda: _plot(ctx, curves, checks, p1, p2, (lo, hi), (lo2, hi2), lines,
+                                               shooting.get("points", [])))
 
 
 def _curve_summary(cid, cur, p1, p2) -> dict:
@@ -524,8 +447,8 @@ def _write_curves(ctx, curves, p1, p2, model) -> None:
     H = max((c.harmonics for c in curves), default=1)
     obs = list(getattr(model, "observable_names", ()) if getattr(model, "observables", None) else ())
     cols = ["curve", "kind", "nu", p1, p2] + measure_names(names, hc, H) + obs
-    rows = CsvStream(ctx.outdir / "curves.csv", cols)
-    pts = CsvStream(ctx.outdir / "curve_points.csv", ["curve", "kind", p1, p2, "located", "parameter", "detail"])
+    rows = ctx.sink.table("curves.csv", cols)
+    pts = ctx.sink.table("curve_points.csv", ["curve", "kind", p1, p2, "located", "parameter", "detail"])
     try:
         for cid, cur in enumerate(curves):
             for i in range(len(cur)):
@@ -545,7 +468,7 @@ def _write_curves(ctx, curves, p1, p2, model) -> None:
 
 def _write_one_parameter_points(ctx, runs, curves, kinds, p1, p2) -> list:
     cols = ["branch", p2, "kind", p1, "located", "interval_lo", "interval_hi", "curve", f"curve_{p1}", "distance"]
-    out = CsvStream(ctx.outdir / "one_parameter_points.csv", cols)
+    out = ctx.sink.table("one_parameter_points.csv", cols)
     checks = []
     try:
         for j, value, br in runs:
@@ -573,9 +496,7 @@ def _label(cur) -> str:
 
 
 def _plot(ctx, curves, checks, p1, p2, range1, range2, lines, reference=()) -> list:
-    from contin.output.labels import math
-    from contin.output.plane_plot import two_parameter_diagram
-
+    """``bifurcation_curves.<format>`` in the result directory (a run that writes files)."""
     out, sym = ctx.scene.output, getattr(ctx.model, "symbols", None)
     ref_y = [q["y"] for q in reference]
     return two_parameter_diagram(
@@ -584,7 +505,7 @@ def _plot(ctx, curves, checks, p1, p2, range1, range2, lines, reference=()) -> l
          for c in curves for sp in c.special_points
          if (sp.kind.value in CURVE_POINT_KINDS[:3] and sp.located) or (sp.kind.value == "end" and not sp.located)],
         [{"kind": c["kind"], "x": c[p1], "y": c[p2], "located": c["located"]} for c in checks],
-        p1, p2, ctx.outdir / "bifurcation_curves", lines=sorted(set(lines)), reference=reference, xlim=range1,
+        p1, p2, ctx.sink.path("bifurcation_curves"), lines=sorted(set(lines)), reference=reference, xlim=range1,
         ylim=(min([range2[0]] + lines + ref_y), max([range2[1]] + lines + ref_y)), units=out["units"],
         labels=out["labels"], symbols=sym, formats=out["formats"], dpi=out["dpi"], style=out["style"],
         title=out["title"] or f"{ctx.model.name}: bifurcation curves in ({math(p1, sym)}, {math(p2, sym)})")

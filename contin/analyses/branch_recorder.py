@@ -10,7 +10,9 @@ from contin.hb.torus import QuasiPeriodicBalance, torus_measure_names, torus_mea
 from contin.output.checkpoint import read_records, special_record
 from contin.output.dense import checkpoint_solutions
 from contin.output.expansion import ENGINE_UNKNOWNS, StoredExpansion
-from contin.output.results import CsvStream, read_csv
+from contin.output.exports import run_data
+from contin.output.outcome import Sink
+from contin.output.results import read_csv
 from contin.output.state_store import INLINE
 from contin.output.state_writer import StateWriter
 
@@ -34,14 +36,18 @@ class BranchRecorder:
 
     Parameters
     ----------
-    outdir : Path
+    sink : Sink or Path
+        Where the tables go (:class:`contin.output.outcome.Sink`; a path: that result directory); the
+        checkpoint ``state.jsonl`` only when it writes files. The rows and every point's full coefficients
+        are kept in memory too (:meth:`run_data`).
     dof_names : sequence of str
     parameter : str
     harmonic_columns, H : int
         Number of ``hK`` columns is ``min(H, harmonic_columns) + 1``.
     """
 
-    def __init__(self, outdir, dof_names, parameter, harmonic_columns, H, append=False, model=None, torus=False):
+    def __init__(self, sink, dof_names, parameter, harmonic_columns, H, append=False, model=None, torus=False):
+        sink = sink if isinstance(sink, Sink) else Sink(sink)
         self.failed_switches: list = []  # sides of a switch with no first point
         self.dof_names = list(dof_names)
         self.parameter = parameter
@@ -53,11 +59,13 @@ class BranchRecorder:
         head = ["branch", "nu", parameter, "stable", "n_unstable", "max_multiplier"]
         self.branch_columns = head + self.measures + ["newton_iterations", "residual_norm"]
         self.special_columns = ["branch", "kind", parameter, "index"] + self.measures + SPECIAL_EXTRA
-        self.rows = CsvStream(outdir / "branches.csv", self.branch_columns, append)
-        self.special = CsvStream(outdir / "special_points.csv", self.special_columns, append)
-        # full solutions (coefficients and tangent) for plots of any row and for --resume: small records in
+        self.rows = sink.table("branches.csv", self.branch_columns, append)
+        self.special = sink.table("special_points.csv", self.special_columns, append)
+        # the engine's solutions (unknowns and tangent) for plots of any row and for --resume: small records in
         # strict JSON, their arrays in binary beside them (never through a link: contin.output.state_store)
-        self.state = StateWriter(outdir / "state.jsonl", append)
+        self.state = StateWriter(sink.path("state.jsonl"), append) if sink.writes else _NoState()
+        self.solutions: dict[int, dict] = {}  # row -> its full coefficients, with branch, lam, H, nu
+        self.headers: dict[int, dict] = {}  # branch id -> its branch record
         self.n_rows = self.rows.rows
         self._written_special: dict[int, int] = {}
         self._headers: set = set()
@@ -107,12 +115,15 @@ class BranchRecorder:
             self._headers.add(branch_id)
             su = branch.info.get("unknown_scale")
             kept = getattr(self.problems.get(branch_id), "dofs", None)
-            self.state.write({"type": "branch", "branch": branch_id, "nu": nu, "H": H,
-                              "unknown_scale": None if su is None else np.asarray(su),
-                              "parameter_scale": branch.info.get("parameter_scale"),
-                              "dofs": None if kept is None else [int(d) for d in kept],
-                              "unknowns": ENGINE_UNKNOWNS,  # the engine's (kept dofs'): contin.output.expansion
-                              "torus": _torus_header(self.problems.get(branch_id))})
+            header = {"type": "branch", "branch": branch_id, "nu": nu, "H": H,
+                      "unknown_scale": None if su is None else np.asarray(su),
+                      "parameter_scale": branch.info.get("parameter_scale"),
+                      "dofs": None if kept is None else [int(d) for d in kept],
+                      "unknowns": ENGINE_UNKNOWNS,  # the engine's (kept dofs'): contin.output.expansion
+                      "torus": _torus_header(self.problems.get(branch_id))}
+            self.headers[branch_id] = header
+            self.state.write(header)
+        self.solutions[self.n_rows] = {"branch": branch_id, "lam": lam, "u": u, "H": H, "nu": nu}
         su, sl = branch.info.get("unknown_scale"), branch.info.get("parameter_scale")
         self.state.write({
             "type": "point", "row": self.n_rows, "branch": branch_id, "nu": nu, "H": H, "lam": lam,
@@ -210,6 +221,8 @@ class BranchRecorder:
                 if u_full is None:
                     raise ValueError(f"row {r} of the checkpoint holds the kept dofs only, and no problem expands it")
                 self._keep_solution(c, u_full, tangent, su, sl, kept, H)
+                self.headers.setdefault(bid, header)
+                self.solutions[r] = {"branch": bid, "lam": lam, "u": u_full, "H": H, "nu": c["nu"]}
         sp = read_csv(self.special.path)
         for r in range(len(sp.get("branch", []))):
             row = {c: sp[c][r] for c in self.special_columns if c in sp}
@@ -225,10 +238,34 @@ class BranchRecorder:
         return any(r["branch"] == branch_id and r["kind"] == sp.kind.value
                    and abs(r[self.parameter] - sp.parameter) <= tol for r in self.special_list)
 
+    def run_data(self, summary: dict | None = None):
+        """The run's tables and every point's full coefficients as arrays
+        (:func:`contin.output.exports.run_data`), from memory."""
+        tables = {"branches.csv": self.rows.table(), "special_points.csv": self.special.table()}
+        return run_data(tables, summary, self.solutions, self.headers, self.parameter)
+
     def close(self) -> None:
         self.rows.close()
         self.special.close()
         self.state.close()
+
+
+class _NoState:
+    """The checkpoint of a run held in memory: nothing is written (it is never resumed)."""
+
+    path = None
+
+    def write(self, record: dict) -> None:
+        pass
+
+    def engine(self, record: dict) -> None:
+        pass
+
+    def flush(self) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
 
 
 def _vector(a):

@@ -32,7 +32,9 @@ every combination of the lists is run, the last key varying fastest; with
 take their last value); a reference outside the lists is run as well.
 
 Each setting is an ordinary run of the base analysis into
-``runs/NN_<label>/`` (plots off). Its wall time is measured around the whole
+``runs/NN_<label>/`` (plots off); a study held in memory (the Python API)
+holds its runs in memory too, and its quantities are read from the runs'
+tables (:attr:`contin.output.outcome.Outcome.tables`) either way. Its wall time is measured around the whole
 run (model build, start, continuation, stability, result files) with
 ``time.perf_counter``, after one untimed warm-up run of the first setting so
 that numba compilation and cache loading are not counted (``warmup: false``
@@ -83,7 +85,7 @@ the values of the ``vary`` paths, ``group`` (the values of all but the last
 path: one line of the plot each), ``reference``, ``status``, ``wall_time``,
 ``cpu_time``, ``points`` (rows written), each quantity and
 ``<quantity>_error``, ``max_error`` (the largest error over the quantities;
-empty when one is missing), ``missing``, ``run`` (the run's directory) and
+empty when one is missing), ``missing``, ``run`` (the run's directory; empty in memory) and
 ``message`` (why a run failed, or why a branch ended before its range)), ``convergence.<format>`` (log-log error
 against time, one line per quantity, points labelled by setting) and ``summary.json`` (``analysis.table``, the
 printed table; ``analysis.recommendation`` for ``budget`` or ``contin run
@@ -99,59 +101,91 @@ and the budget are :mod:`contin.analyses.convergence_errors`.
 
 from __future__ import annotations
 
+import json
 import math
 import re
 import time
 from pathlib import Path
 
-from contin.analyses.convergence_errors import _error, extract, format_table, read_records, recommend
-from contin.analyses.convergence_plan import BASE_TABLES, CONVERGENCE, _slug, check, setting_label, validate
-from contin.scene.registry import register_analysis
+import matplotlib.ticker
+
+from contin.analyses.base import Analysis, RunContext, RunError
+from contin.analyses.convergence_errors import extract, format_table, quantity_error, read_records, recommend
+from contin.analyses.convergence_plan import (BASE_TABLES, CONVERGENCE, ConvergencePlan, plan as convergence_plan,
+                                              setting_label, slug, validate)
+from contin.output.figures import figure_style, legend_below, new_figure, save_figure
+from contin.output.labels import math as math_text, quantity
+from contin.output.outcome import Outcome
 from contin.scene.schema import SceneError
 
-__all__ = ["run", "draw_convergence", "plot_convergence", "replot"]
+__all__ = ["Convergence", "draw_convergence", "plot_convergence", "replot"]
 
 #: branch statuses that end a branch before its range (their messages explain a missing quantity)
 EARLY_ENDS = ("step_too_small", "start_failed", "newton_failed", "ill_conditioned")
 
 
-@register_analysis("convergence", CONVERGENCE, validate, check)
-def run(ctx) -> dict:
-    """Run a ``convergence`` scene; returns its part of ``summary.json``."""
-    from contin.output.results import CsvStream
-    from contin.scene.registry import RunError
+class Convergence(Analysis):
+    """Another analysis at several settings of its accuracy: error against cost (this module's docstring)."""
 
+    name = "convergence"
+    summary = "Another analysis over a range of harmonics, samples or terms: error against cost."
+    required = "base, vary, quantities"
+    schema = CONVERGENCE
+
+    def validate(self, data: dict, model: dict, analysis: dict, lines: dict) -> None:
+        """``analysis.base``, the setting paths, the quantities and every setting's scene."""
+        validate(data, model, analysis, lines)
+
+    def plan(self, scene, model) -> ConvergencePlan:
+        """Every setting's scene built and checked, the quantities' columns among those the runs write."""
+        return convergence_plan(scene, model)
+
+    def describe(self, plan: ConvergencePlan, scene, model) -> list[str]:
+        """The base analysis, its settings and the quantities."""
+        a = scene.analysis
+        return [f"  the {a['base']['type']} analysis of analysis.base run at {len(plan.settings)} settings of "
+                f"{', '.join(a['vary'])} ({a['combine']}); reference {plan.labels[plan.iref]}",
+                "  settings: " + "; ".join(plan.labels),
+                "  quantities: " + ", ".join(q if isinstance(q, str) else q["type"] for q in a["quantities"])]
+
+    def run(self, plan: ConvergencePlan, ctx: RunContext) -> Outcome:
+        """One run of the base analysis per setting (each in ``runs/NN_<label>`` when the run has a directory)."""
+        return _run(self, plan, ctx)
+
+
+def _run(analysis: Convergence, plan: ConvergencePlan, ctx: RunContext) -> Outcome:
     scene = ctx.scene
     a = scene.analysis
     btype = a["base"]["type"]
     table_file = BASE_TABLES[btype]
-    plan = ctx.plan  # check(), made before anything was written
-    quantities, settings, iref, labels = plan["quantities"], plan["settings"], plan["iref"], plan["labels"]
-    scenes, defaults, items, kinds = plan["scenes"], plan["defaults"], plan["items"], plan["kinds"]
-    columns = [c for c, _ in items]
-    runs_dir = ctx.outdir / "runs"
-    runs_dir.mkdir(exist_ok=True)
+    quantities, settings, iref, labels = list(plan.quantities), plan.settings, plan.iref, plan.labels
+    scenes, defaults, items, kinds = plan.scenes, plan.defaults, list(plan.items), plan.kinds
+    columns = plan.columns
+    # with a result directory each run keeps its files in runs/; held in memory, so are the runs
+    runs_dir = None if ctx.outdir is None else ctx.outdir / "runs"
+    if runs_dir is not None:
+        runs_dir.mkdir(exist_ok=True)
     t_all = time.perf_counter()
     if a["warmup"]:
         ctx.progress.update(f"warm-up run ({labels[0]}), not timed", task="warm-up")
         try:
-            ctx.run_scene(scenes[0], runs_dir / "warmup", progress=False)
+            ctx.run_scene(scenes[0], None if runs_dir is None else runs_dir / "warmup", progress=False)
         except RunError:
             pass  # the timed run reports it
-        except SceneError as exc:  # check() ran every check of this setting: a guard, not a path
+        except SceneError as exc:  # plan() ran every check of this setting: a guard, not a path
             raise SceneError("analysis.vary", "settings the base analysis accepts", labels[0],
                              hint=f"; with them: {exc}") from None
         ctx.timings["warmup"] = time.perf_counter() - t_all
 
     first_complete = [True]
 
-    def check_columns(run_dir):
-        """A column no run writes (check() refuses those before the run; a guard at the first complete run)."""
+    def check_columns(tables):
+        """A column no run writes (plan() refuses those before the run; a guard at the first complete run)."""
         if not first_complete[0]:
             return
         first_complete[0] = False
         try:
-            extract(run_dir, quantities, defaults, table_file, strict=True)
+            extract(tables, quantities, defaults, table_file, strict=True)
         except KeyError as exc:
             if not re.search(r"'h\d+_", exc.args[0]):
                 raise SceneError("analysis.quantities", "columns the base analysis writes", None,
@@ -159,14 +193,14 @@ def run(ctx) -> dict:
 
     records = []
     for i, (s, label, sc) in enumerate(zip(settings, labels, scenes)):
-        run_dir = runs_dir / f"{i:02d}_{_slug(label)}"
+        run_dir = None if runs_dir is None else runs_dir / f"{i:02d}_{slug(label)}"
         ctx.progress.update(f"setting {i + 1}/{len(settings)}: {label}", done=i, total=len(settings),
                             task="settings")
-        status, message, wall, cpu, points = "complete", "", None, None, None
+        status, message, wall, cpu, points, tables = "complete", "", None, None, None, {}
         for _ in range(a["repeat"]):
             t0, c0 = time.perf_counter(), time.process_time()
             try:
-                summary = ctx.run_scene(sc, run_dir, progress=False)
+                outcome = ctx.run_scene(sc, run_dir, progress=False)
             except RunError as exc:
                 status, message = "failed", " ".join(str(exc).split())
                 wall, cpu = time.perf_counter() - t0, time.process_time() - c0  # the time spent until it failed
@@ -177,6 +211,7 @@ def run(ctx) -> dict:
             dt, dc = time.perf_counter() - t0, time.process_time() - c0
             if wall is None or dt < wall:
                 wall, cpu = dt, dc
+            summary, tables = outcome.summary, outcome.tables
             status = summary["status"]
             points = (summary.get("analysis") or {}).get("rows")
             # branches that ended early say why (a start that did not converge, a step that collapsed, ...)
@@ -190,11 +225,11 @@ def run(ctx) -> dict:
                 message = message or summary.get("message", "")
         group = setting_label({k: s[k] for k in list(s)[:-1]}, a["labels"])  # the lines of the plot
         rec = {"setting": label, **s, "group": group, "reference": i == iref, "status": status, "wall_time": wall,
-               "cpu_time": cpu,
-               "points": points, "run": str(run_dir.relative_to(ctx.outdir)), "message": message}
+               "cpu_time": cpu, "points": points,
+               "run": None if run_dir is None else str(run_dir.relative_to(ctx.outdir)), "message": message}
         if status in ("complete", "incomplete"):
-            check_columns(run_dir)
-            vals, miss = extract(run_dir, quantities, defaults, table_file)
+            check_columns(tables)
+            vals, miss = extract(tables, quantities, defaults, table_file)
             if message:
                 miss = {c: f"{why} ({message})" for c, why in miss.items()}
         else:
@@ -212,7 +247,7 @@ def run(ctx) -> dict:
         miss = dict(r.pop("_missing"))
         for c in columns:
             rv = None if ref is None else ref.get(c)
-            e = _error(r.get(c), rv, kinds[c])
+            e = quantity_error(r.get(c), rv, kinds[c])
             r[f"{c}_error"] = e
             if r.get(c) is not None and rv is None and c not in miss:
                 miss[c] = "reference has none" if ref is not None else "reference not run"
@@ -227,7 +262,7 @@ def run(ctx) -> dict:
     for c in columns:
         header += [c, f"{c}_error"]
     header += ["max_error", "missing", "run", "message"]
-    csv = CsvStream(ctx.outdir / "convergence.csv", header)
+    csv = ctx.sink.table("convergence.csv", header)
     for r in records:
         csv.write({k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in r.items()})
     csv.close()
@@ -241,8 +276,11 @@ def run(ctx) -> dict:
     table += format_table(records, items, kinds)
     if recommendation:
         table.append(recommendation["message"])
-    ctx.plot = lambda: _plot(ctx, records, items, kinds, budget, btype, ref_label, a["cost"])
-    return {
+    # the errors are measured against the reference: a reference that fell short is a shortfall of the
+    # study; a coarse setting that fell short is one of its findings (its row says why)
+    short = [f"the reference setting {ref_label} ended {ref['status']}: {ref.get('message') or ''}".rstrip(": ")] \
+        if ref is not None and ref["status"] not in ("complete", "interrupted") else []
+    part = {
         "base": btype,
         "vary": vary_cols,
         "combine": a["combine"],
@@ -256,23 +294,20 @@ def run(ctx) -> dict:
         "recommendation": recommendation,
         "columns": columns,
         "cost": a["cost"],
-        # the errors are measured against the reference: a reference that fell short is a shortfall of the
-        # study; a coarse setting that fell short is one of its findings (its row says why)
-        "shortfalls": [f"the reference setting {ref_label} ended {ref['status']}: {ref.get('message') or ''}".rstrip(": ")]
-        if ref is not None and ref["status"] not in ("complete", "interrupted") else [],
+        "shortfalls": short,
     }
+    return analysis.outcome(ctx, part, shortfalls=short,
+                            draw=lambda: _plot(ctx, records, items, kinds, budget, btype, ref_label, a["cost"]))
 
 
 def _describe(text: str, names=(), symbols=None) -> str:
     """A quantity's description with its parameter, dof and measure names as symbols and words."""
-    from contin.output.labels import math, quantity
-
     out = []
     for word in text.split(" "):
         core = word.rstrip(",;:)")
         tail = word[len(core):]
         if core in names:
-            core = math(core, symbols)
+            core = math_text(core, symbols)
         elif re.fullmatch(r"(amp|max|min|rms|mean|h\d+)_\w+|max_multiplier", core):
             core = quantity(core, symbols)
         out.append(core + tail)
@@ -302,8 +337,6 @@ def draw_convergence(ax, records: list[dict], items: list[tuple[str, str]], kind
         Parameter and dof names, written as symbols in the descriptions.
     symbols : dict, optional
     """
-    import matplotlib.ticker
-
     markers = "osD^v<>ph*"
     labelled: set = set()
     groups = list(dict.fromkeys(r.get("group", "") for r in records))
@@ -355,8 +388,6 @@ def plot_convergence(path: Path, records: list[dict], items: list[tuple[str, str
     list of str
         The file names written.
     """
-    from contin.output.figures import figure_style, legend_below, new_figure, save_figure
-
     with figure_style(style):
         fig = new_figure((7.5, 5.8))
         ax = fig.add_subplot()
@@ -381,8 +412,6 @@ def replot(outdir: Path, budget: float | None = None) -> Path:
     Path
         The first figure written (one per ``output.formats`` of the run).
     """
-    import json
-
     outdir = Path(outdir)
     summary = json.loads((outdir / "summary.json").read_text())
     a = summary["analysis"]
@@ -411,6 +440,6 @@ def _names(summary: dict) -> set:
 def _plot(ctx, records, items, kinds, budget, btype, ref_label, cost):
     title = ctx.scene.output["title"] or f"{ctx.model.name}: {btype} accuracy against cost (reference {ref_label})"
     out, model = ctx.scene.output, ctx.model
-    return plot_convergence(ctx.outdir / "convergence", records, items, kinds, budget, cost, title,
+    return plot_convergence(ctx.sink.path("convergence"), records, items, kinds, budget, cost, title,
                             formats=out["formats"], dpi=out["dpi"], style=out["style"],
                             names=set(model.parameters) | set(model.dof_names), symbols=getattr(model, "symbols", None))

@@ -2,7 +2,7 @@
 
 :func:`extract` reads the quantities of interest (``peak``, ``fold`` and
 ``special``, ``stable_interval``, ``value`` and ``static_deflection``) from
-one run's result files; :func:`_error` is a quantity's error against the
+one run's tables; :func:`quantity_error` is a quantity's error against the
 reference (relative or absolute); :func:`recommend` picks the cheapest
 setting within an error budget; :func:`read_records` and
 :func:`format_table` read and print the study's table.
@@ -10,14 +10,16 @@ setting within an error budget; :func:`read_records` and
 
 from __future__ import annotations
 
+import csv
 import math
 from pathlib import Path
 
 import numpy as np
 
 from contin.analyses.convergence_plan import quantity_items
+from contin.analyses.intervals import stable_intervals
 
-__all__ = ["Missing", "extract", "format_table", "read_records", "recommend", "TIME_TIE"]
+__all__ = ["Missing", "extract", "format_table", "quantity_error", "read_records", "recommend", "TIME_TIE"]
 
 #: relative difference of two timings below which the budget counts them as equal
 TIME_TIE = 0.05
@@ -102,8 +104,6 @@ def _fold(rows, special, q, param, file):
 
 
 def _stable_interval(rows, special, q, param, file):
-    from contin.analyses.intervals import stable_intervals
-
     if "stable" not in rows or rows["stable"].dtype != bool:
         raise Missing("no stability in the results")
     rows = dict(rows)
@@ -135,14 +135,16 @@ def _value(rows, q, measure, param, file):
     raise Missing(f"branch {q['branch']} does not reach {param} = {at:g}")
 
 
-def extract(run_dir: Path, quantities: list[dict], defaults: dict, table_file: str,
+def extract(tables: dict, quantities: list[dict], defaults: dict, table_file: str,
             strict: bool = False) -> tuple[dict, dict]:
-    """Values of the quantities in one run directory.
+    """Values of the quantities in the tables of one run.
 
     Parameters
     ----------
-    run_dir : Path
-        A finished run of the base analysis.
+    tables : dict
+        The tables of a finished run of the base analysis, by file name
+        (:attr:`contin.output.outcome.Outcome.tables`: what
+        :func:`contin.output.results.read_csv` reads from its files).
     quantities : list of dict
         Checked quantities (:func:`normalize_quantity`).
     defaults : dict
@@ -165,12 +167,8 @@ def extract(run_dir: Path, quantities: list[dict], defaults: dict, table_file: s
     KeyError
         With ``strict``, a named column that the results do not have.
     """
-    from contin.output.results import read_csv
-
-    run_dir = Path(run_dir)
-    rows = read_csv(run_dir / table_file) if (run_dir / table_file).exists() else {}
-    sp_path = run_dir / "special_points.csv"
-    special = read_csv(sp_path) if sp_path.exists() else {}
+    rows = tables.get(table_file) or {}
+    special = tables.get("special_points.csv") or {}
     values, missing = {}, {}
     for q in quantities:
         cols = [c for c, _ in quantity_items(q, defaults)]
@@ -198,7 +196,8 @@ def extract(run_dir: Path, quantities: list[dict], defaults: dict, table_file: s
 
 
 # ---------------------------------------------------------------- errors, budget, table
-def _error(v, ref, kind):
+def quantity_error(v, ref, kind):
+    """``v``'s error against the reference's ``ref`` (``kind``: relative or absolute); None if either is None."""
     if v is None or ref is None:
         return None
     d = abs(v - ref)
@@ -263,8 +262,6 @@ def recommend(records: list[dict], columns: list[str], budget: float, cost: str 
 
 def read_records(path: Path, columns: list[str]) -> list[dict]:
     """Rows of a ``convergence.csv`` as dicts for :func:`recommend` (empty cells as None)."""
-    import csv
-
     out = []
     with open(path, newline="") as fh:
         for row in csv.DictReader(fh):
@@ -304,6 +301,3 @@ def format_table(records: list[dict], items: list[tuple[str, str]], error_kinds:
         if r["missing"]:
             out.append(f"missing at {r['setting']}: {r['missing']}")
     return out
-
-
-# ---------------------------------------------------------------- the run

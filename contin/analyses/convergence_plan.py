@@ -3,10 +3,10 @@
 :data:`CONVERGENCE` and :data:`QUANTITIES` are the schemas of the
 ``analysis`` section and of its quantities; :func:`settings_of` spells out
 the settings (``vary``, ``combine``, ``reference``) and :func:`variant_data`
-the scene of each; :func:`validate` and :func:`check` make every check of
+the scene of each; :func:`validate` and :func:`plan` make every check of
 the scene, each setting's scene included, before anything is written, and
-:func:`check` returns the plan the run follows. The section itself is
-described in :mod:`contin.analyses.convergence`.
+:func:`plan` returns the plan the run follows (:class:`ConvergencePlan`).
+The section itself is described in :mod:`contin.analyses.convergence`.
 """
 
 from __future__ import annotations
@@ -14,11 +14,21 @@ from __future__ import annotations
 import copy
 import itertools
 import re
+from dataclasses import dataclass
 
+from contin.analyses.branch_recorder import SPECIAL_EXTRA
+from contin.analyses.frequency_response import plot_measures
+from contin.analyses.simulate import result_columns as simulation_columns
+from contin.engine.continuation import ContinuationOptions
+from contin.model.catalog import get_spec
+from contin.scene.build import build_model
+from contin.scene.parse import scene_from_data
+from contin.scene.registry import analysis as registered_analysis, check_scene
 from contin.scene.schema import Key, SceneError, check_section, flag, int_range, listing, mapping, number, string
+from contin.util.naming import suggest
 
-__all__ = ["BASE_TABLES", "CONVERGENCE", "QUANTITIES", "base_columns", "check", "normalize_quantity", "quantity_items",
-           "setting_label", "settings_of", "validate", "variant_data"]
+__all__ = ["BASE_TABLES", "CONVERGENCE", "QUANTITIES", "ConvergencePlan", "base_columns", "normalize_quantity",
+           "plan", "quantity_items", "setting_label", "settings_of", "slug", "validate", "variant_data"]
 
 #: base analyses a convergence study can run, and the table their quantities read
 BASE_TABLES = {"frequency_response": "branches.csv", "static": "branches.csv", "backbone": "branches.csv",
@@ -148,9 +158,6 @@ def variant_data(data: dict, setting: dict) -> dict:
 
 # ---------------------------------------------------------------- validation
 def _check_path(path: str, model: dict, base: dict, base_schema: dict, where: str) -> None:
-    from contin.engine.continuation import ContinuationOptions
-    from contin.util.naming import suggest
-
     parts = path.split(".")
     if len(parts) < 2 or parts[0] not in ("analysis", "model") or any(not p for p in parts):
         raise SceneError(where, "a setting path starting with 'analysis.' (a key of the base analysis) or "
@@ -168,8 +175,6 @@ def _check_path(path: str, model: dict, base: dict, base_schema: dict, where: st
                                  ", ".join(names) + ")", ".".join(parts[2:]), hint=suggest(parts[2], names))
         return
     if "builtin" in model:
-        from contin.model.catalog import get_spec
-
         if parts[1] not in ("parameters", "options") or len(parts) != 3:
             raise SceneError(where, "model.parameters.NAME or model.options.NAME for a built-in model", path)
         try:
@@ -189,21 +194,23 @@ def _check_path(path: str, model: dict, base: dict, base_schema: dict, where: st
 
 def validate(data: dict, model: dict, analysis: dict, lines: dict) -> None:
     """Checks of a convergence scene beyond its schema (``analysis.base``, paths, quantities, every setting)."""
-    from contin.util.naming import suggest
-    from contin.scene.parse import FREQUENCY_RESPONSE, START_KEYS, analysis_schemas, scene_from_data
-
     base = analysis["base"]
     btype = base.get("type")
     if not isinstance(btype, str) or btype not in BASE_TABLES:
         raise SceneError("analysis.base.type", "one of " + ", ".join(repr(t) for t in BASE_TABLES), btype,
                          lines.get("analysis.base.type"),
                          hint=suggest(btype, BASE_TABLES) if isinstance(btype, str) else "")
-    schema = analysis_schemas()[btype]
+    made = registered_analysis(btype)
+    schema = made.schema
     checked = check_section(base, schema, "analysis.base", lines)
-    if btype == "frequency_response":
-        start_schema = {k: FREQUENCY_RESPONSE[k] for k in START_KEYS}
-        for i, extra in enumerate(checked["starts"]):
-            check_section(extra, start_schema, f"analysis.base.starts[{i}]", lines)
+    # the base analysis' own checks of its section (a frequency response's further starts), its keys cited
+    # under analysis.base
+    base_lines = {"analysis" + k[len("analysis.base"):]: v for k, v in lines.items()
+                  if k == "analysis.base" or k.startswith("analysis.base.")}
+    try:
+        made.validate({**data, "analysis": base}, model, checked, base_lines)
+    except SceneError as exc:
+        raise _under_base(exc) from None
     for path in analysis["vary"]:
         _check_path(path, model, base, schema, f"analysis.vary.{path}")
     if analysis["combine"] == "zip":
@@ -236,10 +243,17 @@ def validate(data: dict, model: dict, analysis: dict, lines: dict) -> None:
                              hint=f"; with them: {exc}") from None
 
 
+def _under_base(exc: SceneError) -> SceneError:
+    """``exc`` of a key of the base section (``analysis.X``) as the convergence scene names it (``analysis.base.X``)."""
+    if exc.key != "analysis" and not exc.key.startswith("analysis."):
+        return exc
+    out = SceneError("analysis.base" + exc.key[len("analysis"):], exc.expected, exc.found, exc.line)
+    out.args = ("analysis.base" + str(exc)[len("analysis"):],)  # the message as it was, the hint included
+    return out
+
+
 def normalize_quantity(q, i: int, base_type: str, lines: dict | None = None) -> dict:
     """A quantity as a checked mapping with defaults (a bare type name is a mapping with that type)."""
-    from contin.util.naming import suggest
-
     where = f"analysis.quantities[{i}]"
     if isinstance(q, str):
         q = {"type": q}
@@ -259,7 +273,8 @@ def normalize_quantity(q, i: int, base_type: str, lines: dict | None = None) -> 
 
 
 # ---------------------------------------------------------------- quantities
-def _slug(text: str) -> str:
+def slug(text: str) -> str:
+    """``text`` with each run of characters other than letters and digits as one ``_`` (a column, a directory)."""
     return re.sub(r"[^A-Za-z0-9]+", "_", text).strip("_")
 
 
@@ -269,7 +284,7 @@ def quantity_items(q: dict, ctx_defaults: dict) -> list[tuple[str, str]]:
     if t == "peak":
         m = q["measure"] or ctx_defaults["measure"]
         base = q["name"] or f"peak_{m}"
-        return [(_slug(base), f"peak of {m}")]
+        return [(slug(base), f"peak of {m}")]
     if t in ("fold", "special"):
         what = q["of"] or ctx_defaults["parameter"]
         kind = q.get("kind", "fold")
@@ -277,35 +292,31 @@ def quantity_items(q: dict, ctx_defaults: dict) -> list[tuple[str, str]]:
             base, desc = q["name"] or f"{kind}_near_{q['near']:g}", f"{what} at the {kind} nearest {q['near']:g}"
         else:
             base, desc = q["name"] or f"{kind}_{q['index']}", f"{what} at {kind} {q['index']}"
-        return [(_slug(base), desc)]
+        return [(slug(base), desc)]
     if t == "stable_interval":
         base = q["name"] or f"stable_nu{q['nu']}"
-        return [(_slug(f"{base}_{e}"), f"{e} of the stable nu={q['nu']} interval") for e in q["ends"]]
+        return [(slug(f"{base}_{e}"), f"{e} of the stable nu={q['nu']} interval") for e in q["ends"]]
     m = q["measure"] or ctx_defaults["static_measure"]
     p = q["parameter"] or ctx_defaults["parameter"]
     base = q["name"] or f"{m}_at_{p}_{q['at']:g}"
-    return [(_slug(base), f"{m} at {p} = {q['at']:g}")]
+    return [(slug(base), f"{m} at {p} = {q['at']:g}")]
 
 
 
 def base_columns(btype: str, scene, model, plan) -> tuple[str, dict]:
-    """The parameter of a base run and the columns of its files (``file -> columns``), from its check's plan."""
+    """The parameter of a base run and the columns of its files (``file -> columns``), from its plan."""
     if btype == "frequency_response":
-        from contin.analyses.frequency_response import SPECIAL_EXTRA, plot_measures
-
-        hb = plan[0][1]
+        hb = plan.first.hb
         measures = plot_measures(scene, model, hb)
         head = ["branch", "nu", hb.parameter, "stable"]
         return hb.parameter, {"branches.csv": head + measures + ["newton_iterations", "residual_norm"],
                               "special_points.csv": ["branch", "kind", hb.parameter, "index"]
                               + measures[:-2] + SPECIAL_EXTRA}
     if btype == "simulate":
-        from contin.analyses.simulate import _columns
-
-        return plan["param"], {"simulation.csv": _columns(plan["param"], model.dof_names)}
+        return plan.parameter, {"simulation.csv": simulation_columns(plan.parameter, model.dof_names)}
     if btype == "static":
-        return plan["param"], plan["columns"]
-    return "amplitude", plan["columns"]  # backbone
+        return plan.sweep.parameter, plan.columns
+    return "amplitude", plan.columns  # backbone
 
 
 def _quantity_columns(q: dict, i: int, defaults: dict) -> list[tuple[str, str, str]]:
@@ -334,27 +345,54 @@ def _quantity_columns(q: dict, i: int, defaults: dict) -> list[tuple[str, str, s
     return out
 
 
-def check(scene, model) -> dict:
-    """Every check of a ``convergence`` scene; returns its setup.
+@dataclass(frozen=True)
+class ConvergencePlan:
+    """Every checked choice of a ``convergence`` scene.
+
+    Attributes
+    ----------
+    quantities : tuple of dict
+        The checked quantities (:func:`normalize_quantity`).
+    settings : tuple of dict
+        Setting path -> value, one per run, in run order (:func:`settings_of`).
+    iref : int
+        The reference setting's index.
+    labels : tuple of str
+        Each setting's label (:func:`setting_label`).
+    scenes : tuple of Scene
+        Each setting's scene (the base section as ``analysis``, plots off).
+    defaults : dict
+        ``parameter``, ``measure`` and ``static_measure`` of the base runs.
+    items : tuple of (str, str)
+        Each quantity column and its description.
+    kinds : dict
+        Quantity column -> ``relative`` or ``absolute``.
+    """
+
+    quantities: tuple
+    settings: tuple
+    iref: int
+    labels: tuple
+    scenes: tuple
+    defaults: dict
+    items: tuple
+    kinds: dict
+
+    @property
+    def columns(self) -> list[str]:
+        """The quantity columns, in order."""
+        return [c for c, _ in self.items]
+
+
+def plan(scene, model) -> ConvergencePlan:
+    """Every check of a ``convergence`` scene; returns its plan.
 
     Each setting's scene is built and checked as its run will check it
     (:func:`contin.scene.registry.check_scene`), so that a setting the base
     analysis refuses is found before anything is written, and every column
     a quantity reads must be one the runs write (``hK_`` columns: at some
     setting).
-
-    Returns
-    -------
-    dict
-        ``quantities`` (checked), ``settings``, ``iref``, ``labels``,
-        ``scenes`` (one per setting), ``defaults``, ``items`` (quantity
-        columns and descriptions) and ``kinds`` (column -> error kind).
     """
-    from contin.scene.registry import check_scene
-    from contin.util.naming import suggest
-    from contin.scene.build import build_model
-    from contin.scene.parse import scene_from_data
-
     a = scene.analysis
     btype = a["base"]["type"]
     quantities = [normalize_quantity(q, i, btype) for i, q in enumerate(a["quantities"])]
@@ -366,13 +404,13 @@ def check(scene, model) -> dict:
     for label, sc in zip(labels, scenes):
         try:
             m = build_model(sc)
-            plan = check_scene(sc, m)
+            base_plan = check_scene(sc, m)
         except SceneError as exc:
             if exc.key.startswith("output."):
                 raise  # the scene's own output section, the same at every setting
             raise SceneError("analysis.vary", "settings the base analysis accepts", label,
                              scene.lines.get("analysis.vary"), hint=f"; with them: {exc}") from None
-        param, files = base_columns(btype, sc, m, plan)
+        param, files = base_columns(btype, sc, m, base_plan)
         if parameter is None:
             parameter, first_model = param, m
         for f, cols in files.items():
@@ -400,5 +438,5 @@ def check(scene, model) -> dict:
                                  scene.lines.get("analysis.quantities"))
             items.append((c, d))
             kinds[c] = q["error"] or a["error"]
-    return {"quantities": quantities, "settings": settings, "iref": iref, "labels": labels, "scenes": scenes,
-            "defaults": defaults, "items": items, "kinds": kinds}
+    return ConvergencePlan(tuple(quantities), tuple(settings), iref, tuple(labels), tuple(scenes), defaults,
+                           tuple(items), kinds)

@@ -17,45 +17,111 @@ from __future__ import annotations
 
 import inspect
 import time
+from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
-from contin.scene.registry import register_analysis, shortfalls
-from contin.engine.branch import BranchStatus
-from contin.engine.continuation import ContinuationOptions
-from contin.hb.problem import HarmonicBalance, HBOptions
-from contin.hb.condensation import condensation_dofs, condense
+from contin.analyses.base import Analysis, RunError, ScaleCheck
 # the recorder's names are part of this analysis' interface (bifurcation_curve, convergence_plan use them)
 from contin.analyses.branch_recorder import SPECIAL_EXTRA, BranchRecorder, row_measures  # noqa: F401
+from contin.analyses.simulate import check_time_step
+from contin.analyses.stability_hooks import stability_setup
+from contin.bifurcation.start import START_LOW_HARMONICS, HomotopyFailed, harmonic_start, simulation_start
+from contin.engine.branch import BranchStatus
+from contin.engine.continuation import ContinuationOptions
+from contin.engine.newton import NUMERICAL_ERRORS
+from contin.bifurcation.end_check import branch_end_checks
+from contin.bifurcation.torus_branch import TorusSettings
+from contin.hb.condensation import condensation_dofs, condense
+from contin.hb.factory import harmonic_balance
+from contin.hb.problem import HarmonicBalance, HBOptions
 from contin.hb.torus import torus_measure_names
 from contin.output.checkpoint import keep_records, read_records, rebuild_branches, resumable_prefix
-from contin.output.dense import as_number
-from contin.output.results import truncate_to_valid_rows
+from contin.output.dense import as_number, dense_branch, kept_indices, value_between
+from contin.output.labels import model_symbols
+from contin.output.outcome import Outcome
 from contin.output.model_figures import model_figures
-from contin.scene.parse import SceneError, model_frequency
+from contin.output.plotting import CHANGES, SPECIAL, bifurcation_diagram
+from contin.output.results import truncate_to_valid_rows
+from contin.scene.budget import frequency_response_demands
+from contin.scene.parse import Scene, SceneError, check_parameter_values
+from contin.scene.preflight import dofs_text, scale_key
+from contin.scene.registry import check_output, shortfalls
+from contin.scene.schema import (START_SIMULATION, Key, check_section, integer, is_int, is_number, listing, mapping,
+                                 number, string)
+from contin.scene.sweep_plan import SweepPlan, parameter_name, sweep_names, sweep_plan
+from contin.stability.monitor import describe_ranges, replaced_ranges
+from contin.timedomain.simulation import SimulationError
 
-__all__ = ["run", "BranchRecorder", "build_problem", "engine_problem"]
+__all__ = ["FrequencyResponse", "FrequencyResponsePlan", "StartSetup", "BranchRecorder", "START_KEYS", "SCHEMA",
+           "build_problem", "engine_problem", "start_guess"]
 
+#: keys a further start (``analysis.starts``) may change; the others are shared
+START_KEYS = ("start", "start_from", "start_simulation", "subharmonic", "harmonics", "samples", "crossings", "both_ways",
+              "guess", "stability_options", "switch", "continuation")
+
+
+def _torus_ok(v) -> bool:
+    if not isinstance(v, dict) or set(v) - {"harmonics", "harmonics2", "samples", "samples2", "stability", "periods",
+                                           "steps_per_period", "locking_tol"}:
+        return False
+    ints = all(v.get(k) is None or (is_int(v[k]) and 1 <= v[k] <= 2**16)
+               for k in ("harmonics", "harmonics2", "samples", "samples2"))
+    return (ints and v.get("stability", "simulation") in ("simulation", "none")
+            and (v.get("periods") is None or (is_number(v["periods"]) and v["periods"] > 0))
+            and (v.get("steps_per_period") is None or (is_int(v["steps_per_period"]) and 4 <= v["steps_per_period"] <= 2**20))
+            and (v.get("locking_tol") is None or (is_number(v["locking_tol"]) and 0 < v["locking_tol"] < 0.25)))
+
+
+#: the keys of a ``frequency_response`` analysis section
+SCHEMA = {
+    "type": string(required=True),
+    "parameter": string(),
+    "range": Key("a list of two different numbers [start, end]",
+                 lambda v: isinstance(v, list) and len(v) == 2 and all(is_number(x) for x in v) and v[0] != v[1],
+                 required=True),
+    "start": number(),
+    "frequency": string(),
+    "harmonics": Key("an integer from 1 to 2000", lambda v: is_int(v) and 1 <= v <= 2000, 5),
+    "subharmonic": Key("an integer from 1 to 64", lambda v: is_int(v) and 1 <= v <= 64, 1),
+    "samples": Key("an integer from 2*harmonics+1 to 2**20, or null",
+                   lambda v: v is None or (is_int(v) and 3 <= v <= 2**20), None),
+    "crossings": string("exact", ("exact", "interval", "none")),
+    # eliminate the dofs free of nonlinear forces exactly (contin.hb.condensation)
+    "condense": Key("'auto', true or false", lambda v: v == "auto" or isinstance(v, bool), "auto"),
+    "stability": string("both", ("hill", "floquet", "both", "none")),
+    "stability_options": mapping(),
+    "switch": listing([], lambda x: x in ("pd", "bp", "ns"), "a list of bifurcation kinds among 'pd', 'bp', 'ns'"),
+    # quasi-periodic branches started at 'ns' points (contin.hb.torus, contin.bifurcation.torus_branch)
+    "torus": Key("a mapping with keys among harmonics, harmonics2, samples, samples2 (integers or null), stability "
+                 "('simulation' or 'none'), periods (a number > 0), steps_per_period (an integer >= 4), "
+                 "locking_tol (a number in (0, 0.25))", lambda v: _torus_ok(v), {}),
+    "max_branches": integer(8, 1),
+    "continuation": mapping(),  # validated by ContinuationOptions.from_dict
+    "start_from": string("model", ("model", "linear", "simulation")),
+    "start_simulation": START_SIMULATION,
+    "both_ways": Key("true or false", lambda v: isinstance(v, bool), False),
+    "guess": Key("a list of numbers (the harmonic coefficients) or null",
+                 lambda v: v is None or (isinstance(v, list) and all(is_number(x) for x in v)), None),
+    "starts": listing([], lambda x: isinstance(x, dict),
+                      "a list of mappings, each a further start with keys among " + ", ".join(START_KEYS)),
+}
 
 
 
 def build_problem(scene, model) -> HarmonicBalance:
     """The harmonic-balance problem of a ``frequency_response`` scene.
 
-    Its frequency is the scene's (:func:`contin.scene.parse.model_frequency`),
-    handed to the problem; the model is not changed.
+    Its continuation parameter and frequency are the sweep's
+    (:func:`contin.scene.sweep_plan.sweep_names`), handed to the problem; the model is not changed.
     """
     a = scene.analysis
-    freq = model_frequency(scene.model, a)
-    if freq not in model.parameters:
-        raise scene.error("analysis.frequency", f"a parameter of the model {list(model.parameters)}", freq)
-    param = a["parameter"] or freq
-    if param not in model.parameters:
-        raise scene.error("analysis.parameter", f"a parameter of the model {list(model.parameters)}", param)
+    param, freq = sweep_names(scene, model)
     try:
         opts = HBOptions(harmonics=a["harmonics"], subharmonic=a["subharmonic"], samples=a["samples"],
                          crossings=a["crossings"])
-        return HarmonicBalance(model, param, opts, frequency=freq)
+        return harmonic_balance(model, param, opts, frequency=freq)
     except ValueError as exc:
         raise SceneError("analysis", "a discretisation the model can use", None, hint=f": {exc}") from None
 
@@ -94,7 +160,7 @@ def continuation_options(scene, lam_start: float, lam_end: float) -> Continuatio
         raise SceneError("analysis.continuation", "valid continuation options", None, hint=f": {exc}") from None
 
 
-def _start(scene, model, hb, lam0: float, problem=None, options=None):
+def start_guess(scene, model, hb, lam0: float, problem=None, options=None):
     """The start guess: ``analysis.start_from`` = model (its own start, else linear), linear or simulation.
 
     From the linear solution, Newton is tried at once on ``problem`` (the
@@ -104,10 +170,6 @@ def _start(scene, model, hb, lam0: float, problem=None, options=None):
     linear solution is returned: the engine's start then fails with its own
     message, and :func:`start_advice` says what to try.
     """
-    from contin.scene.registry import RunError
-    from contin.timedomain.simulation import SimulationError
-    from contin.bifurcation.start import HomotopyFailed, harmonic_start, simulation_start
-    from contin.engine.newton import NUMERICAL_ERRORS
 
     how = scene.analysis["start_from"]
     try:
@@ -127,10 +189,10 @@ def _start(scene, model, hb, lam0: float, problem=None, options=None):
     return x if problem is hb else problem.expand(x, lam0)
 
 
+
+
 def start_advice(scene, hb, lam0: float) -> str:
     """What to try when no start was found at ``lam0``: the other end of the range, a simulation, fewer harmonics."""
-    from contin.bifurcation.start import START_LOW_HARMONICS
-
     a = scene.analysis
     lo, hi = sorted(float(v) for v in a["range"])
     other = hi if abs(lam0 - lo) <= abs(lam0 - hi) else lo
@@ -156,8 +218,6 @@ def _restore(outdir, parameter: str) -> dict:
 
 def _starts(scene):
     """The scene itself, then one scene per entry of ``analysis.starts`` (its keys override)."""
-    from contin.scene.parse import Scene
-
     yield "analysis", scene
     for i, extra in enumerate(scene.analysis["starts"]):
         key = f"analysis.starts[{i}]"
@@ -167,42 +227,68 @@ def _starts(scene):
         yield key, Scene({**scene.data, "analysis": merged}, scene.source, scene.lines)
 
 
-def check(scene, model) -> list:
-    """Every check of a ``frequency_response`` scene with its model; returns the setup of each start.
+@dataclass(frozen=True)
+class StartSetup:
+    """One start of a ``frequency_response`` scene, checked (the scene's own, then each of ``analysis.starts``).
 
-    Returns
-    -------
-    list of tuple
-        ``(scene, hb, problem, lam0, options, follow)`` per start (the
-        scene, then each entry of ``analysis.starts``).
+    Attributes
+    ----------
+    key : str
+        Its scene key (``analysis``, ``analysis.starts[0]``, ...).
+    scene : Scene
+        The scene with the start's keys merged in.
+    hb : HarmonicBalance
+        Its full problem.
+    problem : object
+        The problem the engine follows (``hb`` or its condensation).
+    sweep : SweepPlan
+        Parameter, frequency, range, start and direction.
+    options : ContinuationOptions
+    follow : callable
+        Follows the branch with its stability and switches
+        (:func:`contin.analyses.stability_hooks.stability_setup`).
+    scale_key : str
+        The key that sets its ``continuation.unknown_scale``.
     """
-    from contin.scene.registry import check_output
-    from contin.analyses.stability_hooks import stability_setup
 
-    lam_a, lam_b = float(scene.analysis["range"][0]), float(scene.analysis["range"][1])
-    lo, hi = min(lam_a, lam_b), max(lam_a, lam_b)
+    key: str
+    scene: Scene
+    hb: HarmonicBalance
+    problem: object
+    sweep: SweepPlan
+    options: ContinuationOptions
+    follow: Callable
+    scale_key: str
+
+
+@dataclass(frozen=True)
+class FrequencyResponsePlan:
+    """Every checked choice of a ``frequency_response`` scene: its starts, in order (the scene's own first)."""
+
+    starts: tuple
+
+    @property
+    def first(self) -> StartSetup:
+        return self.starts[0]
+
+
+def _plan(scene, model) -> FrequencyResponsePlan:
     setups = []
-    for key, sc in _starts(scene):
+    for i, (key, sc) in enumerate(_starts(scene)):
         a = sc.analysis
         hb = build_problem(sc, model)
-        lam0 = float(a["start"]) if a["start"] is not None else lam_a
-        if not lo <= lam0 <= hi:
-            raise scene.error(f"{key}.start", f"a value inside range [{lo:g}, {hi:g}]", lam0)
-        opts = continuation_options(sc, lam0, lam_b if lam0 != lam_b else lam_a)
+        sweep = sweep_plan(sc, model, a, key)
+        opts = continuation_options(sc, sweep.start, sweep.end)
         if a["guess"] is not None and len(a["guess"]) != hb.size:
             raise scene.error(f"{key}.guess", f"{hb.size} numbers (n*(2H+1) coefficients)", f"{len(a['guess'])} numbers")
         problem = engine_problem(sc, hb)
         if a["start_from"] == "simulation" and a["guess"] is None:
-            from contin.analyses.simulate import check_time_step
-            from contin.bifurcation.start import simulation_start
-
             default = inspect.signature(simulation_start).parameters["steps_per_period"].default
-            check_time_step(model, {hb.parameter: lam0}, a["start_simulation"].get("steps_per_period", default),
+            check_time_step(model, {hb.parameter: sweep.start}, a["start_simulation"].get("steps_per_period", default),
                             f"{key}.start_simulation.steps_per_period", scene.lines, f"{key}.start", hb.frequency)
-        setups.append((sc, hb, problem, lam0, opts, stability_setup(a, problem)))
-    hb = setups[0][1]
-    check_output(scene, plot_measures(scene, model, hb), list(model.parameters))
-    return setups
+        setups.append(StartSetup(key, sc, hb, problem, sweep, opts, stability_setup(a, problem), scale_key(scene, i)))
+    check_output(scene, plot_measures(scene, model, setups[0].hb), list(model.parameters))
+    return FrequencyResponsePlan(tuple(setups))
 
 
 def _wants_tori(scene) -> bool:
@@ -217,22 +303,19 @@ def plot_measures(scene, model, hb) -> list[str]:
         "max_multiplier", "n_unstable"]
 
 
-@register_analysis("frequency_response", check=check)
-def run(ctx) -> dict:
-    """Run a ``frequency_response`` scene; returns its part of ``summary.json``.
+def _run(plan: FrequencyResponsePlan, ctx) -> Outcome:
+    """Run a ``frequency_response`` scene from its plan; returns its outcome.
 
     The branches of the main start come first, then those of each entry of
     ``analysis.starts`` (further starts, e.g. a subharmonic branch found by
     a time simulation beside the harmonic one), all in one diagram.
     """
     scene, model = ctx.scene, ctx.model
-    lam_a, lam_b = float(scene.analysis["range"][0]), float(scene.analysis["range"][1])
-    lo, hi = min(lam_a, lam_b), max(lam_a, lam_b)
-    setups = ctx.plan  # check(), made before anything was written
-    hb = setups[0][1]
+    lo, hi = plan.first.sweep.lo, plan.first.sweep.hi
+    hb = plan.first.hb
     previous = _restore(ctx.outdir, hb.parameter) if ctx.resume else {}
     try:
-        rec = BranchRecorder(ctx.outdir, model.dof_names, hb.parameter, scene.output["harmonic_columns"], hb.H,
+        rec = BranchRecorder(ctx.sink, model.dof_names, hb.parameter, scene.output["harmonic_columns"], hb.H,
                              append=bool(previous), model=model, torus=_wants_tori(scene))
     except ValueError as exc:  # the files to continue have other columns
         raise SceneError("--resume", "result files of this scene", str(exc),
@@ -244,17 +327,18 @@ def run(ctx) -> dict:
     results = []
     t0 = time.perf_counter()
     try:
-        for sc, hb_i, problem, lam0, opts, follow in setups:
+        for setup in plan.starts:
+            sc, hb_i, problem, lam0, opts = setup.scene, setup.hb, setup.problem, setup.sweep.start, setup.options
             a = sc.analysis
             if len(results) in previous:  # taken up from the checkpoint: no start to compute
                 u0 = np.asarray(previous[len(results)].unknowns[0])
             else:
-                u0 = np.array(a["guess"], dtype=float) if a["guess"] is not None else _start(sc, model, hb_i, lam0,
-                                                                                               problem, opts)
+                u0 = np.array(a["guess"], dtype=float) if a["guess"] is not None else start_guess(sc, model, hb_i,
+                                                                                                   lam0, problem, opts)
                 if problem is not hb_i:  # the starts are full coefficients
                     u0 = problem.restrict(u0)
             first = len(results)
-            results += follow(problem, u0, lam0, (lo, hi), opts, rec, ctx, previous, first_id=first)
+            results += setup.follow(problem, u0, lam0, (lo, hi), opts, rec, ctx, previous, first_id=first)
             if len(results) > first and results[first][0].status == BranchStatus.START_FAILED:
                 results[first][0].message += start_advice(sc, hb_i, lam0)
             if ctx.stop_requested or any(b.status == BranchStatus.INTERRUPTED for b, _ in results):
@@ -282,28 +366,84 @@ def run(ctx) -> dict:
     interrupted = any(b.status == BranchStatus.INTERRUPTED for b, _ in results)
     ctx.interrupted = ctx.interrupted or interrupted
     # a grazing end is an end as asked only where the orbit itself grazes and goes no further
-    from contin.bifurcation.end_check import branch_end_checks
-
     t_ends = time.perf_counter()
     end_shortfalls = [] if ctx.interrupted or ctx.stop_requested else branch_end_checks(
-        results, rec.problems, branches_info, (lo, hi), max(s[4].newton_tol for s in setups), hb.parameter)
+        results, rec.problems, branches_info, (lo, hi), max(s.options.newton_tol for s in plan.starts), hb.parameter)
     ctx.timings["end_checks"] = time.perf_counter() - t_ends
-    ctx.plot = lambda: _plot(ctx, rec, hb) + model_figures(ctx.model, "frequency_response", hb.parameter, rec.curves,
-                                                           rec.special_list, ctx.outdir, ctx.scene.output)
-    return {
+    part = {
         "parameter": hb.parameter,
         "unknowns": hb.size,
-        "condensation": condensation_summary(hb, setups[0][2]),
+        "condensation": condensation_summary(hb, plan.first.problem),
         "harmonics": hb.H,
         "subharmonic": hb.nu,
         "samples": hb.N,
-        "starts": len(setups),
+        "starts": len(plan.starts),
         "branches": branches_info,
         "rows": rec.n_rows,
         "special_points": len(rec.special_list),
         "failed_switches": rec.failed_switches,
         "shortfalls": shortfalls(branches_info, hb.parameter, rec.failed_switches) + end_shortfalls,
     }
+
+    def draw() -> list[str]:
+        return _plot(ctx, rec, hb) + model_figures(ctx.model, "frequency_response", hb.parameter, rec.curves,
+                                                   rec.special_list, ctx.outdir, ctx.scene.output)
+
+    return Analysis.outcome(ctx, part, shortfalls=part["shortfalls"], data=rec.run_data(ctx.summary), draw=draw)
+
+
+class FrequencyResponse(Analysis):
+    """``frequency_response``: periodic solutions against a parameter (this module's docstring)."""
+
+    name = "frequency_response"
+    summary = ("Periodic solutions against a parameter, harmonic or subharmonic, with stability, special points "
+               "and branch switching.")
+    required = "range; often parameter, harmonics, stability, switch"
+    schema = SCHEMA
+
+    def validate(self, data: dict, model: dict, analysis: dict, lines: dict) -> None:
+        """The further starts' keys (:data:`START_KEYS`) and the values of the continued parameter."""
+        start_schema = {k: SCHEMA[k] for k in START_KEYS}
+        for i, extra in enumerate(analysis["starts"]):
+            check_section(extra, start_schema, f"analysis.starts[{i}]", lines)
+        name = parameter_name(model, analysis)
+        items = [("analysis.range", analysis["range"]), ("analysis.start", analysis["start"])]
+        items += [(f"analysis.starts[{i}].start", extra.get("start")) for i, extra in enumerate(analysis["starts"])]
+        check_parameter_values(model, analysis, name, [(k, v) for k, v in items if v is not None], lines)
+
+    def demands(self, scene, model) -> list:
+        return frequency_response_demands(scene, model)
+
+    def plan(self, scene, model) -> FrequencyResponsePlan:
+        return _plan(scene, model)
+
+    def run(self, plan: FrequencyResponsePlan, ctx) -> Outcome:
+        return _run(plan, ctx)
+
+    def describe(self, plan: FrequencyResponsePlan, scene, model) -> list[str]:
+        a, hb, problem = scene.analysis, plan.first.hb, plan.first.problem
+        lines = [f"  parameter {hb.parameter} over {a['range']}, harmonics H={hb.H}, subharmonic nu={hb.nu}, "
+                 f"samples N={hb.N}", f"  unknowns: {hb.size} = {hb.n} dof x (2H+1)"]
+        if problem is not hb:
+            lines.append(f"  {problem.describe()}")
+        lines.append(f"  stability: {a['stability']}; switching at: {', '.join(a['switch']) or 'none'}")
+        if "ns" in a["switch"]:
+            t = TorusSettings.from_dict(a.get("torus") or {}, hb.H)
+            o = t.options
+            lines.append(f"  tori: H1={o.harmonics}, H2={o.harmonics2}, crossings {o.crossings}; stability "
+                         + (f"by simulation ({t.periods:g} periods, {t.steps_per_period} steps each)"
+                            if t.stability == "simulation" else "none"))
+        return lines
+
+    def scale_checks(self, plan: FrequencyResponsePlan) -> list[ScaleCheck]:
+        out = []
+        for s in plan.starts:
+            switch = [k for k in s.scene.analysis.get("switch") or () if k in ("pd", "ns")]
+            n = getattr(s.problem, "n", s.hb.n)
+            what = f"{dofs_text(n)} x {2 * s.hb.H + 1} coefficients" + (" (condensed)" if s.problem is not s.hb else "")
+            out.append(ScaleCheck(s.scale_key, s.options, s.problem.size, what,
+                                  f"analysis.switch: [{', '.join(switch)}]" if switch else ""))
+        return out
 
 
 def _interval_or_none(gap):
@@ -324,8 +464,6 @@ def _condition_summary(branch) -> dict:
 
 def _stability_summary(branch) -> dict | None:
     """Where Hill's multipliers were replaced by the monodromy's, and why."""
-    from contin.stability.monitor import describe_ranges, replaced_ranges
-
     st = branch.info.get("stability")
     if not st:
         return None
@@ -351,9 +489,6 @@ def _stability_summary(branch) -> dict | None:
 
 
 def _plot(ctx, rec, hb):
-    from contin.output.labels import model_symbols
-    from contin.output.plotting import bifurcation_diagram
-
     out = ctx.scene.output
     measure = out["measure"] or f"amp_{hb.model.dof_names[0]}"  # checked by check()
     curves, special = diagram_branches(rec, measure)
@@ -381,9 +516,6 @@ def diagram_branches(rec: BranchRecorder, measure: str) -> tuple[list, list]:
     special : list of dict
         ``x``, ``y``, ``kind``, ``branch``.
     """
-    from contin.output.dense import dense_branch, kept_indices, value_between
-    from contin.output.plotting import CHANGES, SPECIAL
-
     n = len(rec.dof_names)
     branches, special = [], []
     for bid, c in rec.curves.items():

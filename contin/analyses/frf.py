@@ -43,15 +43,25 @@ on the figure with both limiting curves.
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 
+import matplotlib.ticker
 import numpy as np
+from scipy.optimize import brentq, minimize_scalar
 
+from contin.analyses.base import Analysis
+from contin.hb.factory import harmonic_balance
+from contin.hb.problem import HBOptions
+from contin.modal.modes import SingularImpedance, frf, natural_modes
+from contin.output.figures import figure_style, legend_below, new_figure, save_figure
+from contin.output.labels import axis_label, math
+from contin.scene.budget import frf_demands
 from contin.scene.parse import model_frequency
-from contin.scene.registry import register_analysis
-from contin.util.naming import suggest
+from contin.scene.registry import check_output
 from contin.scene.schema import Key, SceneError, flag, int_range, is_number, string
+from contin.util.naming import suggest
 
-__all__ = ["FRF", "check", "run", "force_cases", "result_columns", "fixed_points", "draw_frf"]
+__all__ = ["FRF", "Frf", "FrfPlan", "ForceResponse", "force_cases", "result_columns", "fixed_points", "draw_frf"]
 
 
 def _force_ok(v) -> bool:
@@ -107,7 +117,7 @@ def force_cases(spec, dofs):
     return [(d, unit(d)) for d in names]
 
 
-class _Response:
+class ForceResponse:
     """``X(w)`` of one force case, with the matrices and force re-evaluated where they depend on ``w``."""
 
     def __init__(self, model, kw, p0, F):
@@ -128,8 +138,6 @@ class _Response:
         return np.array(Ms), np.array(Cs), np.array(Ks)
 
     def __call__(self, w):
-        from contin.modal.modes import frf
-
         w = np.atleast_1d(np.asarray(w, dtype=float))
         F = self.F(w) if callable(self.F) else self.F
         return frf(*self.matrices(w), w, F)
@@ -137,10 +145,8 @@ class _Response:
 
 def _own_force(model, wname: str):
     """The model's excitation at the forcing frequency ``wname``, ``F(w) = a_1 - i b_1``, shape (nw, n)."""
-    from contin.hb.problem import HarmonicBalance, HBOptions
-
     try:
-        hb = HarmonicBalance(model, wname, HBOptions(harmonics=1), frequency=wname)
+        hb = harmonic_balance(model, wname, HBOptions(harmonics=1), frequency=wname)
     except ValueError as exc:
         raise SceneError("analysis.force", "a force at the forcing frequency: the model's excitation has other "
                          "harmonics; give analysis.force", None, hint=f" ({exc})") from None
@@ -170,50 +176,6 @@ def result_columns(wname: str, dofs) -> list[str]:
 
 #: further names the plot's axes look up in ``output.labels`` and ``output.units``
 AXIS_NAMES = ("amplitude |X|",)
-
-
-def check(scene, model) -> dict:
-    """Every check of an ``frf`` scene with its model; returns its setup.
-
-    Returns
-    -------
-    dict
-        ``wname`` (the frequency parameter), ``kw`` (its index), ``p0``,
-        ``w`` (the frequency grid) and ``cases`` (``[(label, F)]``).
-    """
-    from contin.scene.registry import check_output
-
-    a = scene.analysis
-    dofs = list(model.dof_names)
-    wname = model_frequency(scene.model, a)
-    if wname not in model.parameters:
-        raise scene.error("analysis.frequency", f"a parameter of the model {list(model.parameters)}", wname,
-                          hint=suggest(wname, model.parameters))
-    if model.forces:
-        raise SceneError("model", "a linear model for analysis.type frf (no nonlinear forces)", None,
-                         hint="; found " + "; ".join(el.describe(model.dof_names, model.param_names)
-                                                     for el in model.forces)
-                              + f" (effects on: {', '.join(model.effects)}). Switch the nonlinear effects off, "
-                                "or use analysis.type frequency_response")
-    kw = model.parameter_index(wname)
-    p0 = model.parameter_vector()
-    lo, hi = float(a["range"][0]), float(a["range"][1])
-    if a["spacing"] == "log":
-        if lo <= 0:
-            raise scene.error("analysis.range", "a start above 0 for spacing: log", a["range"])
-        w = np.geomspace(lo, hi, a["points"])
-    else:
-        w = np.linspace(lo, hi, a["points"])
-    cases = force_cases(a["force"], dofs)
-    if cases is None:
-        cases = [("excitation", _own_force(model, wname))]
-    check_output(scene, result_columns(wname, dofs)[1:], AXIS_NAMES)
-    static = [_static_deflection(model, kw, p0, F) for _, F in cases] if a["normalise"] == "static" else None
-    if static is not None and not all(np.isfinite(d) and d > 0 for d in static):
-        raise scene.error("analysis.normalise", "a model with a static deflection under the force for 'static' "
-                          "(a stiffness matrix it can invert and a force that does not vanish at w = 0), or 'none'",
-                          a["normalise"])
-    return {"wname": wname, "kw": kw, "p0": p0, "w": w, "cases": cases, "static": static}
 
 
 def _static_deflection(model, kw: int, p0, F) -> float:
@@ -261,7 +223,7 @@ def fixed_points(resp, w, k: int) -> list[tuple[float, float]]:
 
     Parameters
     ----------
-    resp : _Response
+    resp : ForceResponse
         A force case of a model whose matrices do not depend on ``w``.
     w : ndarray, shape (nw,)
     k : int
@@ -272,8 +234,6 @@ def fixed_points(resp, w, k: int) -> list[tuple[float, float]]:
     list of (float, float)
         ``(w, |X_k|)`` in increasing ``w``.
     """
-    from scipy.optimize import brentq
-
     def force(ws):
         F = resp.F(ws) if callable(resp.F) else np.broadcast_to(resp.F, (ws.size, resp.F.size))
         return np.asarray(F)
@@ -292,65 +252,142 @@ def fixed_points(resp, w, k: int) -> list[tuple[float, float]]:
     return out
 
 
-@register_analysis("frf", FRF, check=check)
-def run(ctx) -> dict:
-    """Run an ``frf`` scene; returns its part of ``summary.json``."""
-    from contin.modal.modes import SingularImpedance, natural_modes
-    from contin.output.results import CsvStream
+@dataclass(frozen=True, eq=False)  # arrays: compared by identity
+class FrfPlan:
+    """The checked choices of an ``frf`` scene.
 
-    scene, model = ctx.scene, ctx.model
-    a = scene.analysis
-    dofs = list(model.dof_names)
-    plan = ctx.plan  # check(), made before anything was written
-    wname, kw, p0, w, cases = plan["wname"], plan["kw"], plan["p0"], plan["w"], plan["cases"]
-    t0 = time.perf_counter()
-    results, skipped = [], []
-    for label, F in cases:
-        resp = _Response(model, kw, p0, F)
-        keep = np.ones(w.size, bool)
-        while True:
-            try:
-                X = resp(w[keep])
-                break
-            except SingularImpedance as exc:  # an undamped resonance exactly on the grid: leave it out
-                idx = np.flatnonzero(keep)[exc.indices]
-                keep[idx] = False
-                skipped += [float(w[i]) for i in idx]
-                if not keep.any():
-                    raise SceneError("analysis.range", "frequencies where Z(w) can be solved", a["range"]) from None
-        results.append((label, resp, w[keep], X))
-    ctx.timings["frf"] = time.perf_counter() - t0
-    out = CsvStream(ctx.outdir / "frf.csv", result_columns(wname, dofs))
-    try:
-        for label, _, ws, X in results:
-            for i in range(ws.size):
-                row = {"case": label, wname: float(ws[i])}
-                for k, d in enumerate(dofs):
-                    z = X[i, k]
-                    row.update({f"amp_{d}": float(abs(z)), f"phase_{d}": float(np.degrees(np.angle(z))),
-                                f"re_{d}": float(z.real), f"im_{d}": float(z.imag)})
-                out.write(row)
-    finally:
-        out.close()
-    M, C, K = model.linear(p0)
-    try:
-        nm = natural_modes(M, K)
-        omega = [float(x) for x in nm.omega[~nm.divergent]]
-    except (ValueError, np.linalg.LinAlgError):
-        omega = []
-    peaks = _peaks(results, dofs) if a["peaks"] else []
-    fixed = _fixed_points(results, dofs, plan["static"]) if a["fixed_points"] else []
-    ctx.plot = lambda: _plot(ctx, wname, dofs, results, omega, peaks, fixed, plan["static"])
-    return {
-        "frequency": wname,
-        "points": int(w.size),
-        "cases": [c[0] for c in results],
-        "natural_frequencies": omega,
-        "peaks": peaks,
-        "static_deflection": plan["static"],
-        "fixed_points": [{k: v for k, v in f.items() if k != "_resp"} for f in fixed],
-        "skipped_singular": skipped,
-    }
+    Attributes
+    ----------
+    frequency : str
+        The frequency parameter.
+    index : int
+        Its index in the model's parameter vector.
+    parameters : ndarray
+        The model's parameter vector.
+    grid : ndarray
+        The frequencies.
+    cases : tuple of (str, ndarray or callable)
+        The force cases (:func:`force_cases`; the model's own excitation as ``F(w)``).
+    static : tuple of float or None
+        The static deflection of each case (``normalise: static``).
+    """
+
+    frequency: str
+    index: int
+    parameters: np.ndarray
+    grid: np.ndarray
+    cases: tuple
+    static: tuple | None
+
+
+class Frf(Analysis):
+    """``frf``: the frequency response of a linear model from its impedance matrix (module docstring)."""
+
+    name = "frf"
+    summary = "Frequency response of a linear model from its impedance matrix."
+    required = "range"
+    schema = FRF
+
+    def demands(self, scene, model) -> list:
+        return frf_demands(scene, model)
+
+    def plan(self, scene, model) -> FrfPlan:
+        """Every check of an ``frf`` scene with its model (a linear model, the frequency, the grid, the force)."""
+        a = scene.analysis
+        dofs = list(model.dof_names)
+        wname = model_frequency(scene.model, a)
+        if wname not in model.parameters:
+            raise scene.error("analysis.frequency", f"a parameter of the model {list(model.parameters)}", wname,
+                              hint=suggest(wname, model.parameters))
+        if model.forces:
+            raise SceneError("model", "a linear model for analysis.type frf (no nonlinear forces)", None,
+                             hint="; found " + "; ".join(el.describe(model.dof_names, model.param_names)
+                                                         for el in model.forces)
+                                  + f" (effects on: {', '.join(model.effects)}). Switch the nonlinear effects off, "
+                                    "or use analysis.type frequency_response")
+        kw = model.parameter_index(wname)
+        p0 = model.parameter_vector()
+        lo, hi = float(a["range"][0]), float(a["range"][1])
+        if a["spacing"] == "log":
+            if lo <= 0:
+                raise scene.error("analysis.range", "a start above 0 for spacing: log", a["range"])
+            w = np.geomspace(lo, hi, a["points"])
+        else:
+            w = np.linspace(lo, hi, a["points"])
+        cases = force_cases(a["force"], dofs)
+        if cases is None:
+            cases = [("excitation", _own_force(model, wname))]
+        check_output(scene, result_columns(wname, dofs)[1:], AXIS_NAMES)
+        static = [_static_deflection(model, kw, p0, F) for _, F in cases] if a["normalise"] == "static" else None
+        if static is not None and not all(np.isfinite(d) and d > 0 for d in static):
+            raise scene.error("analysis.normalise", "a model with a static deflection under the force for 'static' "
+                              "(a stiffness matrix it can invert and a force that does not vanish at w = 0), or "
+                              "'none'", a["normalise"])
+        return FrfPlan(frequency=wname, index=kw, parameters=p0, grid=w, cases=tuple(cases),
+                       static=None if static is None else tuple(static))
+
+    def describe(self, plan: FrfPlan, scene, model) -> list[str]:
+        a = scene.analysis
+        return [f"  impedance-matrix FRF over {a['range']} ({a['points']} points, {a['spacing']}), force: "
+                + ("the model's excitation" if a["force"] is None else str(a["force"]))]
+
+    def run(self, plan: FrfPlan, ctx):
+        """``X(w)`` of every force case on the grid, its peaks and fixed points; the table and summary."""
+        scene, model = ctx.scene, ctx.model
+        a = scene.analysis
+        dofs = list(model.dof_names)
+        wname, kw, p0, w = plan.frequency, plan.index, plan.parameters, plan.grid
+        static = None if plan.static is None else list(plan.static)
+        t0 = time.perf_counter()
+        results, skipped = [], []
+        for label, F in plan.cases:
+            resp = ForceResponse(model, kw, p0, F)
+            keep = np.ones(w.size, bool)
+            while True:
+                try:
+                    X = resp(w[keep])
+                    break
+                except SingularImpedance as exc:  # an undamped resonance exactly on the grid: leave it out
+                    idx = np.flatnonzero(keep)[exc.indices]
+                    keep[idx] = False
+                    skipped += [float(w[i]) for i in idx]
+                    if not keep.any():
+                        raise SceneError("analysis.range", "frequencies where Z(w) can be solved",
+                                         a["range"]) from None
+            results.append((label, resp, w[keep], X))
+        ctx.timings["frf"] = time.perf_counter() - t0
+        out = ctx.sink.table("frf.csv", result_columns(wname, dofs))
+        try:
+            for label, _, ws, X in results:
+                for i in range(ws.size):
+                    row = {"case": label, wname: float(ws[i])}
+                    for k, d in enumerate(dofs):
+                        z = X[i, k]
+                        row.update({f"amp_{d}": float(abs(z)), f"phase_{d}": float(np.degrees(np.angle(z))),
+                                    f"re_{d}": float(z.real), f"im_{d}": float(z.imag)})
+                    out.write(row)
+        finally:
+            out.close()
+        M, C, K = model.linear(p0)
+        try:
+            nm = natural_modes(M, K)
+            omega = [float(x) for x in nm.omega[~nm.divergent]]
+        except (ValueError, np.linalg.LinAlgError):
+            omega = []
+        peaks = _peaks(results, dofs) if a["peaks"] else []
+        fixed = _fixed_points(results, dofs, static) if a["fixed_points"] else []
+        part = {
+            "frequency": wname,
+            "points": int(w.size),
+            "cases": [c[0] for c in results],
+            "natural_frequencies": omega,
+            "peaks": peaks,
+            "static_deflection": static,
+            "fixed_points": [{k: v for k, v in f.items() if k != "_resp"} for f in fixed],
+            "skipped_singular": skipped,
+        }
+        draw = (lambda: _plot(ctx, wname, dofs, results, omega, peaks, fixed, static)) if ctx.sink.writes else None
+        return self.outcome(ctx, part, draw=draw)
 
 
 def _fixed_points(results, dofs, static) -> list[dict]:
@@ -372,10 +409,6 @@ def _fixed_points(results, dofs, static) -> list[dict]:
 
 def _peaks(results, dofs):
     """Interior maxima of every ``|X_dof|`` on the grid, refined by a bounded scalar search."""
-    from scipy.optimize import minimize_scalar
-
-    from contin.modal.modes import SingularImpedance
-
     out = []
     for label, resp, ws, X in results:
         if not resp.varying and not np.any(resp.MCK[1]):
@@ -424,8 +457,6 @@ def draw_frf(ax_amp, ax_phase, wname, dofs, results, omega=(), peaks=(), fixed=(
     scale : {"log", "linear"}
     units, labels, symbols : dict, optional
     """
-    from contin.output.labels import axis_label, math
-
     units, labels = dict(units or {}), dict(labels or {})
     cases = {label: j for j, (label, *_) in enumerate(results)}
     norm = [1.0] * len(results) if static is None else list(static)
@@ -480,16 +511,12 @@ def draw_frf(ax_amp, ax_phase, wname, dofs, results, omega=(), peaks=(), fixed=(
         ax_amp.set_ylabel(labels.get(amp) or r"amplitude ratio $|X|/\delta_{\mathrm{st}}$")
     ax = ax_phase if ax_phase is not None else ax_amp
     if ax_phase is not None:
-        import matplotlib.ticker
-
         ax_phase.set_ylabel("phase [deg]")
         ax_phase.yaxis.set_major_locator(matplotlib.ticker.MultipleLocator(90))
     ax.set_xlabel(axis_label(wname, units, {wname: "forcing frequency " + math(wname, symbols), **labels}, symbols))
 
 
 def _plot(ctx, wname, dofs, results, omega, peaks, fixed=(), static=None) -> list:
-    from contin.output.figures import figure_style, legend_below, new_figure, save_figure
-
     out = ctx.scene.output
     with figure_style(out["style"]):
         fig = new_figure((7.2, 6.8))
@@ -502,4 +529,4 @@ def _plot(ctx, wname, dofs, results, omega, peaks, fixed=(), static=None) -> lis
                 (f" {out['units']['amplitude |X|']}" if (out["units"] or {}).get("amplitude |X|") else "")
         ax1.set_title(title)
         legend_below(fig, ax1, ncols=3 if len(ax1.get_legend_handles_labels()[0]) > 4 else 2)
-        return save_figure(fig, ctx.outdir / "frf", out["formats"], out["dpi"])
+        return save_figure(fig, ctx.sink.path("frf"), out["formats"], out["dpi"])

@@ -28,14 +28,23 @@ row per value and eigenvalue: ``re``, ``im``, ``natural_frequency``,
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
-from contin.scene.registry import register_analysis
-from contin.util.naming import suggest
+from contin.analyses.base import Analysis, RunError
+from contin.modal.equilibrium import EquilibriumFailed, static_problem
+from contin.modal.modes import check_mass, damped_modes, natural_modes, principal_coordinates
+from contin.modal.static_path import equilibrium_path
+from contin.output.figures import figure_style, legend_below, new_figure, save_figure
+from contin.output.labels import axis_label, math, symbol
+from contin.scene.budget import modes_demands
+from contin.scene.parse import check_parameter_values
+from contin.scene.registry import check_output
 from contin.scene.schema import Key, SceneError, flag, int_range, is_number
+from contin.util.naming import suggest
 
-__all__ = ["MODES", "check", "run", "draw_mode_shapes", "draw_natural_frequencies"]
+__all__ = ["MODES", "Modes", "ModesPlan", "draw_mode_shapes", "draw_natural_frequencies"]
 
 
 def _numbers(v) -> bool:
@@ -94,154 +103,178 @@ def _finite(v):
     return float(v) if np.isfinite(v) else None
 
 
-def validate(data, model, analysis, lines) -> None:
-    """Refuse parameter values that make no physical sense (a negative frequency, mass, ...)."""
-    from contin.scene.parse import check_parameter_values
+@dataclass(frozen=True)
+class ModesPlan:
+    """The checked choices of a ``modes`` scene.
 
-    check_parameter_values(model, analysis, analysis["parameter"],
-                           [(f"analysis.{k}", analysis[k]) for k in ("values", "range") if analysis[k] is not None],
-                           lines)
-
-
-def check(scene, model) -> dict:
-    """Every check of a ``modes`` scene with its model; returns its setup.
-
-    The mass matrix must be symmetric positive definite at every value of
-    the parameter (it may depend on it).
-
-    Returns
-    -------
-    dict
-        ``param``, ``values``, ``ref_name``, ``ref`` (its index) and ``hb``
-        (the static problem).
+    Attributes
+    ----------
+    parameter : str or None
+        The varied parameter (None: the model's parameters only).
+    values : tuple of float
+        Its values (``(None,)`` without a parameter).
+    reference : str
+        The dof the mode-shape ratios refer to.
+    reference_index : int
+        Its index.
+    problem : HarmonicBalance
+        The static problem (``H = 0``) whose equilibria the modes are about.
     """
-    from contin.scene.registry import check_output
-    from contin.modal.equilibrium import static_problem
-    from contin.modal.modes import _check_mass
 
-    a = scene.analysis
-    dofs = list(model.dof_names)
-    param, values = _values(scene, model)
-    ref_name = a["reference"] or dofs[0]
-    if ref_name not in dofs:
-        raise scene.error("analysis.reference", f"one of the dofs {dofs}", ref_name, hint=suggest(ref_name, dofs))
-    if a["guess"] is not None and len(a["guess"]) != len(dofs):
-        raise scene.error("analysis.guess", f"{len(dofs)} numbers (one per dof {dofs})", f"{len(a['guess'])} numbers")
-    try:
-        hb = static_problem(model, param)
-    except ValueError as exc:
-        raise SceneError("model", "a model with a static equilibrium for analysis.type modes", None,
-                         hint=f": {exc}") from None
-    for v in values:
-        p = model.parameter_vector({param: v} if param else None)
+    parameter: str | None
+    values: tuple
+    reference: str
+    reference_index: int
+    problem: object
+
+
+class Modes(Analysis):
+    """``modes``: natural frequencies and mode shapes about the static equilibrium (module docstring)."""
+
+    name = "modes"
+    summary = "Natural frequencies and mode shapes about the static equilibrium."
+    required = "none required"
+    schema = MODES
+
+    def validate(self, data, model, analysis, lines) -> None:
+        """Refuse parameter values that make no physical sense (a negative frequency, mass, ...)."""
+        check_parameter_values(model, analysis, analysis["parameter"],
+                               [(f"analysis.{k}", analysis[k]) for k in ("values", "range")
+                                if analysis[k] is not None], lines)
+
+    def demands(self, scene, model) -> list:
+        return modes_demands(scene, model)
+
+    def plan(self, scene, model) -> ModesPlan:
+        """Every check of a ``modes`` scene with its model.
+
+        The mass matrix must be symmetric positive definite at every value of
+        the parameter (it may depend on it).
+        """
+        a = scene.analysis
+        dofs = list(model.dof_names)
+        param, values = _values(scene, model)
+        ref_name = a["reference"] or dofs[0]
+        if ref_name not in dofs:
+            raise scene.error("analysis.reference", f"one of the dofs {dofs}", ref_name, hint=suggest(ref_name, dofs))
+        if a["guess"] is not None and len(a["guess"]) != len(dofs):
+            raise scene.error("analysis.guess", f"{len(dofs)} numbers (one per dof {dofs})",
+                              f"{len(a['guess'])} numbers")
         try:
-            _check_mass(model.mass.value(p))
+            hb = static_problem(model, param)
         except ValueError as exc:
-            where = f" at {param} = {v:g}" if param else ""
-            raise SceneError("model.mass", f"a symmetric positive definite mass matrix{where} for analysis.type modes",
-                             None, hint=f": {exc}") from None
-    mcols, dcols = _columns(param, dofs)
-    check_output(scene, mcols[1:] + (dcols[1:] if a["damped"] else []))
-    return {"param": param, "values": values, "ref_name": ref_name, "ref": dofs.index(ref_name), "hb": hb}
-
-
-@register_analysis("modes", MODES, validate=validate, check=check)
-def run(ctx) -> dict:
-    """Run a ``modes`` scene; returns its part of ``summary.json``."""
-    from contin.modal.equilibrium import EquilibriumFailed
-    from contin.modal.static_path import equilibrium_path
-    from contin.modal.modes import damped_modes, natural_modes, principal_coordinates
-    from contin.output.results import CsvStream
-    from contin.scene.registry import RunError
-
-    scene, model = ctx.scene, ctx.model
-    a = scene.analysis
-    dofs = list(model.dof_names)
-    plan = ctx.plan  # check(), made before anything was written
-    param, values, ref_name, ref, hb = plan["param"], plan["values"], plan["ref_name"], plan["ref"], plan["hb"]
-    mcols, dcols = _columns(param, dofs)
-    out_m = CsvStream(ctx.outdir / "modes.csv", mcols)
-    out_d = CsvStream(ctx.outdir / "damped_modes.csv", dcols) if a["damped"] else None
-    records = []
-    t0 = time.perf_counter()
-    lam_values = values if param else [float(hb.p0[hb.k])]  # without a parameter: the model's own values
-    try:
-        path = equilibrium_path(hb, lam_values, a["guess"], a["tolerance"], a["max_iterations"])
-        for i, eq in enumerate(path):
-            if ctx.stop_requested:
-                ctx.interrupted = True
-                break
-            ctx.progress.update(f"modes: {param}={eq.value:.6g} ({i + 1}/{len(values)})" if param
-                                else "modes", done=i, total=len(values) if param else None)
+            raise SceneError("model", "a model with a static equilibrium for analysis.type modes", None,
+                             hint=f": {exc}") from None
+        for v in values:
+            p = model.parameter_vector({param: v} if param else None)
             try:
-                nm = natural_modes(eq.M, eq.K, ref)
-                pc = principal_coordinates(eq.M, eq.C, eq.K, nm)
-                dm = damped_modes(eq.M, eq.C, eq.K, ref) if a["damped"] else None
-            except (ValueError, np.linalg.LinAlgError) as exc:  # the mass matrix was checked: numerics
-                raise RunError(f"modal analysis at {param} = {eq.value:g}: {exc}" if param
-                               else f"modal analysis: {exc}") from None
-            head = {"index": i}
-            if param:
-                head[param] = eq.value
-            ratios = nm.ratios()
-            zeta = pc.modal_damping_ratio
-            for j in range(nm.n):
-                row = dict(head, mode=j + 1, omega2=float(nm.omega2[j]),
-                           omega=None if nm.divergent[j] else float(nm.omega[j]),
-                           frequency_hz=None if nm.divergent[j] else float(nm.omega[j] / (2 * np.pi)),
-                           divergent=bool(nm.divergent[j]), modal_damping_ratio=float(zeta[j]))
-                for k, d in enumerate(dofs):
-                    row[f"shape_{d}"] = float(nm.modes[k, j])
-                    row[f"ratio_{d}"] = _finite(ratios[k, j])
-                    row[f"static_{d}"] = float(eq.x[k])
-                out_m.write(row)
-            if dm is not None:
-                for j, lam in enumerate(dm.eigenvalues):
-                    row = dict(head, root=j + 1, re=float(lam.real), im=float(lam.imag),
-                               natural_frequency=float(dm.natural_frequency[j]),
-                               damped_frequency=float(dm.damped_frequency[j]),
-                               damping_ratio=float(dm.damping_ratio[j]))
+                check_mass(model.mass.value(p))
+            except ValueError as exc:
+                where = f" at {param} = {v:g}" if param else ""
+                raise SceneError("model.mass", f"a symmetric positive definite mass matrix{where} for analysis.type "
+                                 "modes", None, hint=f": {exc}") from None
+        mcols, dcols = _columns(param, dofs)
+        check_output(scene, mcols[1:] + (dcols[1:] if a["damped"] else []))
+        return ModesPlan(parameter=param, values=tuple(values), reference=ref_name,
+                         reference_index=dofs.index(ref_name), problem=hb)
+
+    def describe(self, plan: ModesPlan, scene, model) -> list[str]:
+        a = scene.analysis
+        what = f"versus {a['parameter']}" if a["parameter"] else "at the model's parameters"
+        return [f"  natural frequencies and modes about the static equilibrium {what}"
+                + ("; damped eigenvalues" if a["damped"] else "")]
+
+    def run(self, plan: ModesPlan, ctx):
+        """The equilibrium at each value and the modes about it; tables and summary."""
+        scene, model = ctx.scene, ctx.model
+        a = scene.analysis
+        dofs = list(model.dof_names)
+        param, values, ref_name, ref, hb = (plan.parameter, list(plan.values), plan.reference, plan.reference_index,
+                                            plan.problem)
+        mcols, dcols = _columns(param, dofs)
+        out_m = ctx.sink.table("modes.csv", mcols)
+        out_d = ctx.sink.table("damped_modes.csv", dcols) if a["damped"] else None
+        records = []
+        t0 = time.perf_counter()
+        lam_values = values if param else [float(hb.p0[hb.k])]  # without a parameter: the model's own values
+        try:
+            path = equilibrium_path(hb, lam_values, a["guess"], a["tolerance"], a["max_iterations"])
+            for i, eq in enumerate(path):
+                if ctx.stop_requested:
+                    ctx.interrupted = True
+                    break
+                ctx.progress.update(f"modes: {param}={eq.value:.6g} ({i + 1}/{len(values)})" if param
+                                    else "modes", done=i, total=len(values) if param else None)
+                try:
+                    nm = natural_modes(eq.M, eq.K, ref)
+                    pc = principal_coordinates(eq.M, eq.C, eq.K, nm)
+                    dm = damped_modes(eq.M, eq.C, eq.K, ref) if a["damped"] else None
+                except (ValueError, np.linalg.LinAlgError) as exc:  # the mass matrix was checked: numerics
+                    raise RunError(f"modal analysis at {param} = {eq.value:g}: {exc}" if param
+                                   else f"modal analysis: {exc}") from None
+                head = {"index": i}
+                if param:
+                    head[param] = eq.value
+                ratios = nm.ratios()
+                zeta = pc.modal_damping_ratio
+                for j in range(nm.n):
+                    row = dict(head, mode=j + 1, omega2=float(nm.omega2[j]),
+                               omega=None if nm.divergent[j] else float(nm.omega[j]),
+                               frequency_hz=None if nm.divergent[j] else float(nm.omega[j] / (2 * np.pi)),
+                               divergent=bool(nm.divergent[j]), modal_damping_ratio=float(zeta[j]))
                     for k, d in enumerate(dofs):
-                        row[f"re_{d}"] = float(dm.vectors[k, j].real)
-                        row[f"im_{d}"] = float(dm.vectors[k, j].imag)
-                    out_d.write(row)
-            records.append({
-                "value": eq.value if param else None,
-                "equilibrium": eq.x.tolist(),
-                "newton_iterations": eq.iterations,
-                "omega": [None if nm.divergent[j] else float(nm.omega[j]) for j in range(nm.n)],
-                "omega2": nm.omega2.tolist(),
-                "symmetric_stiffness": nm.symmetric,
-                "proportional_damping": pc.proportional,
-                "modal_damping": pc.modal_damping.tolist() if nm.n <= 20 else None,
-                "eigenvalues": None if dm is None else [[float(z.real), float(z.imag)] for z in dm.eigenvalues],
-                "stable": None if dm is None else dm.stable,
-                "_plot": (nm, dm),
-            })
-    except EquilibriumFailed as exc:
-        if not records:
-            raise RunError(str(exc)) from None
-        ctx.interrupted = True
-        failure = str(exc)
-    else:
-        failure = None
-    finally:
-        out_m.close()
-        if out_d is not None:
-            out_d.close()
-    ctx.timings["modes"] = time.perf_counter() - t0
-    ctx.plot = lambda: _plot(ctx, param, dofs, records)
-    first = records[0]
-    return {
-        "parameter": param,
-        "values": [r["value"] for r in records] if param else None,
-        "completed": len(records),
-        "reference": ref_name,
-        "failure": failure,
-        "dofs": dofs,
-        "results": [{k: v for k, v in r.items() if not k.startswith("_")} for r in records],
-        "natural_frequencies": first["omega"],
-    }
+                        row[f"shape_{d}"] = float(nm.modes[k, j])
+                        row[f"ratio_{d}"] = _finite(ratios[k, j])
+                        row[f"static_{d}"] = float(eq.x[k])
+                    out_m.write(row)
+                if dm is not None:
+                    for j, lam in enumerate(dm.eigenvalues):
+                        row = dict(head, root=j + 1, re=float(lam.real), im=float(lam.imag),
+                                   natural_frequency=float(dm.natural_frequency[j]),
+                                   damped_frequency=float(dm.damped_frequency[j]),
+                                   damping_ratio=float(dm.damping_ratio[j]))
+                        for k, d in enumerate(dofs):
+                            row[f"re_{d}"] = float(dm.vectors[k, j].real)
+                            row[f"im_{d}"] = float(dm.vectors[k, j].imag)
+                        out_d.write(row)
+                records.append({
+                    "value": eq.value if param else None,
+                    "equilibrium": eq.x.tolist(),
+                    "newton_iterations": eq.iterations,
+                    "omega": [None if nm.divergent[j] else float(nm.omega[j]) for j in range(nm.n)],
+                    "omega2": nm.omega2.tolist(),
+                    "symmetric_stiffness": nm.symmetric,
+                    "proportional_damping": pc.proportional,
+                    "modal_damping": pc.modal_damping.tolist() if nm.n <= 20 else None,
+                    "eigenvalues": None if dm is None else [[float(z.real), float(z.imag)] for z in dm.eigenvalues],
+                    "stable": None if dm is None else dm.stable,
+                    "_plot": (nm, dm),
+                })
+        except EquilibriumFailed as exc:
+            if not records:
+                raise RunError(str(exc)) from None
+            ctx.interrupted = True
+            failure = str(exc)
+        else:
+            failure = None
+        finally:
+            out_m.close()
+            if out_d is not None:
+                out_d.close()
+        ctx.timings["modes"] = time.perf_counter() - t0
+        first = records[0]
+        part = {
+            "parameter": param,
+            "values": [r["value"] for r in records] if param else None,
+            "completed": len(records),
+            "reference": ref_name,
+            "failure": failure,
+            "dofs": dofs,
+            "results": [{k: v for k, v in r.items() if not k.startswith("_")} for r in records],
+            "natural_frequencies": first["omega"],
+        }
+        draw = (lambda: _plot(ctx, param, dofs, records)) if ctx.sink.writes else None
+        return self.outcome(ctx, part, draw=draw)
 
 
 def draw_mode_shapes(ax, nm, dofs, count: int, symbols=None) -> None:
@@ -257,8 +290,6 @@ def draw_mode_shapes(ax, nm, dofs, count: int, symbols=None) -> None:
     symbols : dict, optional
         The model's symbols.
     """
-    from contin.output.labels import math, symbol
-
     pos = np.arange(len(dofs))
     ratios = nm.ratios()
     for j in range(min(count, nm.n)):
@@ -284,8 +315,6 @@ def draw_natural_frequencies(ax, param: str, records, *, units=None, labels=None
         (list of [re, im] or None) per parameter value.
     units, labels, symbols : dict, optional
     """
-    from contin.output.labels import axis_label
-
     v = np.array([r["value"] for r in records])
     W = np.array([[np.nan if w is None else w for w in r["omega"]] for r in records])
     for j in range(W.shape[1]):
@@ -303,9 +332,6 @@ def draw_natural_frequencies(ax, param: str, records, *, units=None, labels=None
 
 
 def _plot(ctx, param, dofs, records) -> list:
-    from contin.output.figures import figure_style, legend_below, new_figure, save_figure
-    from contin.output.labels import math
-
     out = ctx.scene.output
     sym = getattr(ctx.model, "symbols", None)
     title = out["title"] or ctx.model.name
@@ -319,12 +345,12 @@ def _plot(ctx, param, dofs, records) -> list:
         where = f" at {math(param, sym)} = {records[0]['value']:.6g}" if param else ""
         ax.set_title(f"{title}: mode shapes{where}")
         legend_below(fig, ax, ncols=2 if count > 2 else 1)
-        files += save_figure(fig, ctx.outdir / "mode_shapes", out["formats"], out["dpi"])
+        files += save_figure(fig, ctx.sink.path("mode_shapes"), out["formats"], out["dpi"])
         if param and len(records) > 1:
             fig = new_figure((7.0, 5.2))
             ax = fig.add_subplot()
             draw_natural_frequencies(ax, param, records, units=out["units"], labels=out["labels"], symbols=sym)
             ax.set_title(out["title"] or f"{title}: natural frequencies against {math(param, sym)}")
             legend_below(fig, ax, ncols=min(len(ax.get_legend_handles_labels()[0]), 3) or 1)
-            files += save_figure(fig, ctx.outdir / "natural_frequencies", out["formats"], out["dpi"])
+            files += save_figure(fig, ctx.sink.path("natural_frequencies"), out["formats"], out["dpi"])
     return files

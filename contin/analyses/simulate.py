@@ -29,16 +29,27 @@ from __future__ import annotations
 import math
 import re
 import time
+from dataclasses import dataclass
+from fractions import Fraction
 
 import numpy as np
 
-from contin.scene.parse import model_frequency
-from contin.scene.registry import register_analysis
-from contin.util.naming import suggest
+from contin.analyses.base import Analysis, RunError
+from contin.output.exports import RunData
+from contin.output.figures import figure_style, new_figure, save_figure
+from contin.output.labels import axis_label, math as mathtext
+from contin.scene.budget import simulate_demands
+from contin.scene.parse import check_parameter_values
+from contin.scene.sweep_plan import parameter_name, sweep_names
+from contin.scene.registry import check_output
 from contin.scene.schema import Key, SceneError, int_range, is_number
+from contin.timedomain.poincare import spectrum, steady_state
+from contin.timedomain.simulation import RK4_STABILITY, SimulationError, compile_model
+from contin.util.naming import suggest
+from contin.util.safe_files import replace_file
 
-__all__ = ["SIMULATE", "check", "check_time_step", "run", "COLUMNS_HEAD", "SPECTRUM_FLOOR", "frequency_text",
-           "draw_spectrum", "draw_simulation"]
+__all__ = ["SIMULATE", "Simulate", "SimulatePlan", "check_time_step", "result_columns", "COLUMNS_HEAD",
+           "SPECTRUM_FLOOR", "frequency_text", "draw_spectrum", "draw_simulation"]
 
 
 def _initial_ok(v) -> bool:
@@ -78,7 +89,8 @@ N_LINES = 4
 WHIRL_COLUMNS = {"+w/2": "whirl_fwd_half", "-w/2": "whirl_bwd_half", "+w": "whirl_fwd_1", "-w": "whirl_bwd_1"}
 
 
-def _columns(parameter: str, dof_names) -> list:
+def result_columns(parameter: str, dof_names) -> list:
+    """The columns of ``simulation.csv``: the parameter, the classification, the spectral lines, the dofs' measures."""
     cols = [parameter] + COLUMNS_HEAD
     for j in range(1, N_LINES + 1):
         cols += [f"line{j}_freq", f"line{j}_amp"]
@@ -150,8 +162,6 @@ def check_time_step(model, params: dict, steps_per_period, key: str, lines: dict
     frequency : str, optional
         The forcing-frequency parameter (default the model's declared one).
     """
-    from contin.timedomain.simulation import RK4_STABILITY, SimulationError, compile_model
-
     lines = lines or {}
     try:
         model.check_variable(None, params)
@@ -181,135 +191,157 @@ def check_time_step(model, params: dict, steps_per_period, key: str, lines: dict
                          lines.get(key))
 
 
-def validate(data, model, analysis, lines) -> None:
-    """Refuse parameter values that make no physical sense (a negative frequency, mass, ...)."""
-    from contin.scene.parse import check_parameter_values
+@dataclass(frozen=True)
+class SimulatePlan:
+    """The checked choices of a ``simulate`` scene.
 
-    if analysis["values"] is not None:
-        check_parameter_values(model, analysis, analysis["parameter"] or model_frequency(model, analysis),
-                               [("analysis.values", analysis["values"])], lines)
-
-
-def check(scene, model) -> dict:
-    """Every check of a ``simulate`` scene with its model; returns its setup.
-
-    Everything the integrator refuses before integrating is checked at each
-    value (:func:`check_time_step`).
-
-    Returns
-    -------
-    dict
-        ``param``, ``values``, ``obs`` (observed dof names) and ``dofs``
-        (their indices).
+    Attributes
+    ----------
+    parameter : str
+        The parameter set to each value (``analysis.parameter``, else the forcing frequency).
+    values : tuple of float
+        Its values (``analysis.values``, else the model's own value).
+    observed : tuple of str
+        The observed dofs (``analysis.dofs``, else the first two).
+    dofs : tuple of int
+        Their indices.
     """
-    from contin.scene.registry import check_output
 
-    a = scene.analysis
-    param = a["parameter"] or model_frequency(scene.model, a)
-    if param not in model.parameters:
-        raise scene.error("analysis.parameter", f"a parameter of the model {list(model.parameters)}", param,
-                          hint=suggest(param, model.parameters))
-    values = a["values"] if a["values"] is not None else [model.parameters[param]]
-    S = a["steps_per_period"]
-    spp = a["samples_per_period"]
-    if S % spp:
-        raise scene.error("analysis.samples_per_period", f"a divisor of steps_per_period = {S}", spp)
-    names = list(model.dof_names)
-    obs = a["dofs"] or names[: min(2, len(names))]
-    for d in obs:
-        if d not in names:
-            raise scene.error("analysis.dofs", f"names among the dofs {names}", d, hint=suggest(d, names))
-    if isinstance(a["initial"], list) and len(a["initial"]) != 2 * len(names):
-        raise scene.error("analysis.initial", f"2n = {2 * len(names)} numbers (displacements of {names}, then "
-                          "velocities)", f"{len(a['initial'])} numbers")
-    for value in values:
-        check_time_step(model, {param: float(value)}, S, "analysis.steps_per_period", scene.lines,
-                        "analysis.values" if a["values"] is not None else f"model.parameters.{param}")
-    cols = _columns(param, names)
-    check_output(scene, [c for c in cols if c not in TEXT_COLUMNS])
-    return {"param": param, "values": values, "obs": obs, "dofs": [names.index(d) for d in obs]}
+    parameter: str
+    values: tuple
+    observed: tuple
+    dofs: tuple
 
 
-@register_analysis("simulate", SIMULATE, validate=validate, check=check)
-def run(ctx) -> dict:
-    """Run a ``simulate`` scene; returns its part of ``summary.json``."""
-    from contin.timedomain.poincare import steady_state
-    from contin.output.results import CsvStream
-    from contin.util.safe_files import replace_file
-    from contin.scene.registry import RunError
-    from contin.timedomain.simulation import SimulationError
+class Simulate(Analysis):
+    """``simulate``: time integration to steady state, classified periodic or not (module docstring)."""
 
-    scene, model = ctx.scene, ctx.model
-    a = scene.analysis
-    plan = ctx.plan  # check(), made before anything was written
-    param, values, obs, dofs = plan["param"], plan["values"], plan["obs"], plan["dofs"]
-    S = a["steps_per_period"]
-    spp = a["samples_per_period"]
-    names = list(model.dof_names)
-    rng = np.random.default_rng(a["seed"])
-    out = CsvStream(ctx.outdir / "simulation.csv", _columns(param, names))
-    records, rows = [], []
-    previous = None
-    t_all = time.perf_counter()
-    try:
-        for i, value in enumerate(values):
-            if ctx.stop_requested:
-                ctx.interrupted = True
-                break
-            x0, v0 = _initial_state(a, model, previous, rng)
+    name = "simulate"
+    summary = "Time integration to steady state, classified periodic or not."
+    required = "none required"
+    schema = SIMULATE
 
-            def progress(done, total, i=i, value=value):
-                ctx.progress.update(f"simulate {param}={value:.6g} ({i + 1}/{len(values)}): "
-                                    f"{done:.0f}/{total:.0f} revolutions",
-                                    fraction=(i + min(done / total, 1.0)) / len(values) if total > 0 else None)
+    def validate(self, data, model, analysis, lines) -> None:
+        """Refuse parameter values that make no physical sense (a negative frequency, mass, ...)."""
+        if analysis["values"] is not None:
+            check_parameter_values(model, analysis, parameter_name(model, analysis),
+                                   [("analysis.values", analysis["values"])], lines)
 
-            try:
-                res, cls = steady_state(model, {param: value}, x0, v0, transient=a["transient"], record=a["record"],
-                                        steps_per_period=S, samples_per_period=spp,
-                                        locate_events=a["locate_events"], dofs=dofs, tol=a["tolerance"],
-                                        max_period=a["max_period"], progress=progress,
-                                        should_stop=lambda: ctx.stop_requested)
-            except SimulationError as exc:  # what it refuses before integrating was checked: numerics
-                raise RunError(f"simulation at {param} = {value:g}: {exc}") from None
-            except ValueError as exc:  # not expected after check(): say which setting
-                raise SceneError("analysis", "settings the simulation can use", None, hint=f": {exc}") from None
-            if cls is None:
-                ctx.interrupted = True  # stopped by the user mid-run: keep the values that are complete
-                break
-            previous = res.final_state
-            row = _row(param, value, res, cls, names)
-            out.write(row)
-            rows.append(row)
-            replace_file(ctx.outdir / f"simulation_{i}.npz", lambda fh: np.savez_compressed(  # noqa: B023 (called now)
-                fh, t=res.t, x=res.x, v=res.v, section=res.section,
-                section_t=np.arange(res.section.shape[0]) * res.period, dof_names=np.array(names), parameter=param,
-                value=float(value)), binary=True)
-            records.append({"index": i, "value": float(value), "class": cls.label, "period": cls.period,
-                            "settled": cls.settled, "unsettled": cls.unsettled, "growth": cls.growth,
-                            "step_change": cls.step_change, "note": cls.note, "events": res.events,
-                            "unresolved_events": res.unresolved_events, "wall_time": res.wall_time,
-                            "compile_time": res.compile_time, "cost_per_period_us": res.cost_per_period_us,
-                            "notes": res.notes,
-                            "_plot": (res.t, res.x[:, dofs].copy(), res.period, res.w, cls)})
-    finally:
-        out.close()
-    ctx.timings["simulation"] = time.perf_counter() - t_all
-    ctx.plot = lambda: _plot(ctx, param, obs, records)
-    return {
-        "parameter": param,
-        "values": [float(v) for v in values],
-        "completed": len(records),
-        "steps_per_period": S,
-        "transient": a["transient"],
-        "record": int(math.ceil(a["record"] / 2.0)) * 2,
-        "locate_events": a["locate_events"],
-        "dofs": obs,
-        "results": [{k: v for k, v in r.items() if not k.startswith("_")} for r in records],
-        "classes": {c: sum(1 for r in records if r["class"] == c) for c in sorted({r["class"] for r in records})},
+    def demands(self, scene, model) -> list:
+        return simulate_demands(scene, model)
+
+    def plan(self, scene, model) -> SimulatePlan:
+        """Every check of a ``simulate`` scene with its model.
+
+        Everything the integrator refuses before integrating is checked at each
+        value (:func:`check_time_step`).
+        """
+        a = scene.analysis
+        param, _ = sweep_names(scene, model, need_frequency=False)
+        values = a["values"] if a["values"] is not None else [model.parameters[param]]
+        S = a["steps_per_period"]
+        spp = a["samples_per_period"]
+        if S % spp:
+            raise scene.error("analysis.samples_per_period", f"a divisor of steps_per_period = {S}", spp)
+        names = list(model.dof_names)
+        obs = a["dofs"] or names[: min(2, len(names))]
+        for d in obs:
+            if d not in names:
+                raise scene.error("analysis.dofs", f"names among the dofs {names}", d, hint=suggest(d, names))
+        if isinstance(a["initial"], list) and len(a["initial"]) != 2 * len(names):
+            raise scene.error("analysis.initial", f"2n = {2 * len(names)} numbers (displacements of {names}, then "
+                              "velocities)", f"{len(a['initial'])} numbers")
+        for value in values:
+            check_time_step(model, {param: float(value)}, S, "analysis.steps_per_period", scene.lines,
+                            "analysis.values" if a["values"] is not None else f"model.parameters.{param}")
+        cols = result_columns(param, names)
+        check_output(scene, [c for c in cols if c not in TEXT_COLUMNS])
+        return SimulatePlan(parameter=param, values=tuple(values), observed=tuple(obs),
+                            dofs=tuple(names.index(d) for d in obs))
+
+    def run(self, plan: SimulatePlan, ctx):
+        """Integrate at each value, classify the recorded window; the table, the windows and the summary.
+
+        With a result directory each value's window is ``simulation_<i>.npz``;
+        in memory it is the outcome's ``data["simulation_<i>"]`` (the same arrays).
+        """
+        scene, model = ctx.scene, ctx.model
+        a = scene.analysis
+        param, values, obs, dofs = plan.parameter, list(plan.values), list(plan.observed), list(plan.dofs)
+        S = a["steps_per_period"]
+        spp = a["samples_per_period"]
+        names = list(model.dof_names)
+        rng = np.random.default_rng(a["seed"])
+        out = ctx.sink.table("simulation.csv", result_columns(param, names))
+        records, rows = [], []
+        windows = RunData()
+        previous = None
+        t_all = time.perf_counter()
+        try:
+            for i, value in enumerate(values):
+                if ctx.stop_requested:
+                    ctx.interrupted = True
+                    break
+                x0, v0 = _initial_state(a, model, previous, rng)
+
+                def progress(done, total, i=i, value=value):
+                    ctx.progress.update(f"simulate {param}={value:.6g} ({i + 1}/{len(values)}): "
+                                        f"{done:.0f}/{total:.0f} revolutions",
+                                        fraction=(i + min(done / total, 1.0)) / len(values) if total > 0 else None)
+
+                try:
+                    res, cls = steady_state(model, {param: value}, x0, v0, transient=a["transient"],
+                                            record=a["record"], steps_per_period=S, samples_per_period=spp,
+                                            locate_events=a["locate_events"], dofs=dofs, tol=a["tolerance"],
+                                            max_period=a["max_period"], progress=progress,
+                                            should_stop=lambda: ctx.stop_requested)
+                except SimulationError as exc:  # what it refuses before integrating was checked: numerics
+                    raise RunError(f"simulation at {param} = {value:g}: {exc}") from None
+                except ValueError as exc:  # not expected after plan(): say which setting
+                    raise SceneError("analysis", "settings the simulation can use", None, hint=f": {exc}") from None
+                if cls is None:
+                    ctx.interrupted = True  # stopped by the user mid-run: keep the values that are complete
+                    break
+                previous = res.final_state
+                row = _row(param, value, res, cls, names)
+                out.write(row)
+                rows.append(row)
+                window = {"t": res.t, "x": res.x, "v": res.v, "section": res.section,
+                          "section_t": np.arange(res.section.shape[0]) * res.period, "dof_names": np.array(names),
+                          "parameter": param, "value": float(value)}
+                path = ctx.sink.path(f"simulation_{i}.npz")
+                if path is None:
+                    windows[f"simulation_{i}"] = window
+                else:
+                    replace_file(path, lambda fh, w=window: np.savez_compressed(fh, **w), binary=True)
+                records.append({"index": i, "value": float(value), "class": cls.label, "period": cls.period,
+                                "settled": cls.settled, "unsettled": cls.unsettled, "growth": cls.growth,
+                                "step_change": cls.step_change, "note": cls.note, "events": res.events,
+                                "unresolved_events": res.unresolved_events, "wall_time": res.wall_time,
+                                "compile_time": res.compile_time, "cost_per_period_us": res.cost_per_period_us,
+                                "notes": res.notes,
+                                "_plot": (res.t, res.x[:, dofs].copy(), res.period, res.w, cls)})
+        finally:
+            out.close()
+        ctx.timings["simulation"] = time.perf_counter() - t_all
         # a response that is no steady state is not what the scene asked for
-        "shortfalls": [f"simulation at {param} = {r['value']:.10g} not settled: {r['unsettled']}"
-                       for r in records if not r["settled"]],
-    }
+        missing = [f"simulation at {param} = {r['value']:.10g} not settled: {r['unsettled']}"
+                   for r in records if not r["settled"]]
+        part = {
+            "parameter": param,
+            "values": [float(v) for v in values],
+            "completed": len(records),
+            "steps_per_period": S,
+            "transient": a["transient"],
+            "record": int(math.ceil(a["record"] / 2.0)) * 2,
+            "locate_events": a["locate_events"],
+            "dofs": obs,
+            "results": [{k: v for k, v in r.items() if not k.startswith("_")} for r in records],
+            "classes": {c: sum(1 for r in records if r["class"] == c) for c in sorted({r["class"] for r in records})},
+            "shortfalls": missing,
+        }
+        draw = (lambda: _plot(ctx, param, obs, records)) if ctx.sink.writes else None
+        return self.outcome(ctx, part, shortfalls=missing, data=None if ctx.sink.writes else windows, draw=draw)
 
 
 #: a spectrum is drawn down to this fraction of its largest line (below it: leakage and rounding)
@@ -330,8 +362,6 @@ def frequency_text(f: float, w: str = "w", max_denominator: int = 8, tol: float 
     tol : float
         How close to ``p/q`` counts as equal.
     """
-    from fractions import Fraction
-
     fr = Fraction(float(f)).limit_denominator(max_denominator)
     if abs(float(fr) - f) > tol:
         return f"${f:.3g}\\,{w}$"
@@ -403,24 +433,21 @@ def draw_spectrum(ax, f, amp, *, lines=(), w: str = "w", fmax: float = 3.0, floo
 
 
 def _plot(ctx, param, obs, records) -> list:
-    from contin.output.figures import figure_style, new_figure, save_figure
-    from contin.output.labels import axis_label, math
-
     out = ctx.scene.output
     files = []
     n_plot = ctx.scene.analysis["plot_periods"]
     model = ctx.model
     sym = getattr(model, "symbols", None)
-    wsym = math(model.frequency, sym).strip("$")
+    wsym = mathtext(model.frequency, sym).strip("$")
     units, labels = out["units"], out["labels"]
     with figure_style(out["style"]):
         for r in records:
             fig = new_figure((13.0, 4.2))
             axs = fig.subplots(1, 3)
             draw_simulation(axs, r["_plot"], obs, model, n_plot, units=units, labels=labels, symbols=sym, w=wsym)
-            fig.suptitle(out["title"] or f"{model.name}: {math(param, sym)} = {r['value']:.6g}: "
+            fig.suptitle(out["title"] or f"{model.name}: {mathtext(param, sym)} = {r['value']:.6g}: "
                          f"{r['class']}" + ("" if r["settled"] else " (not settled)"))
-            files += save_figure(fig, ctx.outdir / f"simulation_{r['index']}", out["formats"], out["dpi"])
+            files += save_figure(fig, ctx.sink.path(f"simulation_{r['index']}"), out["formats"], out["dpi"])
         if len(records) > 1:
             fig = new_figure((7.0, 4.8))
             ax = fig.add_subplot()
@@ -437,11 +464,11 @@ def _plot(ctx, param, obs, records) -> list:
                 seen.add(r["class"])
                 ax.plot(vi, a1, m, color=c, ms=4)
             ax.set_xlabel(axis_label(param, units, labels, sym))
-            pair = " + i\\,".join(math(d, sym).strip("$") for d in obs)
+            pair = " + i\\,".join(mathtext(d, sym).strip("$") for d in obs)
             ax.set_ylabel(f"forward whirl radius of ${pair}$" if len(obs) == 2 else f"amplitude of ${pair}$")
-            ax.set_title(out["title"] or f"{model.name}: forward whirl components against {math(param, sym)}")
+            ax.set_title(out["title"] or f"{model.name}: forward whirl components against {mathtext(param, sym)}")
             ax.legend(loc="best")
-            files += save_figure(fig, ctx.outdir / "simulation_summary", out["formats"], out["dpi"])
+            files += save_figure(fig, ctx.sink.path("simulation_summary"), out["formats"], out["dpi"])
     return files
 
 
@@ -461,13 +488,10 @@ def draw_simulation(axs, data, obs, model, n_plot: int, *, units=None, labels=No
     w : str
         Mathtext of the forcing frequency's symbol.
     """
-    from contin.output.labels import axis_label, math
-    from contin.timedomain.poincare import spectrum
-
     t, x, T, wv, cls = data
     sel = t >= t[-1] - n_plot * T
     for j, d in enumerate(obs):
-        axs[0].plot(t[sel] / T, x[sel, j], lw=1.0, label=math(d, symbols))
+        axs[0].plot(t[sel] / T, x[sel, j], lw=1.0, label=mathtext(d, symbols))
     axs[0].set_xlabel("time $t/T$ (revolutions)")
     same = {(units or {}).get(d) for d in obs}
     axs[0].set_ylabel("displacement" + (f" [{same.pop()}]" if len(same) == 1 and None not in same else ""))
@@ -495,3 +519,4 @@ def draw_simulation(axs, data, obs, model, n_plot: int, *, units=None, labels=No
     draw_spectrum(axs[2], f, amp, lines=cls.lines[:6], w=w)
     axs[2].set_ylabel("amplitude")
     axs[2].set_title("spectrum (Hann window)")
+

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from contin.scene.sweep_plan import runs_from_start
 from contin.scene.parse import SceneError
 from contin.stability import StabilityOptions
 from contin.bifurcation.diagram import follow as follow_diagram
@@ -61,8 +62,7 @@ def stability_setup(analysis: dict, hb):
             return lambda branch, state: rec.checkpoint(index, branch, state)
 
         previous = previous or {}
-        inside = lam_range[0] < lam0 < lam_range[1]
-        runs = [options] + ([options.replace(direction=-options.direction)] if analysis["both_ways"] and inside else [])
+        runs = runs_from_start(options, analysis["both_ways"], lam0, lam_range)
         pairs, offset = [], first_id
         for opts in runs:
             def shifted(index, problem, offset=offset):

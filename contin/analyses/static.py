@@ -26,14 +26,25 @@ displacement, as the belt paper's Fig. 4 and 5 draw the load ``p_s`` against
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
-from contin.scene.registry import register_analysis, shortfalls
-from contin.util.naming import suggest
+from contin.analyses.base import Analysis, RunError, ScaleCheck
+from contin.engine.continuation import ContinuationOptions, continuation
+from contin.hb.measures import measure_names, point_measures
+from contin.modal.equilibrium import solve_equilibrium, static_problem, time_varying_excitations
+from contin.output.dense import dense_branch
+from contin.output.labels import model_symbols
+from contin.output.plotting import CHANGES, SPECIAL, bifurcation_diagram
+from contin.scene.parse import check_parameter_values
+from contin.scene.preflight import dofs_text
+from contin.scene.registry import check_output, shortfalls
 from contin.scene.schema import Key, SceneError, flag, is_number, mapping, number, string
+from contin.scene.sweep_plan import SweepPlan, sweep_plan
+from contin.util.naming import suggest
 
-__all__ = ["STATIC", "check", "result_columns", "run", "static_stability"]
+__all__ = ["STATIC", "Static", "StaticPlan", "result_columns", "static_stability"]
 
 STATIC = {
     "type": string(required=True),
@@ -71,8 +82,6 @@ def static_stability(Ju: np.ndarray, M: np.ndarray) -> dict:
 
 def result_columns(model, parameter: str, names_lin) -> dict:
     """``values`` (dofs and linear observables), and the columns of ``branches.csv`` and ``special_points.csv``."""
-    from contin.hb.measures import measure_names
-
     obs_cols = list(getattr(model, "observable_names", ())) if getattr(model, "observables", None) else []
     values = list(model.dof_names) + list(names_lin)
     measures = measure_names(model.dof_names, 0, 0) + obs_cols
@@ -83,12 +92,43 @@ def result_columns(model, parameter: str, names_lin) -> dict:
             + ["stable", "n_unstable", "lowest_eigenvalue", "interval_lo", "interval_hi", "located", "detail"]}
 
 
+@dataclass(frozen=True)
+class StaticPlan:
+    """The checked choices of a ``static`` scene.
+
+    Attributes
+    ----------
+    sweep : SweepPlan
+        The parameter, its range, the start and the direction.
+    problem : HarmonicBalance
+        The ``H = 0`` problem of the model under its static load.
+    options : ContinuationOptions
+        ``analysis.continuation``, its direction that of ``sweep``.
+    linear_observables : dict
+        Name -> coefficient row of the model's linear observables.
+    measure : str
+        The plotted column (a dof or a linear observable).
+    columns : dict
+        :func:`result_columns`.
+    """
+
+    sweep: SweepPlan
+    problem: object
+    options: ContinuationOptions
+    linear_observables: dict
+    measure: str
+    columns: dict
+
+    @property
+    def model(self):
+        """The model under its static load (the problem's)."""
+        return self.problem.model
+
+
 class _StaticRecorder:
     """Streams ``branches.csv`` and ``special_points.csv`` of a static analysis."""
 
-    def __init__(self, outdir, model, parameter, names_lin):
-        from contin.output.results import CsvStream
-
+    def __init__(self, sink, model, parameter, names_lin):
         self.model = model
         self.parameter = parameter
         self.lin = names_lin
@@ -97,15 +137,14 @@ class _StaticRecorder:
         self.values, self.measures = cols["values"], cols["measures"]
         self.columns = cols["branches.csv"]
         self.special_columns = cols["special_points.csv"]
-        self.rows = CsvStream(outdir / "branches.csv", self.columns)
-        self.special = CsvStream(outdir / "special_points.csv", self.special_columns)
+        self.rows = sink.table("branches.csv", self.columns)
+        self.special = sink.table("special_points.csv", self.special_columns)
         self.n_rows = 0
         self.curves: dict = {}
         self.special_list: list = []
 
-    def _values(self, x) -> dict:
-        from contin.hb.measures import point_measures
-
+    def point_values(self, x) -> dict:
+        """The dofs, linear observables and measures of the equilibrium ``x``."""
         out = {d: float(v) for d, v in zip(self.model.dof_names, x)}
         for name, c in self.lin.items():
             out[name] = float(np.asarray(c) @ x)
@@ -121,7 +160,7 @@ class _StaticRecorder:
                "n_unstable": int(pd["n_unstable"][i]), "lowest_eigenvalue": float(pd["lowest_eigenvalue"][i]),
                "newton_iterations": int(branch.newton_iterations[i]),
                "residual_norm": float(branch.residual_norms[i])}
-        row.update(self._values(x))
+        row.update(self.point_values(x))
         self.rows.write(row)
         c = self.curves.setdefault(bid, {"rows": [], "offset": self.n_rows - i, "u": [], "direction": []})
         c["rows"].append(row)
@@ -142,7 +181,7 @@ class _StaticRecorder:
             row = {"branch": bid, "kind": sp.kind.value, self.parameter: float(sp.parameter),
                    "index": off + min(max(sp.index, 0), len(branch) - 1), "interval_lo": sp.bracket[0],
                    "interval_hi": sp.bracket[1], "located": bool(sp.located), "detail": sp.message}
-            row.update({k: v for k, v in self._values(sp.unknowns).items() if k in self.values})
+            row.update({k: v for k, v in self.point_values(sp.unknowns).items() if k in self.values})
             d = sp.point_data or {}
             for k in ("stable", "n_unstable", "lowest_eigenvalue"):
                 if k in d:
@@ -156,126 +195,113 @@ class _StaticRecorder:
         self.special.close()
 
 
-def validate(data, model, analysis, lines) -> None:
-    """Refuse parameter values that make no physical sense (a negative frequency, mass, ...)."""
-    from contin.scene.parse import check_parameter_values
+class Static(Analysis):
+    """``static``: equilibria versus a load parameter, their folds and static stability (module docstring)."""
 
-    check_parameter_values(model, analysis, analysis["parameter"],
-                           [(f"analysis.{k}", analysis[k]) for k in ("range", "start") if analysis[k] is not None],
-                           lines)
+    name = "static"
+    summary = "Equilibria against a load parameter, with limit loads."
+    required = "parameter, range"
+    schema = STATIC
 
+    def validate(self, data, model, analysis, lines) -> None:
+        """Refuse parameter values that make no physical sense (a negative frequency, mass, ...)."""
+        check_parameter_values(model, analysis, analysis["parameter"],
+                               [(f"analysis.{k}", analysis[k]) for k in ("range", "start") if analysis[k] is not None],
+                               lines)
 
-def check(scene, model) -> dict:
-    """Every check of a ``static`` scene with its model; returns its setup.
+    def plan(self, scene, model) -> StaticPlan:
+        """Every check of a ``static`` scene with its model (the parameter, the start, the options, the measure)."""
+        a = scene.analysis
+        sweep = sweep_plan(scene, model, need_frequency=False)
+        param = sweep.parameter
+        try:
+            hb = static_problem(model, param)
+        except ValueError as exc:
+            raise SceneError("analysis", "a model with a static problem", None, hint=f": {exc}") from None
+        auto = hb.model
+        d = dict(a["continuation"])
+        d.setdefault("direction", sweep.direction)
+        try:
+            opts = ContinuationOptions.from_dict(d)
+        except ValueError as exc:
+            raise SceneError("analysis.continuation", "valid continuation options", None, hint=f": {exc}") from None
+        lin = dict(getattr(auto, "linear_observables", {}) or {})
+        cols = result_columns(auto, param, lin)
+        measure = a["measure"] or (next(iter(lin)) if lin else model.dof_names[0])
+        if measure not in cols["values"]:
+            raise scene.error("analysis.measure", "a dof or linear observable among " + ", ".join(cols["values"]),
+                              measure, hint=suggest(str(measure), cols["values"]))
+        check_output(scene, cols["branches.csv"][2:], [param])
+        return StaticPlan(sweep=sweep, problem=hb, options=opts, linear_observables=lin, measure=measure,
+                          columns=cols)
 
-    Returns
-    -------
-    dict
-        ``param``, ``lo``, ``hi``, ``lam0``, ``auto`` (the model under its
-        static load), ``hb`` (its ``H = 0`` problem), ``opts``, ``lin``
-        (linear observables) and ``measure`` (the plotted column).
-    """
-    from contin.scene.registry import check_output
-    from contin.engine.continuation import ContinuationOptions
-    from contin.modal.equilibrium import static_problem
+    def describe(self, plan: StaticPlan, scene, model) -> list[str]:
+        a = scene.analysis
+        return [f"  equilibria (H = 0) in {a['parameter']} over {a['range']}; unknowns: {model.n_dof} dof"]
 
-    a = scene.analysis
-    param = a["parameter"]
-    if param not in model.parameters:
-        raise scene.error("analysis.parameter", f"a parameter of the model {list(model.parameters)}", param)
-    lam_a, lam_b = float(a["range"][0]), float(a["range"][1])
-    lo, hi = min(lam_a, lam_b), max(lam_a, lam_b)
-    lam0 = float(a["start"]) if a["start"] is not None else lam_a
-    if not lo <= lam0 <= hi:
-        raise scene.error("analysis.start", f"a value inside range [{lo:g}, {hi:g}]", lam0)
-    try:
-        hb = static_problem(model, param)
-    except ValueError as exc:
-        raise SceneError("analysis", "a model with a static problem", None, hint=f": {exc}") from None
-    auto = hb.model
-    d = dict(a["continuation"])
-    d.setdefault("direction", 1 if (lam_b if lam0 != lam_b else lam_a) > lam0 else -1)
-    try:
-        opts = ContinuationOptions.from_dict(d)
-    except ValueError as exc:
-        raise SceneError("analysis.continuation", "valid continuation options", None, hint=f": {exc}") from None
-    lin = dict(getattr(auto, "linear_observables", {}) or {})
-    cols = result_columns(auto, param, lin)
-    measure = a["measure"] or (next(iter(lin)) if lin else model.dof_names[0])
-    if measure not in cols["values"]:
-        raise scene.error("analysis.measure", "a dof or linear observable among " + ", ".join(cols["values"]), measure,
-                          hint=suggest(str(measure), cols["values"]))
-    check_output(scene, cols["branches.csv"][2:], [param])
-    return {"param": param, "lo": lo, "hi": hi, "lam0": lam0, "auto": auto, "hb": hb, "opts": opts, "lin": lin,
-            "measure": measure, "columns": cols}
+    def scale_checks(self, plan: StaticPlan) -> list[ScaleCheck]:
+        n = plan.problem.size
+        return [ScaleCheck("analysis.continuation.unknown_scale", plan.options, n, f"the {dofs_text(n)}")]
 
+    def run(self, plan: StaticPlan, ctx):
+        """Follow the equilibria from the start over the range (both ways when asked); tables and summary."""
+        model = ctx.model
+        sweep, hb, opts = plan.sweep, plan.problem, plan.options
+        param, lo, hi, lam0 = sweep.parameter, sweep.lo, sweep.hi, sweep.start
+        auto, lin, measure = plan.model, plan.linear_observables, plan.measure
+        t0 = time.perf_counter()
+        res = solve_equilibrium(hb, lam0)
+        if not res.converged:
+            raise RunError(f"no equilibrium at {param}={lam0:g}: no static equilibrium of '{model.name}' found: "
+                           f"{res.message}")
+        x0 = res.x
 
-@register_analysis("static", STATIC, validate=validate, check=check)
-def run(ctx) -> dict:
-    """Run a ``static`` scene; returns its part of ``summary.json``."""
-    from contin.engine.continuation import continuation
-    from contin.modal.equilibrium import solve_equilibrium, time_varying_excitations
-    from contin.scene.registry import RunError
+        def monitor(u, lam, Ju, Jlam):
+            return static_stability(Ju, auto.linear(hb.params_at(lam))[0])  # M may depend on the parameter
 
-    scene, model = ctx.scene, ctx.model
-    a = scene.analysis
-    plan = ctx.plan  # check(), made before anything was written
-    param, lo, hi, lam0 = plan["param"], plan["lo"], plan["hi"], plan["lam0"]
-    auto, hb, opts, lin, measure = plan["auto"], plan["hb"], plan["opts"], plan["lin"], plan["measure"]
-    t0 = time.perf_counter()
-    res = solve_equilibrium(hb, lam0)
-    if not res.converged:
-        raise RunError(f"no equilibrium at {param}={lam0:g}: no static equilibrium of '{model.name}' found: "
-                       f"{res.message}")
-    x0 = res.x
+        rec = _StaticRecorder(ctx.sink, auto, param, lin)
+        runs = sweep.runs(opts)
+        branches = []
+        try:
+            for bid, o in enumerate(runs):
+                def callback(branch, i, bid=bid):
+                    rec.point(bid, branch, i)
+                    ctx.progress.update(f"static branch {bid}: {param}={branch.parameter[i]:.6g}, point {i}",
+                                        parameter=branch.parameter, bounds=(lo, hi), task=f"branch {bid}")
+                    return not ctx.stop_requested
 
-    def monitor(u, lam, Ju, Jlam):
-        return static_stability(Ju, auto.linear(hb.params_at(lam))[0])  # M may depend on the parameter
-
-    rec = _StaticRecorder(ctx.outdir, auto, param, lin)
-    runs = [opts] + ([opts.replace(direction=-opts.direction)] if a["both_ways"] and lo < lam0 < hi else [])
-    branches = []
-    try:
-        for bid, o in enumerate(runs):
-            def callback(branch, i, bid=bid):
-                rec.point(bid, branch, i)
-                ctx.progress.update(f"static branch {bid}: {param}={branch.parameter[i]:.6g}, point {i}",
-                                    parameter=branch.parameter, bounds=(lo, hi), task=f"branch {bid}")
-                return not ctx.stop_requested
-
-            br = continuation(hb, x0, lam0, (lo, hi), o, parameter_name=param, monitors=[monitor], callback=callback)
-            rec.specials(bid, br)
-            branches.append(br)
-    finally:
-        rec.close()
-    ctx.timings["continuation"] = time.perf_counter() - t0
-    ctx.interrupted = ctx.interrupted or any(b.status.value == "interrupted" for b in branches)
-    ctx.plot = lambda: _plot(ctx, rec, param, measure)
-    return {
-        "parameter": param,
-        "measure": measure,
-        "dropped_excitations": time_varying_excitations(model),
-        "equilibrium_at_start": {"parameter": lam0, "x": [float(v) for v in x0]},
-        "branches": [{"branch": i, "nu": 0, "points": len(b), "status": b.status.value, "message": b.message,
-                      "special_points": {k: sum(1 for s in b.special_points if s.kind.value == k)
-                                         for k in ("fold", "bp")}}
-                     for i, b in enumerate(branches)],
-        "rows": rec.n_rows,
-        "special_points": len(rec.special_list),
-        "shortfalls": shortfalls([{"branch": i, "points": len(b), "status": b.status.value, "message": b.message,
-                                   "uncovered": b.info.get("uncovered")} for i, b in enumerate(branches)], param),
-    }
+                br = continuation(hb, x0, lam0, (lo, hi), o, parameter_name=param, monitors=[monitor],
+                                  callback=callback)
+                rec.specials(bid, br)
+                branches.append(br)
+        finally:
+            rec.close()
+        ctx.timings["continuation"] = time.perf_counter() - t0
+        ctx.interrupted = ctx.interrupted or any(b.status.value == "interrupted" for b in branches)
+        missing = shortfalls([{"branch": i, "points": len(b), "status": b.status.value, "message": b.message,
+                               "uncovered": b.info.get("uncovered")} for i, b in enumerate(branches)], param)
+        part = {
+            "parameter": param,
+            "measure": measure,
+            "dropped_excitations": time_varying_excitations(model),
+            "equilibrium_at_start": {"parameter": lam0, "x": [float(v) for v in x0]},
+            "branches": [{"branch": i, "nu": 0, "points": len(b), "status": b.status.value, "message": b.message,
+                          "special_points": {k: sum(1 for s in b.special_points if s.kind.value == k)
+                                             for k in ("fold", "bp")}}
+                         for i, b in enumerate(branches)],
+            "rows": rec.n_rows,
+            "special_points": len(rec.special_list),
+            "shortfalls": missing,
+        }
+        draw = (lambda: _plot(ctx, rec, param, measure)) if ctx.sink.writes else None
+        return self.outcome(ctx, part, shortfalls=missing, draw=draw)
 
 
 def _plot(ctx, rec, param, measure):
-    from contin.output.dense import dense_branch
-    from contin.output.labels import model_symbols
-    from contin.output.plotting import CHANGES, SPECIAL, bifurcation_diagram
-
     out = ctx.scene.output
 
     def evaluate(lam, X):
-        return np.array([rec._values(x)[measure] for x in X]), lam
+        return np.array([rec.point_values(x)[measure] for x in X]), lam
 
     curves = []
     for bid, c in rec.curves.items():
@@ -290,6 +316,6 @@ def _plot(ctx, rec, param, measure):
         # the two halves of the path followed both ways from one equilibrium
         curves.append({"x": d["x"], "y": d["y"], "stable": d["stable"], "nu": 0, "id": bid, "group": "equilibria"})
     special = [{"x": s[measure], "y": s[param], "kind": s["kind"], "branch": s["branch"]} for s in rec.special_list]
-    return bifurcation_diagram(curves, special, param, measure, ctx.outdir / "static", units=out["units"],
+    return bifurcation_diagram(curves, special, param, measure, ctx.sink.path("static"), units=out["units"],
                                labels=out["labels"], symbols=model_symbols(ctx.model), title=out["title"],
                                formats=out["formats"], dpi=out["dpi"], style=out["style"], vertical_parameter=True)

@@ -20,19 +20,17 @@ call is back after it.
 
 from __future__ import annotations
 
-import shutil
-import tempfile
 from pathlib import Path
 from typing import Mapping
 
 from contin.api.result import Result
 from contin.api.system import System, plain
-from contin.app.runner import run_scene
-from contin.scene.parse import Scene, SceneError, analysis_schemas, load_scene, parse_scene, scene_from_data
+from contin.app.runner import execute
+from contin.scene.parse import Scene, SceneError, load_scene, parse_scene, scene_from_data
+from contin.scene.registry import ANALYSES, analysis
 from contin.util.naming import suggest
 
-__all__ = ["run", "frequency_response", "backbone", "static", "modes", "frf", "simulate", "bifurcation_curve",
-           "convergence", "ANALYSIS_CALLS"]
+__all__ = ["run", "ANALYSIS_CALLS", *ANALYSES]
 
 #: what a call writes unless ``output=`` says otherwise: no figure files (``Result.plot`` draws on demand)
 DEFAULT_OUTPUT = {"plots": False}
@@ -47,20 +45,14 @@ def _system(system) -> System:
 
 
 def _execute(scene: Scene, outdir, progress: bool) -> Result:
-    temporary = outdir is None
-    directory = Path(tempfile.mkdtemp(prefix="contin-")) if temporary else Path(outdir)
-    try:
-        run_scene(scene, directory, progress=progress)
-    except BaseException:
-        if temporary:
-            shutil.rmtree(directory, ignore_errors=True)
-        raise
-    return Result(directory, temporary=temporary)
+    """Run ``scene``: in memory (nothing written, no figure files) without ``outdir``, else into it as
+    ``contin run`` does."""
+    return Result(execute(scene, outdir, progress=progress))
 
 
 def _check_keywords(kind: str, keys: dict) -> None:
     """``TypeError`` for a keyword that is no key of ``kind``'s analysis section, as Python's own calls say it."""
-    schema = analysis_schemas()[kind]
+    schema = analysis(kind).schema
     for key in keys:
         if key not in schema:
             raise TypeError(f"{kind}() got an unexpected keyword argument {key!r}{suggest(key, schema)}; "
@@ -73,6 +65,9 @@ def _analysis_call(kind: str, system, outdir, output, progress, keys: dict) -> R
     system = _system(system)
     if "type" in keys:
         raise SceneError("analysis.type", f"no type keyword: this call runs a {kind} analysis", keys["type"])
+    if outdir is None and (output or {}).get("plots"):
+        raise SceneError("output.plots", "false without outdir (figures are files: give outdir=..., or draw with "
+                         "Result.plot)", True)
     data = {"model": system.section, "analysis": {"type": kind, **plain(keys, "analysis")},
             "output": {**DEFAULT_OUTPUT, **plain(dict(output or {}), "output")}}
     return _execute(scene_from_data(data, "<python>"), outdir, progress)
@@ -86,7 +81,8 @@ def run(scene, outdir: str | Path | None = None, *, overrides=(), progress: bool
     ----------
     scene : path, str or mapping
     outdir : path, optional
-        Where the result files go; a temporary directory (removed with the result) if omitted.
+        Where the result files go, as ``contin run -o`` writes them; without it nothing is written (the
+        result is held in memory, its figures drawn on demand by ``Result.plot``).
     overrides : sequence of str
         ``"dotted.key=value"`` as ``--set`` takes them.
     progress : bool
@@ -120,9 +116,10 @@ def _make(kind: str, summary: str, required: str):
     system : System, str or mapping
         A :class:`contin.api.system.System`, a built-in model's name, or a scene (path, dict).
     outdir : path, optional
-        Where the result files go; a temporary directory (removed with the result) if omitted.
+        Where the result files go, as ``contin run -o`` writes them; without it nothing is written (the
+        result is held in memory).
     output : mapping, optional
-        Keys of the scene's ``output`` section (``{{"plots": True, "formats": ["pdf"]}}``);
+        Keys of the scene's ``output`` section (``{{"plots": True, "formats": ["pdf"]}}``, with ``outdir``);
         figures are not written by default.
     progress : bool
         Show progress on stderr.
@@ -137,28 +134,6 @@ def _make(kind: str, summary: str, required: str):
     return call
 
 
-#: analysis.type -> (one line on what it computes, its required keys)
-_ANALYSES = {
-    "frequency_response": ("Periodic solutions against a parameter, harmonic or subharmonic, with stability, "
-                           "special points and branch switching.", "range; often parameter, harmonics, stability, "
-                           "switch"),
-    "backbone": ("Free conservative periodic solutions against their amplitude.", "dof, range"),
-    "static": ("Equilibria against a load parameter, with limit loads.", "parameter, range"),
-    "modes": ("Natural frequencies and mode shapes about the static equilibrium.", "none required"),
-    "frf": ("Frequency response of a linear model from its impedance matrix.", "range"),
-    "simulate": ("Time integration to steady state, classified periodic or not.", "none required"),
-    "bifurcation_curve": ("Fold and period-doubling curves in the plane of two parameters.",
-                          "range, second_parameter, second_range"),
-    "convergence": ("Another analysis over a range of harmonics, samples or terms: error against cost.",
-                    "base, vary, quantities"),
-}
-
-ANALYSIS_CALLS = {kind: _make(kind, *text) for kind, text in _ANALYSES.items()}
-frequency_response = ANALYSIS_CALLS["frequency_response"]
-backbone = ANALYSIS_CALLS["backbone"]
-static = ANALYSIS_CALLS["static"]
-modes = ANALYSIS_CALLS["modes"]
-frf = ANALYSIS_CALLS["frf"]
-simulate = ANALYSIS_CALLS["simulate"]
-bifurcation_curve = ANALYSIS_CALLS["bifurcation_curve"]
-convergence = ANALYSIS_CALLS["convergence"]
+#: one call per analysis of the table :data:`contin.scene.registry.ANALYSES`, made from its summary and keys
+ANALYSIS_CALLS = {kind: _make(kind, analysis(kind).summary, analysis(kind).required) for kind in ANALYSES}
+globals().update(ANALYSIS_CALLS)  # contin.api.calls.frequency_response, ...

@@ -1,21 +1,22 @@
 """What an analysis returns in Python: :class:`Result`, its :class:`BranchResult` s and
-:class:`LocatedPoint` s, read from the run's result files (the same files ``contin run``
-writes, so ``load("results/rotor")`` gives the same object as the call that made them)."""
+:class:`LocatedPoint` s, made from the run's :class:`~contin.output.outcome.Outcome` as held
+in memory (a call) or as written (``load("results/rotor")`` rebuilds the same object from
+the files of ``contin run`` or of a call given ``outdir``)."""
 
 from __future__ import annotations
 
-import json
 import shutil
-import weakref
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from contin.api.plot import plot_result
 from contin.app.pointplot import stored_expansion
-from contin.output.exports import EXPORT_FORMATS, collect_run, stability_code, write_exports
+from contin.output.exports import EXPORT_FORMATS, run_data, stability_code, write_exports
+from contin.output.outcome import Outcome
 from contin.output.plotting import branch_label
-from contin.output.results import read_csv
+from contin.output.results import write_json_atomic
 
 __all__ = ["Result", "BranchResult", "LocatedPoint", "load"]
 
@@ -106,8 +107,10 @@ class Result:
 
     Attributes
     ----------
-    outdir : Path
-        The result directory (a temporary one, removed with the object, unless one was given).
+    outcome : Outcome
+        What the run computed (:class:`contin.output.outcome.Outcome`).
+    outdir : Path or None
+        The result directory, None for a run held in memory (a call without ``outdir``).
     summary : dict
         ``summary.json``.
     status : str
@@ -118,32 +121,30 @@ class Result:
         The continued parameter.
     dofs : tuple of str
     tables : dict of str to dict
-        Every CSV of the run by file stem (``branches``, ``special_points``, ``modes``, ``frf``, ...),
+        Every table of the run by file stem (``branches``, ``special_points``, ``modes``, ``frf``, ...),
         each a dict of column arrays.
     branches : list of BranchResult
     special_points : list of LocatedPoint
     """
 
-    def __init__(self, outdir: str | Path, *, temporary: bool = False):
-        self.outdir = Path(outdir)
-        if temporary:
-            self._cleanup = weakref.finalize(self, shutil.rmtree, str(self.outdir), True)
-        path = self.outdir / "summary.json"
-        if not path.is_file():
-            raise FileNotFoundError(f"{self.outdir}: no summary.json; not a contin result directory")
-        self.summary = json.loads(path.read_text(encoding="utf-8"))
+    def __init__(self, outcome: Outcome):
+        if not isinstance(outcome, Outcome):
+            raise TypeError(f"Result(outcome): an Outcome, not {type(outcome).__name__} (contin.load(outdir) "
+                            "reads a result directory)")
+        self.outcome = outcome
+        self.outdir = outcome.outdir
+        self.summary = outcome.summary
         self.status = self.summary.get("status", "")
         self.message = self.summary.get("message", "")
         scene = self.summary.get("scene") or {}
         self.scene = scene
         self.analysis = (scene.get("analysis") or {}).get("type", "")
-        analysis = self.summary.get("analysis") if isinstance(self.summary.get("analysis"), dict) else {}
+        analysis = outcome.analysis if isinstance(outcome.analysis, dict) else {}
         self.parameter = analysis.get("parameter") or (scene.get("analysis") or {}).get("parameter")
         self.dofs = tuple((self.summary.get("model") or {}).get("dofs") or ())
-        self.tables = {p.stem: read_csv(p) for p in sorted(self.outdir.glob("*.csv"))}
+        self.tables = {Path(name).stem: cols for name, cols in outcome.tables.items()}
         self.special_points = self._special_points()
         self.branches = self._branches(analysis)
-        self._data = None
 
     # ------------------------------------------------------------ reading
     def _special_points(self) -> list:
@@ -185,10 +186,11 @@ class Result:
 
     @property
     def data(self) -> dict:
-        """Every array of the run (:func:`contin.output.exports.collect_run`), read once."""
-        if self._data is None:
-            self._data = collect_run(self.outdir, expand=stored_expansion(self.outdir))
-        return self._data
+        """Every array of the run (:func:`contin.output.exports.run_data`): its tables and stored solutions."""
+        if self.outcome.data is None:
+            tables = {n: c for n, c in self.outcome.tables.items() if n in ("branches.csv", "special_points.csv")}
+            self.outcome.data = run_data(tables, self.summary, {}, {})
+        return self.outcome.data
 
     # ------------------------------------------------------------ access
     @property
@@ -300,12 +302,10 @@ class Result:
         -------
         Axes
         """
-        from contin.api.plot import plot_result
-
         return plot_result(self, ax, measure, table=table, **options)
 
     def save(self, path: str | Path, exports=EXPORT_FORMATS) -> Path:
-        """Copy the result files to the directory ``path`` and write the ``exports`` there.
+        """Write the run's files into the directory ``path``: its tables, ``summary.json`` and the ``exports``.
 
         Parameters
         ----------
@@ -320,19 +320,23 @@ class Result:
         """
         path = Path(path)
         path.mkdir(parents=True, exist_ok=True)
-        if path.resolve() != self.outdir.resolve():
+        if self.outdir is not None and path.resolve() != self.outdir.resolve():
             for item in self.outdir.iterdir():
                 target = path / item.name
                 if item.is_dir():
                     shutil.copytree(item, target, dirs_exist_ok=True)
-                else:
+                elif not item.name.startswith("."):  # the directory's lock stays its own
                     shutil.copy2(item, target)
-        write_exports(path, exports, expand=stored_expansion(path))
+        elif self.outdir is None:
+            self.outcome.write_tables(path)
+            write_json_atomic(path / "summary.json", self.summary)
+        write_exports(path, exports, self.summary, data=self.data)
         return path
 
     @property
     def files(self) -> list[str]:
-        return sorted(p.name for p in self.outdir.iterdir())
+        """The files of :attr:`outdir` (none for a run held in memory)."""
+        return [] if self.outdir is None else sorted(p.name for p in self.outdir.iterdir())
 
     def __repr__(self) -> str:
         parts = [f"{self.analysis or 'run'}: {self.status}"]
@@ -353,4 +357,7 @@ class Result:
 
 def load(outdir: str | Path) -> Result:
     """The :class:`Result` of a result directory written by ``contin run`` or by a call of this API."""
-    return Result(outdir)
+    outdir = Path(outdir)
+    if not (outdir / "summary.json").is_file():
+        raise FileNotFoundError(f"{outdir}: no summary.json; not a contin result directory")
+    return Result(Outcome.from_directory(outdir, stored_expansion(outdir)))

@@ -12,8 +12,9 @@ output directory that is not contin's, or that another run is writing,
 included), 130 when interrupted (Ctrl-C, SIGTERM, SIGHUP), 141, quietly, when the
 reader of its output went away (``contin models | head``).
 
-Each command imports its machinery when it runs, so that ``contin --help`` and
-``contin models`` answer without loading numba and the compiled kernels.
+Each command imports its machinery when it runs (the imports marked
+``deferred``), so that ``contin --help`` and ``contin models`` answer without
+loading numba and the compiled kernels, and ``--help`` without numpy.
 """
 
 from __future__ import annotations
@@ -21,6 +22,10 @@ from __future__ import annotations
 import argparse
 import sys
 import textwrap
+
+from contin.util.blas import limit_blas_threads
+from contin.util.version import __version__
+from contin.util.warning import ContinWarning
 
 __all__ = ["main"]
 
@@ -30,8 +35,6 @@ EXIT_PIPE_CLOSED = 141
 
 
 def _parser() -> argparse.ArgumentParser:
-    from contin.util.version import __version__
-
     p = argparse.ArgumentParser(prog="contin", description="Continuation of periodic vibrations of nonlinear "
                                 "mechanical systems: branches, stability, folds and bifurcations.",
                                 epilog="Examples ship with contin: `contin examples` lists them, `contin run duffing "
@@ -143,9 +146,9 @@ def _fail(message: str, code: int = EXIT_BAD_INPUT) -> int:
 
 
 def cmd_models() -> int:
-    from contin.model.catalog import MODELS, _load
+    from contin.model.catalog import MODELS, load_builtin_models  # deferred: numpy, the models (0.13 s)
 
-    _load()
+    load_builtin_models()
     for name in sorted(MODELS):
         spec = MODELS[name]
         print(f"{name}: {spec.summary}")
@@ -161,7 +164,7 @@ def cmd_models() -> int:
 def cmd_examples(args) -> int:
     from pathlib import Path
 
-    from contin.app.examples import copy_examples, listing
+    from contin.app.examples import copy_examples, listing  # deferred: numpy (0.1 s), not for --help
 
     if args.copy is None:
         if args.force:
@@ -175,13 +178,12 @@ def cmd_examples(args) -> int:
 
 
 def cmd_check(args) -> int:
-    from contin.scene.registry import check_scene
-    from contin.scene.build import build_model
-    from contin.scene.parse import load_scene
+    from contin.app.examples import find_scene  # deferred: numpy (0.1 s), not for --help
+    from contin.scene.build import build_model  # deferred: numba kernels, matplotlib (1 s), per command
+    from contin.scene.parse import load_scene  # deferred: as scene.build
+    from contin.scene.registry import analysis, check_scene  # deferred: as scene.build
 
     # the same steps as `contin run` before it writes anything, so that check refuses what run would
-    from contin.app.examples import find_scene
-
     scene = load_scene(find_scene(args.scene), args.overrides)
     model = build_model(scene)
     plan = check_scene(scene, model)
@@ -190,48 +192,8 @@ def cmd_check(args) -> int:
     print(model.describe())
     print("parameters: " + ", ".join(f"{k}={v:g}" for k, v in model.parameters.items()))
     print(f"analysis: {a['type']}")
-    if a["type"] == "frequency_response":
-        _, hb, problem, *_ = plan[0]
-        print(f"  parameter {hb.parameter} over {a['range']}, harmonics H={hb.H}, subharmonic nu={hb.nu}, "
-              f"samples N={hb.N}")
-        print(f"  unknowns: {hb.size} = {hb.n} dof x (2H+1)")
-        if problem is not hb:
-            print(f"  {problem.describe()}")
-        print(f"  stability: {a['stability']}; switching at: {', '.join(a['switch']) or 'none'}")
-        if "ns" in a["switch"]:
-            from contin.bifurcation.torus_branch import TorusSettings
-
-            t = TorusSettings.from_dict(a.get("torus") or {}, hb.H)
-            o = t.options
-            print(f"  tori: H1={o.harmonics}, H2={o.harmonics2}, crossings {o.crossings}; stability "
-                  + (f"by simulation ({t.periods:g} periods, {t.steps_per_period} steps each)"
-                     if t.stability == "simulation" else "none"))
-    elif a["type"] == "modes":
-        what = f"versus {a['parameter']}" if a["parameter"] else "at the model's parameters"
-        print(f"  natural frequencies and modes about the static equilibrium {what}"
-              + ("; damped eigenvalues" if a["damped"] else ""))
-    elif a["type"] == "frf":
-        print(f"  impedance-matrix FRF over {a['range']} ({a['points']} points, {a['spacing']}), force: "
-              + ("the model's excitation" if a["force"] is None else str(a["force"])))
-    elif a["type"] == "bifurcation_curve":
-        from contin.analyses.bifurcation_curve import describe
-
-        print(describe(scene, model, plan))
-    elif a["type"] == "convergence":
-        from contin.analyses.convergence_plan import setting_label
-
-        settings, iref = plan["settings"], plan["iref"]
-        print(f"  the {a['base']['type']} analysis of analysis.base run at {len(settings)} settings of "
-              f"{', '.join(a['vary'])} ({a['combine']}); reference {setting_label(settings[iref], a['labels'])}")
-        print("  settings: " + "; ".join(setting_label(s, a["labels"]) for s in settings))
-        print("  quantities: " + ", ".join(q if isinstance(q, str) else q["type"] for q in a["quantities"]))
-    elif a["type"] == "static":
-        print(f"  equilibria (H = 0) in {a['parameter']} over {a['range']}; unknowns: {model.n_dof} dof")
-    elif a["type"] == "backbone":
-        print(f"  free periodic solutions of mode(s) {a['mode']}, {a['amplitude']} amplitude of "
-              f"{a['dof'] or 'the first observable'} over {a['range']} ({a['spacing']} spacing), harmonics "
-              f"H={a['harmonics']}; unknowns: {model.n_dof * (2 * a['harmonics'] + 1) + 2} = {model.n_dof} dof x "
-              f"(2H+1) + frequency + unfolding parameter")
+    for line in analysis(a["type"]).describe(plan, scene, model):
+        print(line)
     return EXIT_OK
 
 
@@ -265,9 +227,9 @@ def _branch_line(b: dict) -> str:
 def cmd_run(args) -> int:
     from pathlib import Path
 
-    from contin.app.examples import find_scene
-    from contin.app.runner import WriteFailed, run_scene
-    from contin.scene.parse import SceneError, load_scene
+    from contin.app.examples import find_scene  # deferred: numpy (0.1 s), not for --help
+    from contin.app.runner import WriteFailed, run_scene  # deferred: numba kernels, matplotlib (1 s), per command
+    from contin.scene.parse import SceneError, load_scene  # deferred: as the runner
 
     scene_file = find_scene(args.scene)  # a file, or the name of a shipped example
     overrides = list(args.overrides)
@@ -324,10 +286,10 @@ def cmd_budget(args) -> int:
     import math
     from pathlib import Path
 
-    from contin.analyses.convergence import replot
-    from contin.analyses.convergence_errors import read_records, recommend
-    from contin.scene.files import SUMMARY_CAP, read_input
-    from contin.scene.parse import SceneError
+    from contin.analyses.convergence import replot  # deferred: numba kernels, matplotlib (1.2 s), per command
+    from contin.analyses.convergence_errors import read_records, recommend  # deferred: as convergence
+    from contin.scene.files import SUMMARY_CAP, read_input  # deferred: as convergence
+    from contin.scene.schema import SceneError  # deferred: numpy (0.1 s), not for --help
 
     if not (math.isfinite(args.error) and args.error > 0):
         raise SceneError("ERR", "a positive finite number (the largest error accepted)", args.error)
@@ -350,8 +312,8 @@ def cmd_budget(args) -> int:
 def cmd_absorber(args) -> int:
     import math
 
-    from contin.modal.absorber_design import design_absorber, plot_design
-    from contin.scene.parse import SceneError
+    from contin.modal.absorber_design import design_absorber, plot_design  # deferred: scipy (0.1 s), per command
+    from contin.scene.schema import SceneError  # deferred: numpy (0.1 s), not for --help
 
     for flag, v in (("--m1", args.m1), ("--k1", args.k1), ("--m2", args.m2),
                     ("--max-amplification", args.max_amplification)):
@@ -373,8 +335,8 @@ def cmd_absorber(args) -> int:
     if args.json:
         import json
 
-        from contin.output.results import strict_json
-        from contin.util.safe_files import write_user_file
+        from contin.output.results import strict_json  # deferred: numpy (0.1 s), not for --help
+        from contin.util.safe_files import write_user_file  # deferred: as output.results
 
         # a regular file is replaced atomically; a device or pipe (/dev/stdout, a FIFO) is written in place
         text = json.dumps(strict_json(d.as_dict()), indent=2, allow_nan=False)
@@ -387,8 +349,8 @@ def cmd_sweep(args) -> int:
     import signal
     from pathlib import Path
 
-    from contin.app.sweep import SweepOptions, run_sweep, sweep_command
-    from contin.app.sweep_grid import parse_grid
+    from contin.app.sweep import SweepOptions, run_sweep, sweep_command  # deferred: the scene machinery (1 s)
+    from contin.app.sweep_grid import parse_grid  # deferred: as app.sweep
 
     outdir = args.outdir if args.outdir is not None else str(Path("results") / (Path(args.scene).stem + "-sweep"))
     opts = SweepOptions(scene=args.scene, grid=tuple(parse_grid(g) for g in args.grid), outdir=outdir,
@@ -440,8 +402,6 @@ def _one_line_warnings():
     previous, seen = warnings.showwarning, set()
 
     def show(message, category, filename, lineno, file=None, line=None):
-        from contin.util.warning import ContinWarning
-
         text = " ".join(str(message).split())
         text = text[len("contin: "):] if text.startswith("contin: ") else text
         if not issubclass(category, ContinWarning):  # another library's: its category says whose
@@ -491,11 +451,9 @@ def main(argv=None) -> int:
 
 
 def _main(argv=None) -> int:
-    from contin.scene.registry import RunError
-    from contin.scene.parse import SceneError
-
-    args = _parser().parse_args(argv)
-    from contin.util.blas import limit_blas_threads
+    args = _parser().parse_args(argv)  # --help and --version exit here
+    from contin.analyses.base import RunError  # deferred: with SceneError
+    from contin.scene.schema import SceneError  # deferred: numpy (0.1 s), not for --help
 
     limit_blas_threads()
     try:
@@ -510,7 +468,7 @@ def _main(argv=None) -> int:
         if args.command == "budget":
             return cmd_budget(args)
         if args.command == "plot":
-            from contin.app.pointplot import plot_point
+            from contin.app.pointplot import plot_point  # deferred: numba kernels, matplotlib (1.3 s), per command
 
             print(plot_point(args.outdir, args.point))
             return EXIT_OK

@@ -18,6 +18,9 @@ import stat
 import textwrap
 from pathlib import Path
 
+from contin.scene.schema import SceneError
+from contin.util.safe_files import replace_file
+
 __all__ = ["EXAMPLE_SUFFIX", "examples_dir", "example_names", "example_files", "find_scene", "describe",
            "listing", "copy_examples"]
 
@@ -41,8 +44,6 @@ def examples_dir() -> Path:
         reads its data files beside it, so the examples need a directory.
     """
     from importlib.resources import files
-
-    from contin.scene.schema import SceneError
 
     root = files("contin.scenes")
     if not isinstance(root, Path) or not root.is_dir():
@@ -98,8 +99,6 @@ def find_scene(arg: str) -> str:
         ``arg`` is neither a file nor the name of an example (the closest
         names are suggested).
     """
-    from contin.scene.schema import SceneError
-
     seps = {os.sep, "/"} | ({os.altsep} if os.altsep else set())
     if not arg or any(s in arg for s in seps) or arg in (".", ".."):
         return arg
@@ -175,9 +174,6 @@ def copy_examples(dest, force: bool = False) -> list[Path]:
     OSError
         Naming the file that could not be written (``UnsafeTarget`` for a link).
     """
-    from contin.scene.schema import SceneError
-    from contin.util.safe_files import replace_file
-
     dest = Path(dest)
     if os.path.exists(dest) and not os.path.isdir(dest):
         raise SceneError("--copy", "a directory for the examples (new or existing)", str(dest),

@@ -5,6 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from contin.analyses.simulate import frequency_text
+from contin.model.elements.gap import GapForce
+from contin.model.elements.radial_gap import RadialGapForce
 from contin.output.labels import axis_label, math
 
 __all__ = ["contact_geometry", "contact_panels", "closed_period", "draw_contact", "draw_contact_panel",
@@ -24,9 +27,6 @@ def contact_geometry(model, p) -> list[dict]:
         ``i, j`` and ``{"type": "gap", "dof": i, "clearance": g, "sides": "+"|"-"|"both"}`` for a stop on
         dof ``i``; in the order of the model's forces.
     """
-    from contin.model.elements.gap import GapForce
-    from contin.model.elements.radial_gap import RadialGapForce
-
     out = []
     for el in getattr(model, "forces", ()):
         if isinstance(el, RadialGapForce):
@@ -220,8 +220,6 @@ def name_lines(ax, lines, w: str, fontsize: float = 8.0) -> list:
     -------
     list of matplotlib.text.Annotation
     """
-    from contin.analyses.simulate import frequency_text
-
     fig = ax.figure
     fig.draw_without_rendering()  # the final layout: the places are those of the saved figure
     renderer = fig.canvas.get_renderer() if hasattr(fig.canvas, "get_renderer") else fig._get_renderer()

@@ -8,15 +8,18 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from contin.analyses.frequency_response import build_problem
 from contin.analyses.simulate import SPECTRUM_FLOOR, draw_spectrum
 from contin.app.point_drawing import (closed_period, contact_geometry, contact_panels, draw_contact,
                                       draw_contact_panel, fill_places, legend_above, name_lines)
 from contin.hb import aft
-from contin.hb.harmonics import coefficient_blocks, harmonic_amplitudes
+from contin.hb.harmonics import coefficient_blocks, default_samples, harmonic_amplitudes
 from contin.output.checkpoint import CheckpointError, read_records
 from contin.output.expansion import StoredExpansion, stores_kept
 from contin.output.figures import figure_style, new_figure, save_figure
 from contin.output.labels import axis_label, math
+from contin.scene.budget import Limits, check_demands, harmonic_balance_demands
+from contin.scene.build import build_model
 from contin.scene.files import SUMMARY_CAP, read_input
 from contin.scene.parse import SceneError, parse_scene
 
@@ -48,9 +51,6 @@ def load_state_row(outdir: Path, row: int) -> dict:
 def _check_row_size(path: Path, row: int, rec: dict, model, H: int) -> None:
     """The stored row's coefficients match its ``H`` and the model, and its problem fits in memory: checked
     before the problem (and its arrays, which grow with ``H``) is made."""
-    from contin.hb.harmonics import default_samples
-    from contin.scene.budget import Limits, check_demands, harmonic_balance_demands
-
     n = model.n_dof
     header = rec.get("branch_record") or {}
     kept = header.get("dofs") if stores_kept(header) else None
@@ -88,9 +88,6 @@ def read_run_scene(outdir: Path):
 
 def stored_expansion(outdir: Path) -> StoredExpansion:
     """What expands the stored unknowns of the run in ``outdir`` (its problem built only when a row needs it)."""
-    from contin.analyses.frequency_response import build_problem
-    from contin.scene.build import build_model
-
     def make():
         _, scene = read_run_scene(outdir)
         return build_problem(scene, build_model(scene))
@@ -107,9 +104,6 @@ def plot_point(outdir: Path, row: int, samples: int = 512) -> Path:
         ``OUTDIR/point_ROW.<format>``, the first of the run's ``output.formats`` (its ``style`` and
         ``dpi`` too).
     """
-    from contin.analyses.frequency_response import build_problem
-    from contin.scene.build import build_model
-
     outdir = Path(outdir)
     _, scene = read_run_scene(outdir)
     rec = load_state_row(outdir, row)

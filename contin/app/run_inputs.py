@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from contin.scene.fe_model import rotor_path
 from contin.scene.schema import SceneError
 
 __all__ = ["file_sha256", "scene_inputs", "model_fingerprint", "check_same_inputs"]
@@ -36,8 +37,6 @@ def _read_files(scene) -> list[Path]:
     if scene.source and not scene.source.startswith("<"):
         paths.append(Path(scene.source))
     if "from" in scene.model and scene.model.get("file"):
-        from contin.scene.fe_model import rotor_path
-
         paths.append(rotor_path(scene.model, scene.source))
     return paths
 

@@ -19,15 +19,20 @@ import numpy as np
 
 from contin.util.version import __version__
 from contin.output.checkpoint import CheckpointError, read_records, rebuild_branches, resumable_prefix
+from contin.app.outdir import OutdirLock, check_outdir, clean_temporary_files
 from contin.app.progress import Progress
+from contin.app.run_inputs import check_same_inputs, model_fingerprint, scene_inputs
 from contin.output.exports import write_exports
+from contin.output.outcome import Outcome, Sink
 from contin.output.labels import model_symbols
 from contin.output.results import write_json_atomic
 from contin.scene.parse import Scene, SceneError, model_frequency
 from contin.scene.build import build_model
-from contin.scene.registry import RunContext, RunError
+from contin.scene.registry import analysis, check_scene
+from contin.util.safe_files import open_regular
+from contin.analyses.base import RunContext, RunError
 
-__all__ = ["run_scene", "versions", "WriteFailed", "STOP_SIGNALS"]
+__all__ = ["execute", "run_scene", "versions", "WriteFailed", "STOP_SIGNALS"]
 
 #: the signals that stop a run at its next point, as Ctrl-C does (what schedulers, ``timeout`` and a closed
 #: terminal send)
@@ -65,14 +70,23 @@ def versions() -> dict:
 
 def run_scene(scene: Scene, outdir: str | Path, progress: bool = True, resume: bool = False, force: bool = False,
               resume_command: str | None = None) -> dict:
-    """Run a validated scene and write its results into ``outdir``.
+    """Run a validated scene into ``outdir``; returns ``summary.json``'s content (:func:`execute`'s summary)."""
+    return execute(scene, outdir, progress, resume, force, resume_command).summary
+
+
+def execute(scene: Scene, outdir: str | Path | None = None, progress: bool = True, resume: bool = False,
+            force: bool = False, resume_command: str | None = None) -> Outcome:
+    """Run a validated scene: in memory, and into ``outdir`` when given.
 
     Every check of the scene (:func:`contin.scene.registry.check_scene`) and of
     ``outdir`` (:func:`contin.app.outdir.check_outdir`) is made before anything
-    is written. ``outdir`` is locked for the whole run.
+    is written. ``outdir`` is locked for the whole run. Without ``outdir``
+    nothing is written: the tables, the summary and the solutions are held in
+    the returned outcome only (the Python API).
 
     Parameters
     ----------
+    outdir : path or None
     resume : bool
         Continue an interrupted run in ``outdir`` (same scene, same files read,
         same model) from its checkpoint instead of starting anew.
@@ -84,12 +98,13 @@ def run_scene(scene: Scene, outdir: str | Path, progress: bool = True, resume: b
 
     Returns
     -------
-    dict
-        The content of ``summary.json``. Its ``status`` is ``complete`` when
-        the analysis did everything the scene asked, ``incomplete`` when it
-        fell short (``shortfalls`` says where and why), ``interrupted``, or
-        ``failed`` (a run that could not proceed; :class:`RunError` is raised,
-        :class:`WriteFailed` when a result file could not be written).
+    Outcome
+        Its ``summary`` is the content of ``summary.json``, whose ``status`` is
+        ``complete`` when the analysis did everything the scene asked,
+        ``incomplete`` when it fell short (``shortfalls`` says where and why),
+        ``interrupted``, or ``failed`` (a run that could not proceed;
+        :class:`RunError` is raised, :class:`WriteFailed` when a result file
+        could not be written).
 
     Raises
     ------
@@ -98,17 +113,28 @@ def run_scene(scene: Scene, outdir: str | Path, progress: bool = True, resume: b
         contin's, a link where a result file goes, locked by another process),
         or a ``resume`` that cannot go on (another scene, changed files).
     """
-    from contin.app.outdir import OutdirLock, check_outdir, clean_temporary_files
-    from contin.app.run_inputs import model_fingerprint, scene_inputs
-    from contin.scene.registry import check_scene
-
     t0 = time.perf_counter()
-    if str(outdir) == "":
+    if outdir is not None and str(outdir) == "":
         raise SceneError("-o", "a directory name for the results", "")
-    outdir = Path(outdir)
+    if outdir is None and (resume or force):
+        raise SceneError("resume" if resume else "force", "a result directory (outdir) to resume or write into",
+                         None)
     model = build_model(scene)
     plan = check_scene(scene, model)
     inputs, fingerprint = scene_inputs(scene), model_fingerprint(model)
+    summary = {"status": "running", "scene": scene.data, "source": scene.source, "versions": versions(),
+               "inputs": inputs, "fingerprint": fingerprint,
+               "model": {"name": model.name, "dofs": list(model.dof_names), "effects": list(model.effects),
+                         "terms": model.describe().splitlines()[1:],
+                         "frequency": model_frequency(scene.model, scene.analysis) or model.frequency,
+                         "parameters": dict(zip(model.param_names, map(float, model.parameter_vector()))),
+                         "symbols": model_symbols(model)}}
+    if outdir is None:
+        ctx = RunContext(scene, model, Sink(None), Progress(progress), run_scene=execute)
+        ctx.timings["model"] = time.perf_counter() - t0
+        summary.update(timings=ctx.timings, resumed=None)
+        return _run(ctx, plan, summary, t0, resume_command)
+    outdir = Path(outdir)
     check_outdir(outdir, force=force)
     outdir.mkdir(parents=True, exist_ok=True)
     with OutdirLock(outdir):
@@ -116,25 +142,17 @@ def run_scene(scene: Scene, outdir: str | Path, progress: bool = True, resume: b
         if resume:
             resumed_from = _check_resumable(scene, outdir, inputs, fingerprint)
         clean_temporary_files(outdir)
-        ctx = RunContext(scene, model, outdir, Progress(progress), resume=resumed_from is not None, plan=plan,
-                         run_scene=run_scene)
+        ctx = RunContext(scene, model, Sink(outdir), Progress(progress), resume=resumed_from is not None,
+                         run_scene=execute)
         ctx.timings["model"] = time.perf_counter() - t0
-        summary = {"status": "running", "scene": scene.data, "source": scene.source, "versions": versions(),
-                   "inputs": inputs, "fingerprint": fingerprint,
-                   "model": {"name": model.name, "dofs": list(model.dof_names), "effects": list(model.effects),
-                             "terms": model.describe().splitlines()[1:],
-                             "frequency": model_frequency(scene.model, scene.analysis) or model.frequency,
-                             "parameters": dict(zip(model.param_names, map(float, model.parameter_vector()))),
-                             "symbols": model_symbols(model)},
-                   "timings": ctx.timings, "resumed": resumed_from}
-        return _run(ctx, summary, t0, resume_command)
+        summary.update(timings=ctx.timings, resumed=resumed_from)
+        return _run(ctx, plan, summary, t0, resume_command)
 
 
-def _run(ctx: RunContext, summary: dict, t0: float, resume_command: str | None) -> dict:
-    """Run the analysis of a locked ``ctx.outdir`` and write its files; returns the summary."""
-    from contin.scene.registry import get_runner
-
+def _run(ctx: RunContext, plan, summary: dict, t0: float, resume_command: str | None) -> Outcome:
+    """Run the analysis of ``ctx`` (its directory locked) and write its files; returns the outcome."""
     scene, outdir = ctx.scene, ctx.outdir
+    ctx.summary = summary
     signals = []
 
     def on_signal(signum, frame):
@@ -152,36 +170,39 @@ def _run(ctx: RunContext, summary: dict, t0: float, resume_command: str | None) 
                 previous[s] = signal.signal(s, on_signal)
     try:
         try:
-            write_json_atomic(outdir / "summary.json", summary)
-            result = get_runner(scene.analysis["type"])(ctx)
+            if outdir is not None:
+                write_json_atomic(outdir / "summary.json", summary)
+            outcome = analysis(scene.analysis["type"]).run(plan, ctx)
             files = []
-            if scene.output["plots"] and ctx.plot is not None:
+            if scene.output["plots"] and outcome.draw is not None and ctx.sink.writes:
                 tp = time.perf_counter()
-                files += ctx.plot()
+                files += outcome.draw()
                 ctx.timings["plots"] = time.perf_counter() - tp
         finally:
             for s, handler in previous.items():
                 signal.signal(s, handler)
             ctx.progress.close()
+            ctx.sink.close()
     except BaseException as exc:
         # never leave the files saying `running`
         message = str(exc) if isinstance(exc, (RunError, SceneError)) else f"{type(exc).__name__}: {exc}"
-        if isinstance(exc, OSError):
+        if isinstance(exc, OSError) and outdir is not None:
             _failed_write(summary, outdir, WriteFailed(exc), resume_command, ctx.timings)
         interrupted = isinstance(exc, KeyboardInterrupt)
         if interrupted and resume_command:
             message = f"interrupted; to resume from the last stored point: {resume_command}"
         summary.update({"status": "interrupted" if interrupted else "failed", "message": message,
                         "timings": ctx.timings})
-        write_json_atomic(outdir / "summary.json", summary)
+        if outdir is not None:
+            write_json_atomic(outdir / "summary.json", summary)
         raise
     ctx.timings["total"] = time.perf_counter() - t0
-    shortfalls = list(result.get("shortfalls") or []) if isinstance(result, dict) else []
+    shortfalls = list(outcome.shortfalls)
     if ctx.interrupted or ctx.stop_requested:
         status = "interrupted"
     else:
         status = "incomplete" if shortfalls else "complete"
-    summary.update({"status": status, "shortfalls": shortfalls, "analysis": result, "plots": files,
+    summary.update({"status": status, "shortfalls": shortfalls, "analysis": outcome.analysis, "plots": files,
                     "timings": ctx.timings})
     if status == "incomplete":
         summary["message"] = "; ".join(shortfalls)
@@ -189,13 +210,18 @@ def _run(ctx: RunContext, summary: dict, t0: float, resume_command: str | None) 
         by = f" by {signals[0]}" if signals and signals[0] != "SIGINT" else ""
         summary["message"] = f"interrupted{by}" + (f"; to resume from the last stored point: {resume_command}"
                                                    if resume_command else "")
+    outcome.summary, outcome.files = summary, files
+    if outcome.data is not None:
+        outcome.data["summary"] = summary
+    if outdir is None:
+        return outcome
     try:
-        expand = getattr(getattr(ctx, "recorder", None), "expansion", None)  # condensed branches' full coefficients
-        summary["exports"] = write_exports(outdir, scene.output["exports"], summary, expand)
+        expand = getattr(ctx.recorder, "expansion", None)  # condensed branches' full coefficients
+        summary["exports"] = write_exports(outdir, scene.output["exports"], summary, expand, data=outcome.data)
         write_json_atomic(outdir / "summary.json", summary)
     except OSError as exc:
         _failed_write(summary, outdir, WriteFailed(exc), resume_command, ctx.timings)
-    return summary
+    return outcome
 
 
 def _failed_write(summary: dict, outdir: Path, failed: WriteFailed, resume_command: str | None, timings) -> None:
@@ -212,9 +238,6 @@ def _failed_write(summary: dict, outdir: Path, failed: WriteFailed, resume_comma
 def _check_resumable(scene: Scene, outdir: Path, inputs: dict, fingerprint: str):
     """The earlier run's summary if ``outdir`` holds an unfinished run of the same scene, else None."""
     import json
-
-    from contin.app.run_inputs import check_same_inputs
-    from contin.util.safe_files import open_regular
 
     path = outdir / "summary.json"
     if not path.exists() or not (outdir / "state.jsonl").exists():

@@ -59,10 +59,15 @@ from pathlib import Path
 from contin.app.outdir import OutdirLock, check_outdir, clean_temporary_files
 from contin.app.progress import Progress
 from contin.app.sweep_grid import GridAxis, grid_points
-from contin.app.sweep_index import _Index, _progress_line, summarize_point
-from contin.app.sweep_point import PointTask, _now
-from contin.app.sweep_workers import _run_dask, _run_serial, require_distributed
+from contin.app.sweep_index import SweepIndex, progress_line, summarize_point
+from contin.app.sweep_point import PointTask, utc_now
+from contin.app.sweep_workers import require_distributed, run_dask, run_serial
+from contin.model.catalog import get_spec
+from contin.output.results import write_json_atomic
+from contin.output.sweep_plot import sweep_map
+from contin.scene.parse import parse_scene, read_scene_text
 from contin.scene.schema import SceneError
+from contin.util.naming import suggest
 
 __all__ = ["SweepOptions", "SweepResult", "run_sweep", "sweep_command"]
 
@@ -267,8 +272,6 @@ def run_sweep(options: SweepOptions, echo=None) -> SweepResult:
         and ``sweep.json`` with status ``interrupted`` and a ``message`` that
         gives the command that resumes the sweep (:func:`sweep_command`).
     """
-    from contin.scene.parse import parse_scene, read_scene_text
-
     t_start = time.perf_counter()
     display = None
     if echo is None:
@@ -276,7 +279,7 @@ def run_sweep(options: SweepOptions, echo=None) -> SweepResult:
         echo = display.write
 
     def report(done: int, total: int, point, rec: dict) -> None:
-        line = _progress_line(done, total, point, rec)
+        line = progress_line(done, total, point, rec)
         if display is None:
             echo(line)
             return
@@ -315,7 +318,7 @@ def run_sweep(options: SweepOptions, echo=None) -> SweepResult:
     with OutdirLock(outdir, flag="-o/--outdir"):
         clean_temporary_files(outdir)
         _clean_leftovers(points_dir)
-        index = _Index(outdir / "sweep.csv", options.grid, points)
+        index = SweepIndex(outdir / "sweep.csv", options.grid, points)
         todo = []
         for p in points:
             rec = _existing(points_dir / p.name, scenes.get(p.index))
@@ -327,11 +330,9 @@ def run_sweep(options: SweepOptions, echo=None) -> SweepResult:
         reused = len(points) - len(todo)
         meta = {"scene": source, "scene_sha256": hashlib.sha256(text.encode()).hexdigest(),
                 "grid": [{"key": a.key, "values": list(a.values)} for a in options.grid],
-                "overrides": list(options.overrides), "points": len(points), "started_at": _now(),
+                "overrides": list(options.overrides), "points": len(points), "started_at": utc_now(),
                 "executor": ("serial" if options.serial else options.scheduler or
                              f"local cluster of {options.workers or os.cpu_count() or 1} worker processes")}
-        from contin.output.results import write_json_atomic
-
         write_json_atomic(outdir / "sweep.json", {**meta, "status": "running"})
         echo(f"sweep of {len(points)} points in {outdir}: {reused} already complete, {len(todo)} to run "
              f"({meta['executor']})")
@@ -343,7 +344,7 @@ def run_sweep(options: SweepOptions, echo=None) -> SweepResult:
             if todo:
                 if display is not None:  # the remaining time counts from here, on the points to run
                     display.update(f"[{reused}/{len(points)}] running", done=reused, total=len(points), task="sweep")
-                runner = _run_serial if options.serial else _run_dask
+                runner = run_serial if options.serial else run_dask
                 first = next((p for p in todo if p.index in scenes), todo[0])
                 runner(options, todo, tasks, index, report, len(points), reused, timings,
                        warm=(text, source, tasks[first.index].overrides))
@@ -351,7 +352,7 @@ def run_sweep(options: SweepOptions, echo=None) -> SweepResult:
             interrupted = True
         except BaseException as exc:
             write_json_atomic(outdir / "sweep.json", {**meta, "status": "error", "message": str(exc),
-                                                      "finished_at": _now()})
+                                                      "finished_at": utc_now()})
             raise
         finally:
             if display is not None:
@@ -374,8 +375,6 @@ def run_sweep(options: SweepOptions, echo=None) -> SweepResult:
         counts["reused"] = reused
         files = []
         if options.map_plot and not interrupted:
-            from contin.output.sweep_plot import sweep_map
-
             t0 = time.perf_counter()
             files = sweep_map(index.rows(), options.grid, outdir / "sweep_map", formats=base.output["formats"],
                               dpi=base.output["dpi"], style=base.output["style"])
@@ -386,7 +385,7 @@ def run_sweep(options: SweepOptions, echo=None) -> SweepResult:
             end["message"] = (f"interrupted with {counts.get('complete', 0)} of {len(points)} points complete; "
                               f"to resume, run the same command again: {sweep_command(options)} "
                               "(the complete points are not run again)")
-        write_json_atomic(outdir / "sweep.json", {**meta, **end, "finished_at": _now(), "counts": counts,
+        write_json_atomic(outdir / "sweep.json", {**meta, **end, "finished_at": utc_now(), "counts": counts,
                                                   "plots": files, "timings": {"total": seconds, **timings}})
         if interrupted:
             raise KeyboardInterrupt
@@ -395,9 +394,6 @@ def run_sweep(options: SweepOptions, echo=None) -> SweepResult:
 
 def _check_grid_keys(scene, axes) -> None:
     """A grid over a parameter the built-in model does not have is bad input (before any run)."""
-    from contin.model.catalog import get_spec
-    from contin.util.naming import suggest
-
     name = scene.model.get("builtin")
     if name is None:
         return

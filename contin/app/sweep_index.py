@@ -2,8 +2,8 @@
 
 :func:`summarize_point` reads a finished run directory into the summary
 columns of ``sweep.csv`` (counts, special points, stable intervals per
-subharmonic order); :class:`_Index` writes ``sweep.csv`` atomically as
-points finish; :func:`_progress_line` is the line printed per finished point.
+subharmonic order); :class:`SweepIndex` writes ``sweep.csv`` atomically as
+points finish; :func:`progress_line` is the line printed per finished point.
 """
 
 from __future__ import annotations
@@ -18,8 +18,10 @@ from typing import Any
 
 from contin.analyses.intervals import SPECIAL_KINDS, stable_intervals
 from contin.app.sweep_grid import GridPoint
+from contin.output.results import format_value, read_csv
+from contin.util.safe_files import replace_file
 
-__all__ = ["INDEX_COLUMNS", "SUMMARY_COLUMNS", "summarize_point"]
+__all__ = ["INDEX_COLUMNS", "SUMMARY_COLUMNS", "SweepIndex", "progress_line", "summarize_point"]
 
 #: the fixed leading columns of ``sweep.csv`` after ``point`` and the grid keys
 INDEX_COLUMNS = ("status", "message", "reused", "run_seconds", "task_seconds", "started_at", "finished_at",
@@ -47,8 +49,6 @@ def summarize_point(outdir: str | Path) -> dict:
         ``stable_nuN_to`` (their hull) and ``stable_nuN_length`` (their total
         length). Analyses without branches give only what applies.
     """
-    from contin.output.results import read_csv
-
     outdir = Path(outdir)
     out: dict[str, Any] = {}
     try:
@@ -86,7 +86,7 @@ def summarize_point(outdir: str | Path) -> dict:
 
 
 
-class _Index:
+class SweepIndex:
     """``sweep.csv``: written atomically whenever it changes (at most every ``interval`` s, and at the end)."""
 
     def __init__(self, path: Path, axes, points, interval: float = 1.0):
@@ -124,10 +124,6 @@ class _Index:
         return cols + [c for c in extra if c not in cols]
 
     def write(self) -> Path:
-        from contin.output.results import format_value
-
-        from contin.util.safe_files import replace_file
-
         rows = self.rows()
         cols = self.columns(rows)
 
@@ -148,7 +144,8 @@ def _cell(v, format_value) -> str:
     return format_value(v)
 
 
-def _progress_line(done: int, total: int, point: GridPoint, rec: dict) -> str:
+def progress_line(done: int, total: int, point: GridPoint, rec: dict) -> str:
+    """The line printed when a point finishes: ``[done/total] label: status (seconds)`` and what it found."""
     w = len(str(total))
     secs = rec.get("task_seconds") or rec.get("run_seconds")
     head = f"[{done:>{w}}/{total}] {point.label}: {rec.get('status')}"

@@ -21,10 +21,13 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
+from contin.analyses.base import RunError
 from contin.app.sweep_index import summarize_point
+from contin.output.results import write_json_atomic
 from contin.scene.schema import SceneError
+from contin.util.blas import limit_blas_threads
 
-__all__ = ["PointTask", "run_point"]
+__all__ = ["PointTask", "run_point", "prepare_process", "utc_now"]
 
 
 @dataclass(frozen=True)
@@ -48,7 +51,7 @@ _PREPARED = False
 _RUN_LOCK = threading.Lock()
 
 
-def _prepare_process() -> None:
+def prepare_process() -> None:
     """Once per process: one BLAS thread (as the command line runs).
 
     The figures of a run are drawn on their own canvas (:mod:`contin.output.figures`),
@@ -58,13 +61,12 @@ def _prepare_process() -> None:
     global _PREPARED
     if _PREPARED:
         return
-    from contin.util.blas import limit_blas_threads
-
     limit_blas_threads()
     _PREPARED = True
 
 
-def _now() -> str:
+def utc_now() -> str:
+    """The time now in UTC, ISO 8601 to the millisecond (the times of ``point.json`` and ``sweep.json``)."""
     return datetime.now(timezone.utc).isoformat(timespec="milliseconds")
 
 
@@ -112,14 +114,14 @@ def run_point(task: PointTask) -> dict:
         ``run_seconds``, ``task_seconds``, ``started_at``, ``finished_at``,
         ``worker`` and ``summary`` (see :func:`summarize_point`).
     """
-    _prepare_process()
-    from contin.output.results import write_json_atomic
-    from contin.app.runner import run_scene
-    from contin.scene.registry import RunError
-    from contin.scene.parse import parse_scene
+    prepare_process()
+    # a worker imports this module on its event loop when it unpickles a task or the warm-up plug-in; the
+    # machinery of a run (numba, matplotlib: 1.5 s) loads here instead, in the task's thread
+    from contin.app.runner import run_scene  # deferred: 1.5 s, in the task's thread (above)
+    from contin.scene.parse import parse_scene  # deferred: in the task's thread (above)
 
     t0 = time.perf_counter()
-    started = _now()
+    started = utc_now()
     final = Path(task.outdir) / task.name
     tmp = final.with_name(f".{task.name}.tmp-{uuid.uuid4().hex[:10]}")
     tmp.mkdir(parents=True)
@@ -144,7 +146,7 @@ def run_point(task: PointTask) -> dict:
         raise
     record.update({"status": status, "message": message, "error": error, "run_seconds": run_seconds,
                    "summary": summarize_point(tmp) if status in ("complete", "incomplete") else {}})
-    record["finished_at"] = _now()
+    record["finished_at"] = utc_now()
     record["task_seconds"] = time.perf_counter() - t0
     write_json_atomic(tmp / "point.json", record)
     _publish(tmp, final)
@@ -153,8 +155,6 @@ def run_point(task: PointTask) -> dict:
 
 def _mark_failed(outdir: Path, scene, task: PointTask, message: str) -> None:
     """Make the point's ``summary.json`` say ``failed`` with the message (whatever stage failed)."""
-    from contin.output.results import write_json_atomic
-
     path = outdir / "summary.json"
     try:
         summary = json.loads(path.read_text())

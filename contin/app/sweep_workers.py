@@ -1,9 +1,9 @@
 """Running the points of a parameter sweep: in this process, or on the workers of a Dask cluster, warmed up once.
 
-:func:`_run_dask` submits every point (:func:`~contin.app.sweep_point.run_point`)
+:func:`run_dask` submits every point (:func:`~contin.app.sweep_point.run_point`)
 to a ``distributed`` cluster, an embedded ``LocalCluster`` or an existing
 scheduler (:func:`_client`), and records the results as they complete;
-:func:`_run_serial` runs them one after another in this process. Each worker
+:func:`run_serial` runs them one after another in this process. Each worker
 loads the kernels and the plotting stack once, when it starts
 (:class:`WarmUp`, :func:`warm_up`), not in every task.
 
@@ -21,10 +21,11 @@ import threading
 import time
 import uuid
 
-from contin.app.sweep_point import _now, _prepare_process, run_point
+from contin.app.sweep_point import prepare_process, run_point, utc_now
 from contin.scene.schema import SceneError
 
-__all__ = ["WarmUp", "warm_up", "require_distributed", "MissingDependencyError"]  # noqa: F822 (WarmUp: __getattr__)
+__all__ = ["WarmUp", "warm_up", "require_distributed", "MissingDependencyError",  # noqa: F822 (WarmUp: __getattr__)
+           "run_serial", "run_dask"]
 
 #: what ``contin sweep`` says when Dask is needed and not installed
 DASK_MISSING = ("contin sweep runs its points on Dask (the dask.distributed package), which is not installed. "
@@ -67,14 +68,15 @@ def warm_up(scene_text: str, scene_source: str, overrides=()) -> dict:
         ``seconds`` and ``status`` (``ok`` or the exception text).
     """
     t0 = time.perf_counter()
-    _prepare_process()
+    prepare_process()
     status = "ok"
     try:
         import io
 
-        from contin.output.figures import new_figure
-        from contin.scene.build import build_model
-        from contin.scene.parse import parse_scene
+        # deferred: a worker unpickles this module on its event loop; the warm-up loads all this in its thread
+        from contin.output.figures import new_figure  # deferred: matplotlib, in the warm-up's thread (above)
+        from contin.scene.build import build_model  # deferred: numba kernels, in the warm-up's thread
+        from contin.scene.parse import parse_scene  # deferred: in the warm-up's thread
 
         fig = new_figure((1, 1))  # loads matplotlib's fonts and PNG writer once, outside the tasks
         fig.add_subplot().plot([0, 1], [0, 1], "--")
@@ -82,15 +84,15 @@ def warm_up(scene_text: str, scene_source: str, overrides=()) -> dict:
         scene = parse_scene(scene_text, scene_source, overrides)
         model = build_model(scene)
         if scene.analysis["type"] == "frequency_response":
-            from contin.analyses.frequency_response import build_problem
+            from contin.analyses.frequency_response import build_problem  # deferred: in the warm-up's thread
 
             hb = build_problem(scene, model)
             lam = float(scene.analysis["range"][0])
             u = hb.linear_solution(lam)
             hb.linearize(u, lam)
             if scene.analysis["stability"] != "none":
-                from contin.analyses.stability_hooks import stability_options
-                from contin.stability import StabilityMonitor
+                from contin.analyses.stability_hooks import stability_options  # deferred: in the warm-up's thread
+                from contin.stability import StabilityMonitor  # deferred: in the warm-up's thread
 
                 StabilityMonitor(hb, stability_options(scene.analysis)).analyze(u, lam)
     except Exception as exc:  # noqa: BLE001  (a warm-up never fails a worker)
@@ -153,7 +155,7 @@ class _WarmUpMixin:
 
 
 
-def _run_serial(options, todo, tasks, index, report, total, done, timings, warm):
+def run_serial(options, todo, tasks, index, report, total, done, timings, warm):
     """The points one after another in this process (no Dask): the baseline and a debugging aid.
 
     ``report(done, total, point, record)`` is called as each point finishes.
@@ -209,7 +211,7 @@ def _client(options, timings):
         cluster.close()
 
 
-def _run_dask(options, todo, tasks, index, report, total, done, timings, warm):
+def run_dask(options, todo, tasks, index, report, total, done, timings, warm):
     """The points on a Dask cluster; ``report(done, total, point, record)`` as each finishes."""
     require_distributed()
     from distributed import as_completed
@@ -234,7 +236,7 @@ def _run_dask(options, todo, tasks, index, report, total, done, timings, warm):
             if isinstance(result, BaseException):
                 rec = {"status": "failed", "error": type(result).__name__, "worker": "",
                        "message": f"the task failed (after up to {options.retries} retries): "
-                                  f"{type(result).__name__}: {result}", "finished_at": _now()}
+                                  f"{type(result).__name__}: {result}", "finished_at": utc_now()}
             else:
                 rec = result
             rec["reused"] = False

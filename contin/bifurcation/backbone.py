@@ -51,6 +51,7 @@ from contin.engine.newton import newton, solve_at_parameter
 from contin.hb import aft
 from contin.hb.harmonics import coefficient_blocks
 from contin.hb.measures import extremum_angle
+from contin.hb.factory import harmonic_balance
 from contin.hb.problem import HarmonicBalance, HBOptions
 from contin.modal.equilibrium import ModalError, static_model
 from contin.modal.static_path import linear_modes
@@ -169,7 +170,7 @@ class BackboneProblem:
                                 f"conservative system (disable the damping effects)")
         self.model = auto
         self.params = params
-        self.hb = HarmonicBalance(auto, auto.frequency, HBOptions(harmonics=int(harmonics), samples=samples), params)
+        self.hb = harmonic_balance(auto, options=HBOptions(harmonics=int(harmonics), samples=samples), params=params)
         omega, phi, x0 = linear_modes(auto, params)
         if not 1 <= mode <= len(omega):
             raise BackboneError(f"mode must be from 1 to {len(omega)} (the number of dofs), got {mode}")

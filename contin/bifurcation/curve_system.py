@@ -76,7 +76,7 @@ from contin.engine.events import Event, PointInfo
 from contin.hb.derivatives import HBDerivatives, MatrixKind
 from contin.hb.problem import HarmonicBalance
 
-__all__ = ["CODIM2_KINDS", "CurveKind", "FlipTestEvent", "SingularityProblem"]
+__all__ = ["CODIM2_KINDS", "CurveKind", "FlipTestEvent", "SingularityProblem", "as_curve_kind"]
 
 
 class CurveKind(str, enum.Enum):
@@ -91,7 +91,7 @@ class CurveKind(str, enum.Enum):
         return self.value
 
 
-def _curve_kind(kind) -> CurveKind:
+def as_curve_kind(kind) -> CurveKind:
     try:
         return CurveKind(kind)
     except ValueError:
@@ -127,7 +127,7 @@ class SingularityProblem:
     def __init__(self, hb: HarmonicBalance, kind: CurveKind | str, p1: str, p2: str, fd_step: float = 1e-6,
                  detect: tuple = CODIM2_KINDS, u_scale: float | None = None, p1_scale: float = 1.0):
         self.hb = hb
-        self.kind = _curve_kind(kind)
+        self.kind = as_curve_kind(kind)
         self.matrix_kind = _MATRIX[self.kind]
         model = hb.model
         if p1 == p2:

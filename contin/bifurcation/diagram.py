@@ -17,7 +17,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from contin.bifurcation.switching import BranchStart, _scales, switch_at
+from contin.bifurcation.switching import BranchStart, continuation_scales, switch_at
 from contin.bifurcation.torus_branch import TorusSettings, run_torus
 from contin.bifurcation.torus_start import torus_start
 from contin.engine.branch import Branch, BranchStatus, SpecialKind, SpecialPoint
@@ -98,7 +98,7 @@ def switch_branch(problem, branch: Branch, point: SpecialPoint, lam_range=None, 
     stability = StabilityOptions() if stability is None else stability
     lam_range = branch.info.get("lam_range", (-math.inf, math.inf)) if lam_range is None else lam_range
     out = []
-    su, sl = _scales(branch, options, np.asarray(point.unknowns))
+    su, sl = continuation_scales(branch, options, np.asarray(point.unknowns))
     for st in switch_at(problem, branch, point, options=options, eps=eps, sides=sides,
                         problem_factory=problem_factory, pd_direction=pd_direction):
         if not lam_range[0] <= st.lam <= lam_range[1]:
@@ -385,7 +385,7 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
             continue
         org = br.info.get("origin")
         origin_lam = org["first_point_parameter"] if org else None
-        su, sl = _scales(br, options, br.unknowns[0])
+        su, sl = continuation_scales(br, options, br.unknowns[0])
         if br.info.get("torus") is not None:
             continue  # no switching from a torus
         for sp in _switch_candidates(br, kinds, origin_lam, options.locate_tol):

@@ -24,12 +24,14 @@ import numpy as np
 
 from contin.engine.continuation import ContinuationOptions, continuation
 from contin.hb.condensation import condense
+from contin.hb.factory import harmonic_balance
 from contin.hb.problem import HarmonicBalance
 from contin.engine.newton import solve_at_parameter
 from contin.model.base import Model
+from contin.timedomain.simulation import RK4_STABILITY, SimulationError, compile_model, simulate
 
-__all__ = ["HomotopyFailed", "homotopy_start", "harmonic_start", "contact_start", "simulation_start",
-           "integrated_model", "START_LOW_HARMONICS"]
+__all__ = ["HomotopyFailed", "homotopy_start", "harmonic_start", "contact_start", "contact_parameters",
+           "simulation_start", "integrated_model", "START_LOW_HARMONICS"]
 
 #: the harmonics :func:`harmonic_start` solves with first
 START_LOW_HARMONICS = 5
@@ -51,7 +53,7 @@ def homotopy_start(hb: HarmonicBalance, lam0: float, parameter: str, soft_value:
     lam0 : float
         Where the solution is wanted.
     parameter : str
-        The homotopy parameter (e.g. the contact stiffness ``kbn``); its target
+        The homotopy parameter (e.g. a contact's stiffness); its target
         value is the one ``hb`` holds.
     soft_value : float
         Its value in the easy problem.
@@ -101,17 +103,15 @@ def homotopy_start(hb: HarmonicBalance, lam0: float, parameter: str, soft_value:
     params = hb.parameters()
     params[hb.parameter] = at
     params[parameter] = soft_value
-    easy = HarmonicBalance(model, parameter, hb.options, params, hb.frequency)
+    easy = harmonic_balance(model, parameter, hb.options, params, hb.frequency, condense=bool(condensed))
     guess = np.asarray(guess, float)
     if condensed:
-        easy = condense(easy, require=True)
         guess = easy.restrict(guess)
     if hb.options.crossings != "none":
         # Newton's path from a rough guess wanders through states with many contact switches; the plain
         # sampled law gets there as reliably, and its solution is within O(1/N) of the resolved one
-        plain = HarmonicBalance(model, parameter, dataclasses.replace(hb.options, crossings="none"), params,
-                                hb.frequency)
-        plain = condense(plain, require=True) if condensed else plain
+        plain = harmonic_balance(model, parameter, dataclasses.replace(hb.options, crossings="none"), params,
+                                 hb.frequency, condense=bool(condensed))
         first = solve_at_parameter(plain, guess, soft_value, opts)
         if first.converged:
             guess = first.x
@@ -203,7 +203,7 @@ def harmonic_start(problem, lam0: float, guess: np.ndarray, options: Continuatio
     return u
 
 
-def contact_start(hb: HarmonicBalance, lam0: float, *, stiffness: str = "kbn", clearance: str = "delta",
+def contact_start(hb: HarmonicBalance, lam0: float, *, stiffness: str | None = None, clearance: str | None = None,
                   soft=(20.0, 5.0, 80.0), direction=(0.0, 1.0), harmonics: int = 8,
                   simulation: float = 400.0) -> np.ndarray:
     """A start for a model whose one contact is what its dofs are condensed onto (a finite-element rotor).
@@ -221,8 +221,10 @@ def contact_start(hb: HarmonicBalance, lam0: float, *, stiffness: str = "kbn", c
     ----------
     hb : HarmonicBalance
     lam0 : float
-    stiffness, clearance : str
-        The contact's stiffness and clearance parameters.
+    stiffness, clearance : str, optional
+        The model parameters that are the contact's stiffness and clearance;
+        by default those its contact element declares
+        (:meth:`contin.model.base.ForceElement.contact_parameters`).
     soft : float or sequence of float
         The homotopy's first stiffness; with several, each is tried in turn until one leads to a solution
         (a soft contact lets the orbit swing wide, a stiffer one starts nearer a resonance).
@@ -238,7 +240,12 @@ def contact_start(hb: HarmonicBalance, lam0: float, *, stiffness: str = "kbn", c
     Raises
     ------
     HomotopyFailed
+    ValueError
+        When ``stiffness`` or ``clearance`` is not given and the model does
+        not declare it (no contact element, several with other parameters, a
+        coefficient that is not one parameter), or is not a model parameter.
     """
+    stiffness, clearance = contact_parameters(hb.model, stiffness, clearance)
     failures = []
     for value in np.atleast_1d(np.asarray(soft, float)):
         try:
@@ -246,8 +253,6 @@ def contact_start(hb: HarmonicBalance, lam0: float, *, stiffness: str = "kbn", c
         except HomotopyFailed as exc:
             failures.append(f"{stiffness}={value:g}: {exc}")
     if simulation:
-        from contin.timedomain.simulation import RK4_STABILITY, SimulationError, compile_model
-
         # RK4's limit for the stiffest mode with the contact closed (its step is refused beyond it)
         p = hb.params_at(lam0)
         rate = compile_model(integrated_model(hb)).fastest_rate(p)
@@ -259,13 +264,54 @@ def contact_start(hb: HarmonicBalance, lam0: float, *, stiffness: str = "kbn", c
     raise HomotopyFailed("; ".join(failures))
 
 
+def contact_parameters(model: Model, stiffness: str | None = None, clearance: str | None = None) -> tuple[str, str]:
+    """The model parameters that are its contact's stiffness and clearance: those given, else the contact's own.
+
+    Parameters
+    ----------
+    model : Model
+    stiffness, clearance : str, optional
+        Given names are checked against the model's parameters; a missing one
+        is the one every contact element of the model declares
+        (:meth:`contin.model.base.ForceElement.contact_parameters`).
+
+    Returns
+    -------
+    (stiffness, clearance) : tuple of str
+
+    Raises
+    ------
+    ValueError
+        Naming ``stiffness`` or ``clearance`` and why it cannot be told.
+    """
+    names = list(model.param_names)
+    declared = [d for d in (el.contact_parameters(names) for el in model.forces) if d is not None]
+    chosen = []
+    for i, (key, given) in enumerate((("stiffness", stiffness), ("clearance", clearance))):
+        if given is not None:
+            if given not in names:
+                raise ValueError(f"contact_start: {key} must be a parameter of the model {names}, got {given!r}")
+            chosen.append(given)
+            continue
+        found = {d[i] for d in declared}
+        if not declared:
+            raise ValueError(f"contact_start: {key} not given and model '{model.name}' has no contact element "
+                             "to tell it")
+        if len(found) != 1 or None in found:
+            seen = sorted(str(f) for f in found)
+            raise ValueError(f"contact_start: {key} not given and the contact elements of model '{model.name}' do "
+                             f"not name one parameter for it (they give {seen}); pass {key}=")
+        chosen.append(found.pop())
+    return chosen[0], chosen[1]
+
+
 def _contact_start(hb, lam0, stiffness, clearance, soft, direction, harmonics):
     params = hb.parameters()
     params[hb.parameter] = lam0
     params[stiffness] = soft
     H = min(hb.H, int(harmonics))
-    easy = condense(HarmonicBalance(hb.model, hb.parameter, dataclasses.replace(hb.options, harmonics=H), params,
-                                    hb.frequency), require=True)
+    easy = harmonic_balance(hb.model, hb.parameter, dataclasses.replace(hb.options, harmonics=H), params,
+                            hb.frequency, condense=True)
     d = np.asarray(direction, float).reshape(-1)
     if easy.n != d.size:
         raise HomotopyFailed(f"contact_start: the direction {tuple(d)} is not one of the contact's dofs "
@@ -306,8 +352,6 @@ def simulation_start(hb: HarmonicBalance, lam0: float, *, transient: float = 500
         If the motion is not ``nu``-periodic enough for Newton to converge
         (the message gives the residual of the simulated orbit).
     """
-    from contin.timedomain.simulation import simulate
-
     params = hb.parameters()
     params[hb.parameter] = lam0
     n, nu, H = hb.n, hb.nu, hb.H

@@ -62,6 +62,8 @@ __all__ = [
     "branch_point_direction",
     "first_point",
     "switch_at",
+    "continuation_scales",
+    "extended_nullvector",
 ]
 
 
@@ -203,7 +205,7 @@ def hill_vector_to_doubled(q: np.ndarray, exponent: complex, Omega: float, n: in
     return v / nv if nv > 0 else v
 
 
-def _scales(branch: Branch | None, options: ContinuationOptions, u: np.ndarray):
+def continuation_scales(branch: Branch | None, options: ContinuationOptions, u: np.ndarray):
     info = {} if branch is None else branch.info
     su = info.get("unknown_scale")
     su = float(np.max(su)) if su is not None else (float(np.max(np.abs(u))) if np.any(u) else 1.0)
@@ -256,7 +258,7 @@ def branch_point_direction(problem, u: np.ndarray, lam: float, tangent: np.ndarr
     return t1, svp[-3:][::-1] / sv[0]
 
 
-def _nullvector(problem, u, lam):
+def extended_nullvector(problem, u, lam):
     R, Ju, Jlam = problem.linearize(u, lam)
     Jh = np.column_stack([Ju, Jlam])
     _, _, vt = np.linalg.svd(Jh, full_matrices=True)
@@ -320,7 +322,7 @@ def first_point(problem, u_star: np.ndarray, lam_star: float, direction: np.ndar
             else:
                 u, lam = res.x[:m] * su_v, float(res.x[m] * sl)
                 step = np.concatenate([u - u_star, [lam - lam_star]])
-            t = _nullvector(problem, u, lam)
+            t = extended_nullvector(problem, u, lam)
             if t @ step < 0:
                 t = -t
             return BranchStart(
@@ -380,7 +382,7 @@ def switch_at(problem, branch: Branch, point: SpecialPoint, *, options: Continua
         kind = SpecialKind(point.data.get("classification", "stability"))
     u_star = np.asarray(point.unknowns, dtype=float)
     lam_star = float(point.parameter)
-    su, sl = _scales(branch, options, u_star)
+    su, sl = continuation_scales(branch, options, u_star)
     starts: list[BranchStart] = []
     if kind is SpecialKind.PD:
         factory = _default_factory if problem_factory is None else problem_factory

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import dataclasses
 from fractions import Fraction
+from typing import Mapping
 
 import numpy as np
 
@@ -35,6 +36,7 @@ from contin.engine.continuation import ContinuationOptions, continuation
 from contin.hb.torus import TorusOptions
 from contin.timedomain.integrator import SimulationError
 from contin.timedomain.torus_check import check_torus
+from contin.util.options import check_keys, field_names, from_mapping
 
 __all__ = ["TorusSettings", "TorusStabilityMonitor", "run_torus", "classify_end"]
 
@@ -80,11 +82,24 @@ class TorusSettings:
 
     @classmethod
     def from_dict(cls, d: dict, harmonics: int) -> "TorusSettings":
-        """From a scene's ``analysis.torus`` mapping; ``harmonics`` is the periodic branch's ``H``."""
-        d = dict(d or {})
-        opts = TorusOptions(harmonics=d.pop("harmonics", None) or harmonics, harmonics2=d.pop("harmonics2", None) or 3,
-                            samples=d.pop("samples", None), samples2=d.pop("samples2", None))
-        return cls(options=opts, **{k: v for k, v in d.items() if v is not None})
+        """From a scene's ``analysis.torus`` mapping; ``harmonics`` is the periodic branch's ``H``.
+
+        The grid's keys (``harmonics``, ``harmonics2``, ``samples``, ``samples2``) sit in the mapping itself
+        and make :attr:`options`; a None value keeps a default. Built by
+        :func:`contin.util.options.from_mapping`: an unknown key raises ``ValueError`` naming the nearest
+        valid one, a refused grid value is named ``TorusSettings.options``.
+        """
+        d = {} if d is None else d
+        if not isinstance(d, Mapping):
+            raise TypeError(f"TorusSettings.from_dict: expected a mapping of option names to values, "
+                            f"got {type(d).__name__}")
+        grid = ("harmonics", "harmonics2", "samples", "samples2")
+        check_keys(cls, d, [*grid, *(f for f in field_names(cls) if f != "options")])
+        nested = {"harmonics": d.get("harmonics") or harmonics, "harmonics2": d.get("harmonics2") or 3,
+                  "samples": d.get("samples"), "samples2": d.get("samples2")}
+        rest = {k: v for k, v in d.items() if k not in grid and v is not None}
+        return from_mapping(cls, {**rest, "options": nested},
+                            converters={"options": lambda m: from_mapping(TorusOptions, m)})
 
     def torus_options(self, harmonics: int) -> TorusOptions:
         return self.options if self.options is not None else TorusOptions(harmonics=harmonics)

@@ -27,7 +27,7 @@ import math
 
 import numpy as np
 
-from contin.bifurcation.switching import BranchStart, _nullvector
+from contin.bifurcation.switching import BranchStart, extended_nullvector
 from contin.engine.branch import Branch, SpecialKind, SpecialPoint
 from contin.engine.newton import newton
 from contin.hb.torus import QuasiPeriodicBalance, TorusOptions
@@ -163,7 +163,7 @@ def torus_start(problem, branch: Branch, point: SpecialPoint, options: TorusOpti
         res = newton(fun, np.append(base + eps * phi, lam_star), tol, 30, backtrack=4)
         if res.converged and math.isfinite(res.x[m]) and res.x[m - 1] > 0:
             u, lam = res.x[:m].copy(), float(res.x[m])
-            t = _nullvector(qp, u, lam)
+            t = extended_nullvector(qp, u, lam)
             if t[ia] < 0:
                 t = -t
             return BranchStart(problem=qp, u=u, lam=lam, tangent=t, kind=SpecialKind.NS, direction=phi, eps=eps,

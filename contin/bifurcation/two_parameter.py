@@ -46,12 +46,13 @@ from typing import Any, Callable
 import numpy as np
 
 from contin.bifurcation.curve import BifurcationCurve, CurvePoint
-from contin.bifurcation.curve_system import CODIM2_KINDS, CurveKind, SingularityProblem, _curve_kind
+from contin.bifurcation.curve_system import CODIM2_KINDS, CurveKind, SingularityProblem, as_curve_kind
 from contin.engine.branch import Branch, BranchStatus, SpecialKind, SpecialPoint
 from contin.engine.continuation import ContinuationOptions, continuation
 from contin.engine.events import FunctionEvent
 from contin.engine.newton import NUMERICAL_ERRORS, newton
 from contin.hb.problem import HarmonicBalance
+from contin.util.options import from_mapping
 
 __all__ = ["CurveOptions", "continue_curve", "curve_from_point", "special_point_kind"]
 
@@ -98,11 +99,9 @@ class CurveOptions:
 
     @classmethod
     def from_dict(cls, d: dict) -> "CurveOptions":
-        names = [f.name for f in dataclasses.fields(cls)]
-        for key in d:
-            if key not in names:
-                raise ValueError(f"CurveOptions: unknown option {key!r}; expected one of {names}")
-        return cls(**d)
+        """From a mapping (:func:`contin.util.options.from_mapping`); an unknown key raises ``ValueError``
+        naming it and the nearest valid one."""
+        return from_mapping(cls, d)
 
 
 
@@ -199,7 +198,7 @@ def continue_curve(hb: HarmonicBalance, kind: CurveKind | str, p1: str, p2: str,
         curve_options = CurveOptions()
     elif isinstance(curve_options, dict):
         curve_options = CurveOptions.from_dict(curve_options)
-    kind = _curve_kind(kind)
+    kind = as_curve_kind(kind)
     lo2, hi2 = (float(v) for v in p2_range)
     lo1, hi1 = (float(v) for v in p1_range)
     if not lo1 < hi1:

@@ -20,7 +20,8 @@ Method
 - Step control: growth by ``grow`` after easy steps, shrinking by ``shrink``
   after a failure (no convergence, a corrector moving farther than ``ds``
   from the prediction, or a tangent turning by more than ``max_angle_deg``,
-  which prevents jumping onto another branch).
+  which prevents jumping onto another branch); another rule may be given as
+  ``step_control`` (:mod:`contin.engine.step_control`).
 - Corners: a non-smooth problem (a contact that opens or closes, grazing)
   has branches whose tangent jumps. A smooth curve's turn shrinks with the
   step (``angle ~ curvature * ds``); a corner's does not. When the turn over
@@ -49,8 +50,9 @@ The parts, each in its module of :mod:`contin.engine`: ``options``
 (:class:`ContinuationOptions`), ``problem`` (the :class:`Problem` protocol,
 the scaled problem), ``predictor`` (tangents, orientation, the Hermite arc),
 ``corrector`` (the bordered Newton solve and the step's checks),
-``stepsize`` (step control and scales), ``corners``, ``location`` (events
-in a step), ``barriers``, ``ends`` (range ends, turning back, loops),
+``step_control`` (the step-size rule), ``stepsize`` (the steps' bookkeeping
+and the scales), ``corners``, ``location`` (events in a step), ``barriers``,
+``ends`` (range ends, turning back, loops),
 ``state`` (what a checkpoint holds and a restart reads) and ``connection``
 (:func:`connection_report`). This module holds the main loop that composes
 them, :func:`continuation`.
@@ -85,23 +87,24 @@ from contin.engine.problem import (
     scaled_jacobian,
 )
 from contin.engine.state import Position, restore, save
-from contin.engine.stepsize import ScaleControl, StepControl, condition, rescaled_direction, rescaled_point
+from contin.engine.step_control import StepControl, as_step_control
+from contin.engine.stepsize import ScaleControl, StepKeeper, condition, rescaled_direction, rescaled_point
 
-__all__ = ["ContinuationOptions", "Monitor", "Problem", "Scaling", "connection_report", "continuation"]
+__all__ = ["ContinuationOptions", "Monitor", "Problem", "Scaling", "StepControl", "connection_report", "continuation"]
 
 
 class _Engine:
     """One continuation run: the main loop, composing the parts around the branch's position.
 
     The parts: :attr:`corrector` (:class:`~contin.engine.corrector.Corrector`),
-    :attr:`step` (:class:`~contin.engine.stepsize.StepControl`), :attr:`scales`
+    :attr:`step` (:class:`~contin.engine.stepsize.StepKeeper`, with the step rule), :attr:`scales`
     (:class:`~contin.engine.stepsize.ScaleControl`), :attr:`corners`,
     :attr:`barriers`, :attr:`location` (:class:`~contin.engine.location.EventLocation`);
     :attr:`pos` (:class:`~contin.engine.state.Position`) is where the branch is.
     """
 
     def __init__(self, problem, u0, lam0, lam_range, options, parameter_name, events, monitors, tangent, callback,
-                 solve_start, checkpoint=None):
+                 solve_start, checkpoint=None, step_control=None):
         self.problem = problem
         self.checkpoint = checkpoint
         self.opt = options
@@ -125,7 +128,7 @@ class _Engine:
         self.branch = self.builder.branch
         self.pos = Position()
         self.corrector = Corrector(options, parameter_name, self.m)
-        self.step = StepControl(options)
+        self.step = StepKeeper(options, step_control)
         self.scales = ScaleControl(problem, options, self.m)
         self.corners = Corners(self.corrector, options, lam_range)
         self.barriers = Barriers(self.corrector, self.events, options)
@@ -298,7 +301,7 @@ class _Engine:
         )
 
     def _diagnosis(self) -> str:
-        """What the last stored point says about a stop (:meth:`StepControl.diagnosis`)."""
+        """What the last stored point says about a stop (:meth:`StepKeeper.diagnosis`)."""
         return self.step.diagnosis(self.pos.info, self.sp.su)
 
     # -- main loop -------------------------------------------------------
@@ -328,7 +331,7 @@ class _Engine:
             self.corners.settle(cand, ds_try)
             if not self._accept(cand) or not self._goes_on(cand, ds_try):
                 return self.branch
-            step.grow(cand.iterations)
+            step.accepted(cand.h, cand.iterations)
             if self.checkpoint is not None:
                 self.checkpoint(self.branch, self.state())
 
@@ -490,6 +493,7 @@ def continuation(
     solve_start: bool = True,
     checkpoint: Callable[[Branch, dict], Any] | None = None,
     restart: tuple[Branch, Mapping[str, Any]] | None = None,
+    step_control: StepControl | None = None,
 ) -> Branch:
     """Trace the solution branch of ``R(u, lam) = 0`` through ``(u0, lam0)``.
 
@@ -538,21 +542,26 @@ def continuation(
         interrupted run stored them) from a ``state`` given to ``checkpoint``
         at its last point: the run goes on exactly as the interrupted one
         would have (``u0``, ``lam0`` and ``tangent`` are then ignored; the
-        same problem, options, events and monitors must be given).
+        same problem, options, events, monitors and step control must be given).
+    step_control : StepControl, optional
+        The step-size rule, with ``first``, ``accepted`` and ``rejected``
+        (:mod:`contin.engine.step_control`); None: ``AdaptiveStep``, by the options.
 
     Returns
     -------
     Branch
         Never raises for numerical reasons: failures end the branch with a
         status and message (``START_FAILED`` gives an empty branch). Invalid
-        arguments raise ``ValueError``. Other exceptions from the problem,
+        arguments raise ``ValueError`` (a step control lacking a method:
+        ``TypeError``). Other exceptions from the problem,
         monitors, events or callback propagate; the partial branch is then
         attached to the exception as ``exc.partial_branch``.
     """
     options = as_options(options)
+    step_control = as_step_control(step_control)
     u0, lam0, (lo, hi), tangent, events = checked_start(u0, lam0, lam_range, tangent, events)
     eng = _Engine(problem, u0, lam0, (lo, hi), options, parameter_name, events, monitors, tangent, callback,
-                  solve_start, checkpoint)
+                  solve_start, checkpoint, step_control)
     if restart is not None:
         eng.restart(*restart)
     branch = eng.branch

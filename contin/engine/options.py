@@ -9,15 +9,15 @@ closest valid option for a misspelt key.
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import enum
 import math
 import numbers
-from typing import Any, Iterable, Mapping
+from typing import Any, Mapping
 
 import numpy as np
 
 from contin.util.naming import is_real
+from contin.util.options import check_keys, from_mapping
 
 __all__ = ["DEFAULT_MAX_POINTS", "ContinuationOptions", "Scaling", "as_options"]
 
@@ -201,21 +201,10 @@ class ContinuationOptions:
         return [f.name for f in dataclasses.fields(cls)]
 
     @classmethod
-    def _check_keys(cls, keys: Iterable[str]) -> None:
-        """Raise ``ValueError`` for an unknown option, naming the closest valid one."""
-        valid = cls.field_names()
-        for key in keys:
-            if key not in valid:
-                close = difflib.get_close_matches(str(key), valid, n=1)
-                hint = f"; did you mean {close[0]!r}?" if close else f"; valid options: {', '.join(valid)}"
-                raise ValueError(f"ContinuationOptions: unknown option {key!r}{hint}")
-
-    @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> "ContinuationOptions":
-        """Build from a mapping; unknown keys raise ``ValueError`` naming the
-        closest valid option."""
-        cls._check_keys(d)
-        return cls(**dict(d))
+        """Build from a mapping (:func:`contin.util.options.from_mapping`); an unknown key raises
+        ``ValueError`` naming it and the closest valid option."""
+        return from_mapping(cls, d)
 
     @property
     def point_cap(self) -> int:
@@ -224,7 +213,7 @@ class ContinuationOptions:
 
     def replace(self, **changes) -> "ContinuationOptions":
         """Copy with some fields changed (validated, unknown names rejected)."""
-        self._check_keys(changes)
+        check_keys(type(self), changes)
         return dataclasses.replace(self, **changes)
 
     def to_dict(self) -> dict:

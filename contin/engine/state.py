@@ -4,7 +4,7 @@
 tangent, arclength, the events' tests) and the references the next steps
 compare against (the previous point, the start). :func:`save` gathers,
 after each stored point, everything the main loop carries to the next step
-(the position, the step control, the scales, the corner and barrier
+(the position, the step control and its rule's own state, the scales, the corner and barrier
 bookkeeping, the counters and the monitors' states); with the branch's
 points it is all :func:`restore` needs to go on exactly as the interrupted
 run would have: the continuation's ``checkpoint`` and ``restart``
@@ -37,7 +37,7 @@ STATE_SCALARS = ("s", "jac_norm_start", "max_dist", "n_rejected", "n_newton", "n
                  "min_rcond", "min_rcond_index", "last_rcond", "last_failure", "event_cap", "ds_free", "barrier_tried")
 #: every key of an engine state (what a ``restart`` reads)
 RESTART_KEYS = ("points", "ds", "recent", "turns", "su", "sl", "calls", "rescalings", "tests", "monitors",
-                "barrier") + STATE_ARRAYS + STATE_SCALARS
+                "barrier", "step_control") + STATE_ARRAYS + STATE_SCALARS
 
 #: the part of the engine holding each value of STATE_ARRAYS and STATE_SCALARS (None: the engine itself)
 HOLDER = {
@@ -102,7 +102,8 @@ def _holder(engine, name: str):
 def save(engine) -> dict:
     """What the main loop carries from the last stored point to the next step (see :func:`restore`).
 
-    ``points`` is the number of stored points it belongs to.
+    ``points`` is the number of stored points it belongs to; ``step_control`` the step rule's ``state()``
+    (None for a rule without one, such as the default: the wanted step ``ds`` is the engine's).
     """
     pos, sp, step = engine.pos, engine.sp, engine.step
     bar = engine.barriers.at_barrier
@@ -112,7 +113,8 @@ def save(engine) -> dict:
            "tests": [np.asarray(g, dtype=float).copy() for g in pos.g],
            "monitors": [mon.state() if hasattr(mon, "state") else None for mon in engine.monitors],
            "barrier": None if bar is None else {**{f.name: getattr(bar, f.name) for f in dataclasses.fields(bar)},
-                                                "event": engine.events.index(bar.event)}}
+                                                "event": engine.events.index(bar.event)},
+           "step_control": step.rule.state() if callable(getattr(step.rule, "state", None)) else None}
     for name in STATE_ARRAYS:
         out[name] = np.array(getattr(_holder(engine, name), name))
     for name in STATE_SCALARS:
@@ -131,10 +133,15 @@ def restore(engine, branch: Branch, state: Mapping[str, Any]) -> None:
     Raises
     ------
     ValueError
-        The state belongs to another number of points.
+        The state belongs to another number of points, or holds a step rule's
+        state that the given rule cannot restore.
     """
     if len(branch) != state["points"] or len(branch) < 1:
         raise ValueError(f"restart: the state belongs to {state['points']} points, the branch has {len(branch)}")
+    rule, saved = engine.step.rule, state["step_control"]
+    if saved is not None and not callable(getattr(rule, "restore", None)):
+        raise ValueError(f"restart: the state holds the step control's state, but {type(rule).__name__} "
+                         "has no restore(state): give the step control the interrupted run had")
     branch.status, branch.message = BranchStatus.RUNNING, ""
     engine.builder.branch = engine.branch = branch
     m = engine.m
@@ -166,3 +173,5 @@ def restore(engine, branch: Branch, state: Mapping[str, Any]) -> None:
     sp.calls = int(state["calls"])
     engine.step.ds = float(state["ds"])
     engine.step.recent = collections.deque(list(state["recent"]), maxlen=engine.opt.stall_points)
+    if saved is not None:
+        rule.restore(saved)

@@ -1,10 +1,11 @@
 """Step control and the scales of the variables.
 
-- :class:`StepControl`: the step the next attempt takes (grown after easy
-  steps, shrunk after failures, capped by the events' predictions), the
-  stops for a step below ``ds_min`` or an ill-conditioned bordered matrix,
-  and the crawl test (``stall_points`` stored points advancing less than
-  ``ds_max`` in all);
+- :class:`StepKeeper`: the step the next attempt takes (the one the step
+  rule wants, :mod:`contin.engine.step_control`, within ``[ds_min, ds_max]``
+  and capped by the events' predictions), the stops for a step below
+  ``ds_min``, a rule that does not shorten a failed step or an
+  ill-conditioned bordered matrix, and the crawl test (``stall_points``
+  stored points advancing less than ``ds_max`` in all);
 - :class:`ScaleControl`: the scales ``su`` (m,) and ``sl`` of the scaled
   variables ``x = (u / su, lam / sl)``, chosen at the start (per group of
   unknowns when their magnitudes are far apart) and grown with the unknowns.
@@ -22,8 +23,10 @@ from contin.engine.branch import BranchStatus
 from contin.engine.corrector import Failure, StepFailed
 from contin.engine.events import PointInfo
 from contin.engine.options import Scaling
+from contin.engine.step_control import AdaptiveStep, StepControl
+from contin.util.naming import is_finite_real
 
-__all__ = ["ScaleControl", "StepControl", "condition", "rescaled_direction", "rescaled_point"]
+__all__ = ["ScaleControl", "StepKeeper", "condition", "rescaled_direction", "rescaled_point"]
 
 #: Below this reciprocal condition estimate the bordered matrix is ill-conditioned: a failed step
 #: there ends the branch (``ILL_CONDITIONED``).
@@ -48,11 +51,20 @@ def condition(rcond: float) -> float:
     return math.inf if rcond <= 0 else 1.0 / rcond
 
 
-class StepControl:
-    """The step the step control wants, and what it does after a failed or a stored step.
+class StepKeeper:
+    """The step the step rule wants, and what the engine does after a failed or a stored step.
+
+    Parameters
+    ----------
+    options : ContinuationOptions
+    rule : StepControl, optional
+        The step-size rule (:mod:`contin.engine.step_control`); default
+        :class:`~contin.engine.step_control.AdaptiveStep`. Its ``first`` is
+        asked here.
 
     Attributes
     ----------
+    rule : StepControl
     ds : float
         The step it wants next (events may cap the one taken).
     recent : deque of float
@@ -69,15 +81,23 @@ class StepControl:
         ``max |Ju su|`` at the start (the stop messages say how much it grew).
     """
 
-    def __init__(self, options):
+    def __init__(self, options, rule: StepControl | None = None):
         self.opt = options
-        self.ds = options.ds
+        self.rule = AdaptiveStep() if rule is None else rule
+        self.ds = self._bounded(self.rule.first(options), "first")
         self.recent = collections.deque((), maxlen=options.stall_points)
         self.event_cap = math.inf
-        self.ds_free = options.ds
+        self.ds_free = self.ds
         self.n_rejected = 0
         self.last_failure = ""
         self.jac_norm_start = math.nan
+
+    def _bounded(self, ds, method: str) -> float:
+        """The step ``rule.<method>`` returned, within ``[ds_min, ds_max]``; ``ValueError`` if it is no step."""
+        if not is_finite_real(ds) or not ds > 0:
+            raise ValueError(f"step_control.{method} returned {ds!r}; expected a positive finite step")
+        opt = self.opt
+        return min(max(float(ds), opt.ds_min), opt.ds_max)
 
     def trial(self) -> float:
         """The step of the next attempt: the wanted one, cut to an event predicted within it."""
@@ -97,7 +117,8 @@ class StepControl:
         """Shrink the step after a failed attempt of ``ds_try``, or end the branch with :class:`Failure`.
 
         It ends when the bordered matrix at the current point (``rcond_here``)
-        is ill-conditioned, or when the failed step was already at ``ds_min``.
+        is ill-conditioned, when the failed step was already at ``ds_min``, or
+        when the rule's next step is not shorter than the failed one.
         ``where`` names the current point; ``diagnosis()`` adds what the
         Jacobian says to a ``STEP_TOO_SMALL`` message.
         """
@@ -120,7 +141,15 @@ class StepControl:
                 f"step size fell below ds_min={opt.ds_min:g} at {where}; "
                 f"last failure: {failed.reason}{diagnosis()}",
             )
-        self.ds = max(ds_try * opt.shrink, opt.ds_min)
+        wanted = self.rule.rejected(ds_try, failed.reason)
+        if is_finite_real(wanted) and not wanted < ds_try:
+            # the same step again would fail again, for ever
+            raise Failure(
+                BranchStatus.STEP_TOO_SMALL,
+                f"the step of {ds_try:g} failed at {where} and the step control ({type(self.rule).__name__}) "
+                f"did not shorten it (it asked for {wanted:g}); last failure: {failed.reason}{diagnosis()}",
+            )
+        self.ds = self._bounded(wanted, "rejected")
 
     def crawled(self, ds_try: float) -> bool:
         """Record the step of a stored point; whether the last ``stall_points`` advanced less than ``ds_max``."""
@@ -134,11 +163,10 @@ class StepControl:
         return (f"the branch crawled: {opt.stall_points} points advanced {sum(self.recent):.2g} in all "
                 f"(ds_max={opt.ds_max:g}) up to {where}; last failure: {self.last_failure}{diagnosis}")
 
-    def grow(self, iterations: int) -> None:
-        """Grow the step after a corrector that converged in at most ``newton_easy`` updates."""
-        opt = self.opt
-        if iterations <= opt.newton_easy:
-            self.ds = min(self.ds * opt.grow, opt.ds_max)
+    def accepted(self, taken: float, iterations: int) -> None:
+        """The next wanted step after a stored point: the rule's (the default grows it after a corrector that
+        converged in at most ``newton_easy`` updates); ``taken`` is the stored step's length."""
+        self.ds = self._bounded(self.rule.accepted(self.ds, taken, iterations), "accepted")
 
     def diagnosis(self, info: PointInfo | None, su: np.ndarray) -> str:
         """What the last stored point says about a stop: condition and growth of the Jacobian."""

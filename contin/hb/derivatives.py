@@ -78,6 +78,7 @@ import numpy as np
 
 from contin.hb import aft
 from contin.hb.linear import linear_apply, linear_operator
+from contin.hb.factory import harmonic_balance
 from contin.hb.problem import HarmonicBalance
 from contin.hb.harmonics import coefficient_blocks, embed
 
@@ -198,7 +199,7 @@ class HBDerivatives:
         """The order-``nu`` (or, with ``flip``, order-``2 nu``) problem at ``p``, continued in parameter ``k``."""
         opts = self._flip_options if flip else self.hb.options
         names = self.model.param_names
-        return HarmonicBalance(self.model, names[k], opts, dict(zip(names, (float(x) for x in p))), self.hb.frequency)
+        return harmonic_balance(self.model, names[k], opts, dict(zip(names, (float(x) for x in p))), self.hb.frequency)
 
     def _linearized(self, base: np.ndarray, p: np.ndarray, k: int, flip: bool):
         """``HarmonicBalance.linearize`` at ``base``, ``p`` in parameter ``k`` (the last call is kept)."""

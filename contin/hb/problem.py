@@ -41,7 +41,7 @@ from contin.hb.harmonics import coefficient_blocks, default_samples, derivative_
 from contin.hb.linear import LinearTerms, linear_apply, linear_apply_dOmega, linear_operator, split_operator
 from contin.model.base import Model
 from contin.model.elements.harmonic import HarmonicExcitation
-from contin.util.naming import suggest
+from contin.util.options import from_mapping
 
 __all__ = ["HBOptions", "HarmonicBalance", "CROSSINGS"]
 
@@ -98,11 +98,9 @@ class HBOptions:
 
     @classmethod
     def from_dict(cls, d: dict) -> "HBOptions":
-        names = [f.name for f in dataclasses.fields(cls)]
-        for key in d:
-            if key not in names:
-                raise ValueError(f"HBOptions: unknown option '{key}'{suggest(key, names)}; expected one of {names}")
-        return cls(**d)
+        """From a mapping (:func:`contin.util.options.from_mapping`); an unknown key raises ``ValueError``
+        naming it and the nearest valid one."""
+        return from_mapping(cls, d)
 
 
 class HarmonicBalance:

@@ -40,7 +40,8 @@ import numpy as np
 from contin.hb import aft2d, crossings2d
 from contin.hb.harmonics import default_samples
 from contin.hb.linear import LinearTerms
-from contin.hb.problem import HarmonicBalance, HBOptions
+from contin.hb.factory import harmonic_balance
+from contin.hb.problem import HBOptions
 from contin.hb.qp_basis import QPBasis
 from contin.model.base import Model
 
@@ -131,8 +132,8 @@ class QuasiPeriodicBalance:
         self.N1 = int(options.samples or max(default_samples(self.H1, deg), model.min_samples, 2 * self.H1 + 1))
         self.N2 = int(options.samples2 or max(default_samples(self.H2, deg), 2 * self.H2 + 1))
         # the periodic problem of the pairs (k, 0): parameters, frequency, excitation and their checks
-        self.periodic = HarmonicBalance(model, parameter, HBOptions(self.H1, self.nu, self.N1, options.crossings),
-                                        params, frequency)
+        self.periodic = harmonic_balance(model, parameter, HBOptions(self.H1, self.nu, self.N1, options.crossings),
+                                         params, frequency)
         self.parameter = parameter
         self.frequency = self.periodic.frequency
         self.k = self.periodic.k

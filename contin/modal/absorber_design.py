@@ -13,11 +13,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from contin.modal.absorber import (amplification, fixed_point_height, fixed_points, mass_ratio_for_height,
                                    optimal_damping, optimal_tuning, peaks, true_peak, undamped_resonances)
+from contin.util.safe_files import write_user_file
 
 __all__ = ["AbsorberProblem", "AbsorberDesign", "FixedPoint", "Peak", "design_absorber", "draw_design", "plot_design",
            "SIZINGS", "MASS_RATIOS"]
@@ -177,7 +179,7 @@ class AbsorberDesign:
 
         Solved from the impedance matrix (:func:`contin.modal.modes.frf`).
         """
-        from contin.modal.modes import frf
+        from contin.modal.modes import frf  # deferred: scipy.linalg, 0.3 s at start-up for the closed forms alone
 
         M, C, K = self.matrices()
         return frf(M, C, K, w, [F, 0.0])
@@ -392,10 +394,6 @@ def plot_design(design: AbsorberDesign, path, points: int = 1200, dpi: float = 2
                  f"$k_1$ = {d.k1:.4g}", fontsize=10)
     handles, texts = ax.get_legend_handles_labels()
     fig.legend(handles, texts, loc="outside lower center", ncols=2, fontsize=8)
-    from pathlib import Path
-
-    from contin.util.safe_files import write_user_file
-
     # the format from the suffix (PNG without one); a device or pipe the user named is written in place
     fmt = Path(path).suffix.lstrip(".").lower() or "png"
     write_user_file(path, lambda fh: fig.savefig(fh, format=fmt, dpi=dpi,

@@ -38,6 +38,7 @@ import math
 import numpy as np
 
 from contin.engine.newton import NewtonResult
+from contin.hb.factory import harmonic_balance
 from contin.hb.problem import HarmonicBalance, HBOptions
 from contin.model.base import ExcitationElement, Model
 from contin.model.elements.harmonic import HarmonicExcitation
@@ -185,7 +186,7 @@ def static_problem(model: Model, parameter: str | None = None, params=None) -> H
     ModalError
         If a force varies in time (:func:`static_model`).
     """
-    return HarmonicBalance(static_model(model), parameter or model.frequency, HBOptions(harmonics=0), params)
+    return harmonic_balance(static_model(model), parameter or None, HBOptions(harmonics=0), params)
 
 
 def _inf_norm(v: np.ndarray) -> float:

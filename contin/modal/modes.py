@@ -45,6 +45,7 @@ __all__ = [
     "frf",
     "chain_matrices",
     "SingularImpedance",
+    "check_mass",
 ]
 
 
@@ -80,7 +81,8 @@ def _is_symmetric(a: np.ndarray, rtol: float = 1e-12) -> bool:
     return bool(np.max(np.abs(a - a.T), initial=0.0) <= rtol * max(np.max(np.abs(a), initial=0.0), 1e-300))
 
 
-def _check_mass(M: np.ndarray) -> None:
+def check_mass(M: np.ndarray) -> None:
+    """Raise a ValueError unless ``M`` is a symmetric positive definite mass matrix (the message says which)."""
     if not _is_symmetric(M):
         raise ValueError("M must be symmetric")
     # positive definiteness, on the diagonally scaled matrix so that widely different masses pass
@@ -291,7 +293,7 @@ class LinearSystem:
             raise ValueError(f"LinearSystem.{exc}") from None
         n = M.shape[0]
         try:
-            _check_mass(M)
+            check_mass(M)
         except ValueError as exc:
             raise ValueError(f"LinearSystem.{exc}") from None
         try:
@@ -362,7 +364,7 @@ def natural_modes(M, K, reference: int = 0) -> NaturalModes:
     """
     M = _matrix("M", M)
     K = _matrix("K", K, M.shape[0])
-    _check_mass(M)
+    check_mass(M)
     if _is_symmetric(K, 1e-10):
         Ks = 0.5 * (K + K.T)
         w2, V = scipy.linalg.eigh(Ks, 0.5 * (M + M.T))  # eigh already returns V^T M V = I

@@ -260,6 +260,26 @@ class ForceElement:
         """
         return None
 
+    def contact_parameters(self, param_names: Sequence[str]) -> "tuple[str | None, str | None] | None":
+        """The model parameters that are this element's contact stiffness and clearance; None if it is no contact.
+
+        A start procedure that softens a contact and stiffens it again by
+        continuation (:func:`contin.bifurcation.start.contact_start`) asks the
+        element which parameters to move, so the generic code names none.
+
+        Parameters
+        ----------
+        param_names : sequence of str
+            The model's parameters, in the order of the parameter vector.
+
+        Returns
+        -------
+        (stiffness, clearance) or None
+            Each a parameter name, or None where that coefficient is not one
+            parameter alone (a number, or an expression such as ``2*k``).
+        """
+        return None
+
     def switching_functions(self, x, xd, tau, p) -> "Switching | None":
         """Switching surfaces of a piecewise-defined law, or None for a smooth one.
 

@@ -21,7 +21,8 @@ from contin.model.base import Model
 
 from contin.util.naming import suggest
 
-__all__ = ["ModelSpec", "RULES", "register_model", "MODELS", "build_model", "get_spec", "rule_violation"]
+__all__ = ["ModelSpec", "RULES", "register_model", "MODELS", "build_model", "get_spec", "rule_violation",
+           "load_builtin_models"]
 
 #: rules a parameter value may be held to: name -> (test of a finite float, what it asks for)
 RULES: dict[str, tuple[Callable[[float], bool], str]] = {
@@ -147,13 +148,18 @@ def register_model(spec: ModelSpec) -> ModelSpec:
 BUILTIN_MODELS = "contin.models"
 
 
-def _load():
+def load_builtin_models() -> None:
+    """Import the built-in models' package, whose modules register themselves in :data:`MODELS`."""
     importlib.import_module(BUILTIN_MODELS)
+
+
+#: the former private name (contin.app imports it)
+_load = load_builtin_models
 
 
 def get_spec(name: str) -> ModelSpec:
     """The :class:`ModelSpec` of a built-in model, with a suggestion on typos."""
-    _load()
+    load_builtin_models()
     if name not in MODELS:
         raise ValueError(f"model.builtin: unknown model '{name}'{suggest(name, MODELS)}; expected one of {sorted(MODELS)}")
     return MODELS[name]

@@ -50,6 +50,7 @@ from contin.engine.branch import Branch, BranchBuilder, BranchStatus, SpecialPoi
 from contin.engine.state import RESTART_KEYS
 from contin.output.expansion import stores_kept
 from contin.output.state_store import INLINE, VOLATILE, ArrayReader, CheckpointError, TornRecord
+from contin.util.safe_files import open_regular, replace_file
 
 __all__ = ["CheckpointError", "encode", "decode", "dumps", "keep_records", "read_records", "rebuild_branches",
            "resumable_prefix", "special_record"]
@@ -90,6 +91,8 @@ def _checked(rec, path, lineno: int) -> dict:
                                 and len(rec["tangent"]) >= 1):
         raise CheckpointError(f"{where}: a point record with an integer row, a number lam and lists of numbers "
                               "u and tangent")
+    if kind == "engine" and isinstance(rec["state"], dict):
+        rec["state"].setdefault("step_control", None)  # written before the step control was a protocol: the default
     if kind == "engine" and not rec.get("stale") and not (isinstance(rec["state"], dict) and all(k in rec["state"] for k in ENGINE_KEYS)):
         raise CheckpointError(f"{where}: an engine record whose state has the keys {', '.join(ENGINE_KEYS)}")
     if kind == "end" and rec["status"] not in {s.value for s in BranchStatus}:
@@ -200,8 +203,6 @@ def keep_records(path: Path, count: int) -> None:
     The lines are kept as they are, so their references into ``state.bin``
     still hold; the bytes of the records cut off stay there unreferenced.
     """
-    from contin.util.safe_files import open_regular, replace_file
-
     with open_regular(path, encoding=None, follow=True) as fh:  # bytes: the lines exactly as they were
         lines = [line for _, line in zip(range(count), fh)]
     replace_file(path, lambda out: out.writelines(lines), binary=True)
@@ -261,8 +262,6 @@ def read_records(path: Path, max_row: int | None = None) -> list[dict]:
         At a line that parses as JSON but is not a record contin writes (a
         line cut by a killed run does not parse and ends the records).
     """
-    from contin.util.safe_files import open_regular
-
     out = []
     if not Path(path).exists() and not Path(path).is_symlink():
         return out

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from contin.hb.condensation import CondensedHarmonicBalance
+from contin.hb.factory import harmonic_balance
 
 __all__ = ["ENGINE_UNKNOWNS", "StoredExpansion", "stores_kept"]
 
@@ -77,7 +77,8 @@ class StoredExpansion:
             base = self.full
             if (base.nu, base.H) != (nu, H):
                 base = base.with_options(subharmonic=nu, harmonics=H)
-            self._made[key] = CondensedHarmonicBalance(base, list(dofs))
+            self._made[key] = harmonic_balance(base.model, base.parameter, base.options, base.parameters(),
+                                               base.frequency, condense=dofs)
         return self._made[key]
 
     def __call__(self, header: dict | None, u, lam: float) -> np.ndarray | None:

@@ -35,6 +35,7 @@ from __future__ import annotations
 import csv
 import json
 import re
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -43,7 +44,7 @@ from contin.hb.qp_basis import QPBasis
 from contin.output.checkpoint import read_records
 from contin.output.expansion import stores_kept
 from contin.output.results import read_csv
-from contin.util.safe_files import replace_file
+from contin.util.safe_files import open_regular, replace_file
 
 __all__ = ["EXPORT_FORMATS", "RunData", "collect_run", "write_exports", "write_coefficients_csv",
            "coefficient_names", "stability_code"]
@@ -77,8 +78,8 @@ class RunData(dict):
     """Everything :func:`collect_run` read from a result directory (a dict of numpy arrays and names)."""
 
 
-def _table(path: Path) -> dict:
-    cols = read_csv(path) if path.is_file() else {}
+def _table(cols: dict) -> dict:
+    """A table's columns as the exports hold them: flags as codes, text as str, empty cells kept apart."""
     out = {}
     for name, col in cols.items():
         if name in _FLAG_COLUMNS:
@@ -95,7 +96,7 @@ def _table(path: Path) -> dict:
 
 
 def collect_run(outdir: str | Path, summary: dict | None = None, expand=None) -> RunData:
-    """Read a result directory's tables, summary and point coefficients into arrays.
+    """Read a result directory's tables, summary and point coefficients into arrays (:func:`run_data`).
 
     Parameters
     ----------
@@ -107,42 +108,61 @@ def collect_run(outdir: str | Path, summary: dict | None = None, expand=None) ->
         ``state.jsonl`` holds for the kept dofs only
         (:class:`contin.output.expansion.StoredExpansion`); without it, a run
         with such rows has no ``coefficients``.
+    """
+    outdir = Path(outdir)
+    tables = {name: read_csv(outdir / name) for name in ("branches.csv", "special_points.csv")
+              if (outdir / name).is_file()}
+    if summary is None and (outdir / "summary.json").is_file():
+        summary = json.loads((outdir / "summary.json").read_text(encoding="utf-8"))
+    path = outdir / "state.jsonl"
+    points, headers = {}, {}
+    if path.is_file():
+        for rec in read_records(path):
+            if rec.get("type", "point") == "point":
+                points[int(rec["row"])] = rec  # a resumed run rewrites its last rows: the latest wins
+            elif rec.get("type") == "branch":
+                headers[int(rec["branch"])] = rec
+        for r, rec in points.items():
+            header = headers.get(int(rec["branch"]))
+            if stores_kept(header):
+                u = None if expand is None else expand(header, rec["u"], rec["lam"])
+                if u is None:  # the kept dofs only, and nothing to expand them: left in state.jsonl
+                    return run_data(tables, summary, {}, headers)
+                points[r] = dict(rec, u=u)
+    return run_data(tables, summary, points, headers)
+
+
+def run_data(tables: dict, summary: dict | None, points: dict, headers: dict, parameter: str | None = None) -> RunData:
+    """A run's tables, summary and point coefficients as arrays.
+
+    Parameters
+    ----------
+    tables : dict
+        ``branches.csv`` and ``special_points.csv`` by name, as columns (:func:`contin.output.results.read_csv`).
+    summary : dict or None
+    points : dict
+        Row of ``branches.csv`` -> ``{"branch", "lam", "u", "H", "nu"}`` with ``u`` its full coefficients.
+    headers : dict
+        Branch id -> its branch record (``torus``: a quasi-periodic branch's discretisation).
+    parameter : str, optional
+        The continuation parameter (default: the summary's ``analysis.parameter``).
 
     Returns
     -------
     RunData
         Keys ``branches`` and ``special`` (dicts of column arrays), ``summary`` (dict),
         ``parameter`` (str or None), ``dofs`` (list of str), ``H`` (int or None), and when the
-        run stored solutions (``state.jsonl``): ``coefficients`` (rows, 2H+1, n),
+        run stored solutions: ``coefficients`` (rows, 2H+1, n),
         ``harmonics`` (rows,), ``coefficient_rows`` (rows,), ``nu`` (rows,), ``base_frequency`` (rows,).
     """
-    outdir = Path(outdir)
-    data = RunData(branches=_table(outdir / "branches.csv"), special=_table(outdir / "special_points.csv"))
-    if summary is None and (outdir / "summary.json").is_file():
-        summary = json.loads((outdir / "summary.json").read_text(encoding="utf-8"))
+    data = RunData(branches=_table(tables.get("branches.csv", {})),
+                   special=_table(tables.get("special_points.csv", {})))
     data["summary"] = summary = summary or {}
     analysis = summary.get("analysis") if isinstance(summary.get("analysis"), dict) else {}
-    data["parameter"] = analysis.get("parameter")
+    data["parameter"] = parameter if parameter is not None else analysis.get("parameter")
     data["dofs"] = list((summary.get("model") or {}).get("dofs") or [])
     data["H"] = None
-    path = outdir / "state.jsonl"
-    if not path.is_file():
-        return data
-    points, tori, headers = {}, {}, {}
-    for rec in read_records(path):
-        if rec.get("type", "point") == "point":
-            points[int(rec["row"])] = rec  # a resumed run rewrites its last rows: the latest wins
-        elif rec.get("type") == "branch":
-            headers[int(rec["branch"])] = rec
-            if rec.get("torus") is not None:
-                tori[int(rec["branch"])] = rec["torus"]
-    for r, rec in points.items():
-        header = headers.get(int(rec["branch"]))
-        if stores_kept(header):
-            u = None if expand is None else expand(header, rec["u"], rec["lam"])
-            if u is None:
-                return data  # the kept dofs only, and nothing to expand them: left in state.jsonl
-            points[r] = dict(rec, u=u)
+    tori = {j: h["torus"] for j, h in headers.items() if h.get("torus") is not None}
     if not points:
         return data
     n = len(data["dofs"])
@@ -228,8 +248,7 @@ def write_coefficients_csv(outdir: str | Path, data: RunData | None = None) -> s
 def _flat(data: RunData) -> dict:
     out = {f"branches/{k}": v for k, v in data["branches"].items()}
     out.update({f"special/{k}": v for k, v in data["special"].items()})
-    for key in ("coefficients", "harmonics", "coefficient_rows", "nu", "base_frequency", "torus_coefficients",
-                "torus_pairs", "torus_rows", "frequency2"):
+    for key in SOLUTION_KEYS:
         if key in data:
             out[key] = data[key]
     out["dofs"] = np.array(data["dofs"], dtype=str)
@@ -237,6 +256,27 @@ def _flat(data: RunData) -> dict:
     out["H"] = np.array(-1 if data["H"] is None else data["H"], dtype=np.int64)
     out["status"] = np.array(str(data["summary"].get("status", "")), dtype=str)
     return out
+
+
+#: the arrays of a run's solutions, as :func:`run_data` makes them and ``results.npz`` holds them
+SOLUTION_KEYS = ("coefficients", "harmonics", "coefficient_rows", "nu", "base_frequency", "torus_coefficients",
+                 "torus_pairs", "torus_rows", "frequency2")
+
+
+def solutions_from_npz(path: str | Path, data: RunData) -> RunData:
+    """``data`` with the solutions' arrays of a ``results.npz`` (a run whose checkpoint is not at hand:
+    a result saved from memory); ``data`` itself when the file holds none or cannot be read."""
+    try:
+        with open_regular(Path(path), encoding=None, follow=True, limit=1 << 34) as fh, \
+                np.load(fh, allow_pickle=False) as z:
+            found = {k: z[k] for k in SOLUTION_KEYS if k in z.files}
+            H = int(z["H"]) if "H" in z.files else -1
+    except (OSError, ValueError, KeyError, zipfile.BadZipFile):
+        return data
+    if "coefficients" in found:
+        data.update(found)
+        data["H"] = H if H >= 0 else None
+    return data
 
 
 def _matlab_name(name: str) -> str:
@@ -247,7 +287,8 @@ def _matlab_name(name: str) -> str:
     return text[:63]
 
 
-def write_exports(outdir: str | Path, formats=("npz",), summary: dict | None = None, expand=None) -> list[str]:
+def write_exports(outdir: str | Path, formats=("npz",), summary: dict | None = None, expand=None,
+                  data: RunData | None = None) -> list[str]:
     """Write ``coefficients.csv`` (when the run stored solutions) and ``results.<fmt>`` for each format.
 
     Parameters
@@ -260,6 +301,8 @@ def write_exports(outdir: str | Path, formats=("npz",), summary: dict | None = N
         The run's summary (read from ``summary.json`` if omitted).
     expand : StoredExpansion, optional
         Full coefficients of condensed branches' rows (as :func:`collect_run`).
+    data : RunData, optional
+        The run's arrays as held in memory (:func:`run_data`): then nothing is read from ``outdir``.
 
     Returns
     -------
@@ -267,7 +310,7 @@ def write_exports(outdir: str | Path, formats=("npz",), summary: dict | None = N
         The file names written.
     """
     outdir = Path(outdir)
-    data = collect_run(outdir, summary, expand)
+    data = collect_run(outdir, summary, expand) if data is None else data
     names = []
     name = write_coefficients_csv(outdir, data)
     if name:

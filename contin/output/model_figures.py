@@ -140,7 +140,8 @@ def model_figures(model, analysis: str, parameter: str, branches, special, outdi
     hooks = tuple(getattr(model, "extra_figures", None) or ())
     if not hooks:
         return []
-    from contin.output.figures import figure_style, new_figure, save_figure
+    # matplotlib (0.4 s) waits for a figure: the built-in models import this module when the catalogue loads
+    from contin.output.figures import figure_style, new_figure, save_figure  # deferred: matplotlib, see above
 
     data = RunData(
         analysis=analysis, parameter=parameter, parameters=dict(model.parameters), effects=tuple(model.effects),

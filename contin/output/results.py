@@ -19,7 +19,8 @@ import numpy as np
 
 from contin.util.safe_files import append_stream, create_stream, open_regular, replace_file
 
-__all__ = ["CsvStream", "write_json_atomic", "strict_json", "read_csv", "format_value", "truncate_to_valid_rows"]
+__all__ = ["CsvStream", "write_json_atomic", "strict_json", "read_csv", "typed_columns", "format_value",
+           "truncate_to_valid_rows"]
 
 
 def format_value(v) -> str:
@@ -38,41 +39,58 @@ def format_value(v) -> str:
 
 
 class CsvStream:
-    """A CSV file written row by row with a fixed header.
+    """A table written row by row with a fixed header: to a CSV file, and held in memory.
+
+    The rows are kept as the cells the file holds (:func:`format_value`), so
+    :meth:`columns` gives exactly what :func:`read_csv` reads back from the
+    file; without a ``path`` nothing is written (a run held in memory only).
 
     Parameters
     ----------
-    path : Path
+    path : Path or None
     columns : list of str
     append : bool
-        Continue an existing file (its header must match).
+        Continue an existing file (its header must match; its rows are taken up).
     """
 
-    def __init__(self, path: Path, columns: list[str], append: bool = False):
-        self.path = Path(path)
+    def __init__(self, path: Path | None, columns: list[str], append: bool = False):
+        self.path = None if path is None else Path(path)
         self.columns = list(columns)
+        self.cells: list[list[str]] = []
+        self._fh = None
+        if self.path is None:
+            self.rows = 0
+            return
         exists = append and (self.path.exists() or self.path.is_symlink())
         if exists:
             with open_regular(self.path, newline="") as fh:
-                header = next(csv.reader(fh), None)
-            exists = header is not None
-            if exists and header != self.columns:
+                rows = list(csv.reader(fh))
+            exists = bool(rows)
+            if exists and rows[0] != self.columns:
                 raise ValueError(f"{self.path}: cannot resume, its columns differ from this run's")
+            self.cells = rows[1:]
         # a new file is created exclusively, an existing one appended to only if it is a regular file (no link)
         self._fh = (append_stream if exists else create_stream)(self.path, newline="")
         self._w = csv.writer(self._fh)
         if not exists:
             self._w.writerow(self.columns)
             self._fh.flush()
-        self.rows = 0
+        self.rows = len(self.cells)
 
     def write(self, row: dict) -> None:
-        self._w.writerow([format_value(row.get(c)) for c in self.columns])
-        self._fh.flush()
+        cells = [format_value(row.get(c)) for c in self.columns]
+        if self._fh is not None:
+            self._w.writerow(cells)
+            self._fh.flush()
+        self.cells.append(cells)
         self.rows += 1
 
+    def table(self) -> dict[str, np.ndarray]:
+        """The rows written (and taken up), as :func:`read_csv` reads the file."""
+        return typed_columns(self.columns, self.cells)
+
     def close(self) -> None:
-        if not self._fh.closed:
+        if self._fh is not None and not self._fh.closed:
             try:
                 self._fh.sync()
             finally:
@@ -121,7 +139,11 @@ def read_csv(path: Path) -> dict[str, np.ndarray]:
         rows = list(csv.reader(fh))
     if not rows:
         return {}
-    header, body = rows[0], rows[1:]
+    return typed_columns(rows[0], rows[1:])
+
+
+def typed_columns(header: list[str], body: list[list[str]]) -> dict[str, np.ndarray]:
+    """Columns of CSV cells: numbers as floats, ``true``/``false`` as bools, empty as NaN, else strings."""
     out = {}
     for j, name in enumerate(header):
         col = [r[j] if j < len(r) else "" for r in body]

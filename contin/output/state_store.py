@@ -38,6 +38,8 @@ from pathlib import Path
 
 import numpy as np
 
+from contin.util.safe_files import open_regular
+
 __all__ = ["ARRAYS_NAME", "LAST_NAME", "INLINE", "VOLATILE", "ArrayReader", "CheckpointError", "TornRecord",
            "last_key", "little", "read_last"]
 
@@ -75,8 +77,6 @@ def last_key(a: np.ndarray) -> str:
 
 def read_last(path: Path) -> dict:
     """The arrays of ``state_last.npz`` by key ({} when absent or not an archive contin wrote)."""
-    from contin.util.safe_files import open_regular
-
     if not path.exists():
         return {}
     try:
@@ -124,8 +124,6 @@ class ArrayReader:
             self._fh.close()
 
     def _open(self):
-        from contin.util.safe_files import open_regular
-
         if self._fh is None:
             self._fh = open_regular(self.path, encoding=None, follow=True)
             self.size = os.fstat(self._fh.fileno()).st_size

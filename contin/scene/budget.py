@@ -3,8 +3,10 @@
 A scene's sizes are each within their schema's limits (``harmonics`` up to
 2000, ``samples`` up to 2**20, ...), but together they can ask for more
 memory than any machine has: 200 dofs with 2000 harmonics make a
-800200 x 800200 Jacobian (4.66 TiB). :func:`check_resources` estimates,
-from the scene and its built model and before any array is made, the largest
+800200 x 800200 Jacobian (4.66 TiB). Each analysis estimates, with the
+functions here (``frequency_response_demands``, ...: its
+:meth:`~contin.analyses.base.Analysis.demands`), from the scene and its built
+model and before any array is made, the largest
 arrays each analysis holds at once and the work of its largest single
 computation, and refuses with a :class:`SceneError` naming the key that sets
 the size, the sizes, the bytes and the limit:
@@ -41,12 +43,16 @@ import os
 from dataclasses import dataclass
 from typing import Callable
 
+from contin.hb.condensation import nonlinear_dofs
+from contin.hb.harmonics import default_samples
 from contin.scene.files import size_text
 from contin.scene.schema import SceneError, is_int, is_number
+from contin.stability.options import StabilityOptions
 
 __all__ = ["MEMORY_FRACTION", "MEMORY_FLOOR", "OPERATIONS_PER_SECOND", "MAX_SECONDS", "JACOBIAN_COPIES", "Limits",
-           "Demand", "machine_memory", "demands", "check_resources", "check_demands", "harmonic_balance_demands",
-           "time_text"]
+           "Demand", "machine_memory", "check_resources", "check_demands", "harmonic_balance_demands",
+           "time_text", "frequency_response_demands", "bifurcation_curve_demands", "backbone_demands",
+           "simulate_demands", "frf_demands", "modes_demands"]
 
 #: share of the available memory a scene may ask for (the rest: Python, numba, the plots, other programs)
 MEMORY_FRACTION = 0.8
@@ -276,8 +282,6 @@ def _count(x: float) -> str:
 
 
 def _samples(model, H: int, samples) -> int:
-    from contin.hb.harmonics import default_samples
-
     if is_int(samples) and samples > 0:
         return int(samples)
     return int(max(default_samples(H, model.degree), model.min_samples, 2 * H + 1))
@@ -289,8 +293,6 @@ def _condensed_dofs(model, how) -> int:
     n = model.n_dof
     if how is not True or not model.forces:
         return n
-    from contin.hb.condensation import nonlinear_dofs
-
     try:
         kept, _ = nonlinear_dofs(model)
     except ValueError:
@@ -324,8 +326,6 @@ def _periodic(model, a: dict, src: Callable, condense=False) -> tuple[list[Deman
 
 
 def _stability(model, a: dict, src: Callable, H: int) -> list[Demand]:
-    from contin.stability import StabilityOptions
-
     method = a.get("stability", "none")
     opts = a.get("stability_options") if isinstance(a.get("stability_options"), dict) else {}
     n = model.n_dof
@@ -353,8 +353,6 @@ def _torus(model, a: dict, H: int) -> list[Demand]:
     switch = a.get("switch") or ()
     if "ns" not in switch:
         return []
-    from contin.hb.harmonics import default_samples
-
     t = a.get("torus") if isinstance(a.get("torus"), dict) else {}
     n = model.n_dof
     H1, H2 = _int(t.get("harmonics"), H), _int(t.get("harmonics2"), 3)
@@ -372,7 +370,7 @@ def _torus(model, a: dict, H: int) -> list[Demand]:
     return out
 
 
-def _frequency_response(scene, model) -> list[list[Demand]]:
+def frequency_response_demands(scene, model) -> list[list[Demand]]:
     groups = []
     a = scene.analysis
     for src, merged in _starts(a):
@@ -382,7 +380,7 @@ def _frequency_response(scene, model) -> list[list[Demand]]:
     return groups
 
 
-def _bifurcation_curve(scene, model) -> list[list[Demand]]:
+def bifurcation_curve_demands(scene, model) -> list[list[Demand]]:
     a = scene.analysis
     src = lambda k: f"analysis.{k}"  # noqa: E731
     hb, H, N = _periodic(model, a, src)
@@ -397,7 +395,7 @@ def _bifurcation_curve(scene, model) -> list[list[Demand]]:
     return [hb + _stability(model, a, src, H), hb + curves, _start_simulation(model, a, src)]
 
 
-def _backbone(scene, model) -> list[list[Demand]]:
+def backbone_demands(scene, model) -> list[list[Demand]]:
     a = scene.analysis
     H = _int(a.get("harmonics"), 5)
     N = _samples(model, H, a.get("samples"))
@@ -405,7 +403,7 @@ def _backbone(scene, model) -> list[list[Demand]]:
     return [harmonic_balance_demands(model.n_dof, H, N, "analysis.harmonics", key_s, extra_unknowns=2)]
 
 
-def _simulate(scene, model) -> list[list[Demand]]:
+def simulate_demands(scene, model) -> list[list[Demand]]:
     a = scene.analysis
     n = model.n_dof
     T = float(a["transient"]) if is_number(a.get("transient")) and a["transient"] >= 0 else 500.0
@@ -423,7 +421,7 @@ def _simulate(scene, model) -> list[list[Demand]]:
     return [[record, steps]]
 
 
-def _frf(scene, model) -> list[list[Demand]]:
+def frf_demands(scene, model) -> list[list[Demand]]:
     a = scene.analysis
     n = model.n_dof
     points = _int(a.get("points"), 400)
@@ -435,7 +433,7 @@ def _frf(scene, model) -> list[list[Demand]]:
                     cases * points * (8.0 / 3.0 * n**3 + 64.0 * n * n), "fewer points")]]
 
 
-def _modes(scene, model) -> list[list[Demand]]:
+def modes_demands(scene, model) -> list[list[Demand]]:
     a = scene.analysis
     n = model.n_dof
     if isinstance(a.get("values"), list):
@@ -446,18 +444,6 @@ def _modes(scene, model) -> list[list[Demand]]:
         count, key = 1, "analysis.values"
     return [[Demand(key, f"the modes of {_dofs(n)} at {count} values (their shapes and damped eigenvectors)",
                     count * 100.0 * n * n + 8.0 * 64 * n * n, count * 200.0 * n**3, "fewer values")]]
-
-
-#: ``analysis.type`` -> demands of its scene, in groups held at once (a convergence scene's settings are checked
-#: each as its own scene, :func:`contin.analyses.convergence_plan.check`)
-ANALYSES = {"frequency_response": _frequency_response, "bifurcation_curve": _bifurcation_curve,
-            "backbone": _backbone, "simulate": _simulate, "frf": _frf, "modes": _modes}
-
-
-def demands(scene, model) -> list[list[Demand]]:
-    """What the scene's analysis asks, in groups of demands held at once (empty for an analysis not sized here)."""
-    fn = ANALYSES.get(scene.analysis.get("type"))
-    return [g for g in fn(scene, model) if g] if fn else []
 
 
 def check_demands(groups, limits: Limits, lines: dict | None = None) -> None:
@@ -499,30 +485,32 @@ def _advice(d: Demand) -> str:
     return f"; use {d.advice}" if d.advice else ""
 
 
-def check_resources(scene, model, limits: Limits | None = None) -> list[list[Demand]]:
-    """Estimate what ``scene`` asks with its built ``model`` and refuse what cannot be done.
+def check_resources(scene, groups, limits: Limits | None = None) -> list[list[Demand]]:
+    """Refuse what ``scene`` asks beyond the machine: ``groups``, its analysis's estimate
+    (:meth:`contin.analyses.base.Analysis.demands`, made from the scene and its built model).
 
-    Made by :func:`contin.scene.registry.check_scene` before the analysis's own
-    check, which builds the problems (and their arrays).
+    Made by :func:`contin.scene.registry.check_scene` before the analysis's
+    plan, which builds the problems (and their arrays).
 
     Parameters
     ----------
     scene : Scene
-    model : Model
+    groups : list of list of Demand
+        Demands held at once, by group.
     limits : Limits, optional
         Default :meth:`Limits.of_machine`.
 
     Returns
     -------
     list of list of Demand
-        The estimate, in groups held at once.
+        The groups that are not empty.
 
     Raises
     ------
     SceneError
         See :func:`check_demands`.
     """
-    groups = demands(scene, model)
+    groups = [g for g in groups if g]
     if groups:
         check_demands(groups, limits or Limits.of_machine(), scene.lines)
     return groups

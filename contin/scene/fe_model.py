@@ -14,9 +14,13 @@ from __future__ import annotations
 import functools
 from pathlib import Path
 
+from contin.bifurcation.start import contact_start
 from contin.model.base import Model
+from contin.model.fem.matrices import load_matrices
+from contin.scene.files import MODEL_FILE_CAP, input_key, read_input
 from contin.scene.schema import Key, SceneError, check_section, flag, integer, is_number, listing, mapping, \
     number, string
+from contin.util.naming import suggest
 
 __all__ = ["FE_MODEL", "FE_RULES", "check_fe_section", "build_fe_model", "rotor_path"]
 
@@ -104,11 +108,9 @@ def build_fe_model(scene) -> Model:
         cannot take (a node off the rotor), ``model.parameters.NAME`` for an
         unknown parameter.
     """
-    from contin.bifurcation.start import contact_start
-    from contin.model.fem.builder import Contact, Reduction, SideLoad, Unbalance, Units, fe_rotor_model
-    from contin.model.fem.matrices import load_matrices
-    from contin.model.fem.ross_bridge import load_rotor
-    from contin.scene.files import MODEL_FILE_CAP, input_key, read_input
+    from contin.model.fem.builder import (  # deferred: scipy.interpolate (0.12 s), for a rotor's scene alone
+        Contact, Reduction, SideLoad, Unbalance, Units, fe_rotor_model)
+    from contin.model.fem.ross_bridge import load_rotor  # deferred: scipy.interpolate, as the builder
 
     m = scene.model
     path = rotor_path(m, scene.source)
@@ -139,8 +141,6 @@ def build_fe_model(scene) -> Model:
                          None, scene.lines.get(f"model.{key}"), hint=f": {exc}") from None
     for k, v in m["parameters"].items():
         if k not in model.parameters:
-            from contin.util.naming import suggest
-
             raise SceneError(f"model.parameters.{k}", f"a parameter of the rotor model ({', '.join(model.parameters)})",
                              k, scene.lines.get(f"model.parameters.{k}"), hint=suggest(k, model.parameters))
         model.parameters[k] = float(v)

@@ -26,85 +26,23 @@ from typing import Any
 
 import yaml
 
+from contin.model.catalog import get_spec, rule_violation
 from contin.util.naming import suggest
 from contin.output.exports import EXPORT_FORMATS
 from contin.output.figures import FIGURE_FORMATS, style_names
-from contin.scene.schema import (Key, SceneError, anything, check_section, integer, is_int, is_number, listing,
-                           mapping, number, string)
+from contin.scene.schema import (Key, SceneError, anything, check_section, integer, is_int, listing,
+                           mapping, string)
+from contin.scene import registry
+from contin.scene.fe_model import FE_RULES, check_fe_section
+from contin.scene.files import SCENE_FILE_CAP, input_key, read_input, size_text
 from contin.scene.yaml_text import MAX_DEPTH, MAX_VALUES, SceneLoader, line_map, load_nodes, load_text  # noqa: F401
 
 __all__ = ["SceneError", "Scene", "load_scene", "parse_scene", "read_scene_text", "scene_from_data", "apply_override", "cite_override", "analysis_schemas",
-           "SceneLoader", "START_SIMULATION", "check_names", "check_parameter_values", "model_frequency",
+           "SceneLoader", "check_names", "check_parameter_values", "model_frequency",
            "parameter_rule", "check_model_section"]
 
 
 # ---------------------------------------------------------------- schema
-CONTINUATION_KEYS = mapping()  # validated by ContinuationOptions.from_dict
-
-#: keys a further start (``analysis.starts``) may change; the others are shared
-START_KEYS = ("start", "start_from", "start_simulation", "subharmonic", "harmonics", "samples", "crossings", "both_ways",
-              "guess", "stability_options", "switch", "continuation")
-
-
-def _start_simulation_ok(v) -> bool:
-    if not isinstance(v, dict) or set(v) - {"transient", "steps_per_period", "run_up"}:
-        return False
-    t, s, r = v.get("transient"), v.get("steps_per_period"), v.get("run_up")
-    return ((t is None or (is_number(t) and t > 0)) and (s is None or (is_int(s) and 4 <= s <= 2**20))
-            and (r is None or (isinstance(r, list) and len(r) <= 100 and all(is_number(x) and x > 0 for x in r))))
-
-
-#: ``start_simulation``: how :func:`contin.bifurcation.start.simulation_start` integrates to its start
-START_SIMULATION = Key("a mapping with keys among transient (revolutions, a number > 0), steps_per_period "
-                       "(an integer from 4 to 2**20) and run_up (a list of at most 100 positive parameter values "
-                       "integrated first, in turn)", _start_simulation_ok, {})
-
-def _torus_ok(v) -> bool:
-    if not isinstance(v, dict) or set(v) - {"harmonics", "harmonics2", "samples", "samples2", "stability", "periods",
-                                           "steps_per_period", "locking_tol"}:
-        return False
-    ints = all(v.get(k) is None or (is_int(v[k]) and 1 <= v[k] <= 2**16)
-               for k in ("harmonics", "harmonics2", "samples", "samples2"))
-    return (ints and v.get("stability", "simulation") in ("simulation", "none")
-            and (v.get("periods") is None or (is_number(v["periods"]) and v["periods"] > 0))
-            and (v.get("steps_per_period") is None or (is_int(v["steps_per_period"]) and 4 <= v["steps_per_period"] <= 2**20))
-            and (v.get("locking_tol") is None or (is_number(v["locking_tol"]) and 0 < v["locking_tol"] < 0.25)))
-
-
-FREQUENCY_RESPONSE = {
-    "type": string(required=True),
-    "parameter": string(),
-    "range": Key("a list of two different numbers [start, end]",
-                 lambda v: isinstance(v, list) and len(v) == 2 and all(is_number(x) for x in v) and v[0] != v[1],
-                 required=True),
-    "start": number(),
-    "frequency": string(),
-    "harmonics": Key("an integer from 1 to 2000", lambda v: is_int(v) and 1 <= v <= 2000, 5),
-    "subharmonic": Key("an integer from 1 to 64", lambda v: is_int(v) and 1 <= v <= 64, 1),
-    "samples": Key("an integer from 2*harmonics+1 to 2**20, or null",
-                   lambda v: v is None or (is_int(v) and 3 <= v <= 2**20), None),
-    "crossings": string("exact", ("exact", "interval", "none")),
-    # eliminate the dofs free of nonlinear forces exactly (contin.hb.condensation)
-    "condense": Key("'auto', true or false", lambda v: v == "auto" or isinstance(v, bool), "auto"),
-    "stability": string("both", ("hill", "floquet", "both", "none")),
-    "stability_options": mapping(),
-    "switch": listing([], lambda x: x in ("pd", "bp", "ns"), "a list of bifurcation kinds among 'pd', 'bp', 'ns'"),
-    # quasi-periodic branches started at 'ns' points (contin.hb.torus, contin.bifurcation.torus_branch)
-    "torus": Key("a mapping with keys among harmonics, harmonics2, samples, samples2 (integers or null), stability "
-                 "('simulation' or 'none'), periods (a number > 0), steps_per_period (an integer >= 4), "
-                 "locking_tol (a number in (0, 0.25))", lambda v: _torus_ok(v), {}),
-    "max_branches": integer(8, 1),
-    "continuation": CONTINUATION_KEYS,
-    "start_from": string("model", ("model", "linear", "simulation")),
-    "start_simulation": START_SIMULATION,
-    "both_ways": Key("true or false", lambda v: isinstance(v, bool), False),
-    "guess": Key("a list of numbers (the harmonic coefficients) or null",
-                 lambda v: v is None or (isinstance(v, list) and all(is_number(x) for x in v)), None),
-    "starts": listing([], lambda x: isinstance(x, dict),
-                      "a list of mappings, each a further start with keys among " + ", ".join(START_KEYS)),
-}
-
-
 OUTPUT = {
     "measure": string(),
     "plots": Key("true or false", lambda v: isinstance(v, bool), True),
@@ -217,8 +155,6 @@ def parameter_rule(model: dict, name: str, analysis: dict | None = None):
     """
     rules = {}
     if "builtin" in model:
-        from contin.model.catalog import get_spec
-
         try:
             spec = get_spec(model["builtin"])
         except (TypeError, ValueError):
@@ -226,8 +162,6 @@ def parameter_rule(model: dict, name: str, analysis: dict | None = None):
         options = model.get("options") if isinstance(model.get("options"), dict) else {}
         rules = spec.parameter_constraints(options)
     elif "from" in model:
-        from contin.scene.fe_model import FE_RULES
-
         rules = FE_RULES
     freq = model_frequency(model, analysis)
     if name in rules:
@@ -249,8 +183,6 @@ def check_parameter_values(model: dict, analysis: dict, name, items, lines: dict
     items : iterable of (str, value)
         Scene key and its value: a number or a list of numbers (a range).
     """
-    from contin.model.catalog import rule_violation
-
     if not isinstance(name, str):
         return
     rule = parameter_rule(model, name, analysis)
@@ -265,8 +197,6 @@ def check_parameter_values(model: dict, analysis: dict, name, items, lines: dict
 
 def _check_builtin_parameters(model: dict, lines: dict) -> None:
     """A built-in model's parameter values against its constraints (before the model is built)."""
-    from contin.model.catalog import get_spec, rule_violation
-
     try:
         spec = get_spec(model["builtin"])
     except (TypeError, ValueError):
@@ -302,24 +232,16 @@ def model_frequency(model: dict, analysis: dict | None = None) -> str | None:
     """
     if analysis is not None and isinstance(analysis.get("frequency"), str):
         return analysis["frequency"]
-    if "from" in model:
-        return "w"  # a finite-element rotor (contin.scene.fe_model)
+    if "from" in model:  # a finite-element rotor (contin.scene.fe_model): its speed
+        from contin.model.fem.builder import SPEED  # deferred: the builder loads scipy.interpolate (0.13 s)
+
+        return SPEED
     if "builtin" not in model:
         return model.get("frequency")
-    from contin.model.catalog import get_spec
-
     try:
         return get_spec(model["builtin"]).frequency
     except (TypeError, ValueError):
         return None
-
-
-def _check_frequency_response(model: dict, analysis: dict, lines: dict) -> None:
-    """Values of the continued parameter: ``range``, ``start`` and the starts' ``start``."""
-    name = analysis["parameter"] or model_frequency(model, analysis)
-    items = [("analysis.range", analysis["range"]), ("analysis.start", analysis["start"])]
-    items += [(f"analysis.starts[{i}].start", extra.get("start")) for i, extra in enumerate(analysis["starts"])]
-    check_parameter_values(model, analysis, name, [(k, v) for k, v in items if v is not None], lines)
 
 
 @dataclass
@@ -464,20 +386,13 @@ def scene_from_data(data: dict, source: str = "<string>", lines: dict | None = N
     model = check_model_section(data["model"], lines)
     analysis = data["analysis"]
     atype = analysis.get("type")
-    schemas = analysis_schemas()
-    if not isinstance(atype, str) or atype not in schemas:
-        raise SceneError("analysis.type", "one of " + ", ".join(repr(a) for a in schemas), atype,
-                         lines.get("analysis.type"), hint=suggest(atype, schemas) if isinstance(atype, str) else "")
-    analysis = check_section(analysis, schemas[atype], "analysis", lines)
-    if atype == "frequency_response":
-        start_schema = {k: FREQUENCY_RESPONSE[k] for k in START_KEYS}
-        for i, extra in enumerate(analysis["starts"]):
-            check_section(extra, start_schema, f"analysis.starts[{i}]", lines)
-        _check_frequency_response(model, analysis, lines)
-    from contin.scene.registry import ANALYSIS_VALIDATORS
-
-    if atype in ANALYSIS_VALIDATORS:
-        ANALYSIS_VALIDATORS[atype](data, model, analysis, lines)
+    names = registry.analysis_names()
+    if not isinstance(atype, str) or atype not in names:
+        raise SceneError("analysis.type", "one of " + ", ".join(repr(a) for a in names), atype,
+                         lines.get("analysis.type"), hint=suggest(atype, names) if isinstance(atype, str) else "")
+    made = registry.analysis(atype)  # only the scene's own analysis is imported
+    analysis = check_section(analysis, made.schema, "analysis", lines)
+    made.validate(data, model, analysis, lines)
     output = data.get("output") or {}
     if not isinstance(output, dict):
         raise SceneError("output", "a mapping", output, lines.get("output"))
@@ -498,8 +413,6 @@ def check_model_section(model: dict, lines: dict | None = None) -> dict:
         raise SceneError("model", "a mapping (required section)", model, lines.get("model"))
     check_names({"model": model}, lines)
     if "from" in model:
-        from contin.scene.fe_model import check_fe_section
-
         return check_fe_section(model, lines)
     model = check_section(model, BUILTIN_MODEL if "builtin" in model else CUSTOM_MODEL, "model", lines)
     if "builtin" in model:
@@ -515,8 +428,6 @@ def read_scene_text(path: str | Path) -> tuple[str, str]:
     device, a named pipe or a directory is refused before anything is read
     (:func:`contin.scene.files.read_input`); so is text that is not UTF-8.
     """
-    from contin.scene.files import SCENE_FILE_CAP, read_input, size_text
-
     path = Path(path)
     try:
         raw, digest = read_input(path, SCENE_FILE_CAP)
@@ -537,8 +448,6 @@ def load_scene(path: str | Path, overrides=()) -> Scene:
 
     The file's sha256 goes to :attr:`Scene.inputs`.
     """
-    from contin.scene.files import input_key
-
     text, digest = read_scene_text(path)
     scene = parse_scene(text, str(path), overrides)
     scene.inputs[input_key(Path(path))] = digest
@@ -546,8 +455,5 @@ def load_scene(path: str | Path, overrides=()) -> Scene:
 
 
 def analysis_schemas() -> dict:
-    """``analysis.type`` name -> schema of its section, for every registered analysis."""
-    from contin.scene.registry import ANALYSIS_SCHEMAS, load_all
-
-    load_all()
-    return {"frequency_response": FREQUENCY_RESPONSE, **ANALYSIS_SCHEMAS}
+    """``analysis.type`` name -> schema of its section, for every analysis of :data:`contin.scene.registry.ANALYSES`."""
+    return {name: registry.analysis(name).schema for name in registry.ANALYSES}

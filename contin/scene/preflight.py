@@ -14,13 +14,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from contin.output.labels import axis_label, math, mathtext_error, model_symbols
+
 __all__ = ["check_texts", "check_unknown_scale"]
 
 
 def _texts(scene, model):
     """``(key, text as drawn)`` of every text a figure of the scene draws from what the scene says."""
-    from contin.output.labels import axis_label, math, model_symbols
-
     out, m = scene.output, scene.model
     symbols = model_symbols(model)
     if isinstance(out.get("title"), str):
@@ -50,8 +50,6 @@ def check_texts(scene, model) -> None:
     contin.scene.schema.SceneError
         Naming the key, the text and the parser's words.
     """
-    from contin.output.labels import mathtext_error
-
     for key, text in _texts(scene, model):
         why = mathtext_error(text)
         if why:
@@ -59,11 +57,12 @@ def check_texts(scene, model) -> None:
                               "\\frac{a}{b}, ...; \\$ for a dollar sign)", text, hint=f"; matplotlib says: {why}")
 
 
-def _dofs(n: int) -> str:
+def dofs_text(n: int) -> str:
+    """``1 dof`` or ``n dofs`` (the messages of :func:`check_unknown_scale`)."""
     return "1 dof" if n == 1 else f"{n} dofs"
 
 
-def _scale_key(scene, index: int) -> str:
+def scale_key(scene, index: int) -> str:
     """The key that sets the continuation options of start ``index`` (0: the scene's own)."""
     if index > 0:
         extra = scene.analysis["starts"][index - 1]
@@ -84,38 +83,21 @@ def _check_length(scene, key: str, options, m: int, what: str, switched: str = "
                           f"a list of {len(scale)} numbers")
 
 
-def check_unknown_scale(scene, plan) -> None:
+def check_unknown_scale(scene, checks) -> None:
     """``continuation.unknown_scale`` (and ``curve_continuation.unknown_scale``) of the length of its problem.
 
     Parameters
     ----------
     scene : Scene
-    plan : object
-        What the analysis's check returned (its problems and options).
+    checks : sequence of ScaleCheck
+        The analysis's problems with their options
+        (:meth:`contin.analyses.base.Analysis.scale_checks`): ``key``,
+        ``options``, ``size``, ``what``, ``note``.
 
     Raises
     ------
     contin.scene.schema.SceneError
         Naming the key, the number of unknowns and the length found.
     """
-    kind = scene.analysis.get("type")
-    if kind == "frequency_response" and isinstance(plan, list):
-        for i, (sc, hb, problem, _, options, _) in enumerate(plan):
-            switch = [s for s in sc.analysis.get("switch") or () if s in ("pd", "ns")]
-            n = getattr(problem, "n", hb.n)
-            what = f"{_dofs(n)} x {2 * hb.H + 1} coefficients" + (" (condensed)" if problem is not hb else "")
-            switched = f"analysis.switch: [{', '.join(switch)}]" if switch else ""
-            _check_length(scene, _scale_key(scene, i), options, problem.size, what, switched)
-    elif kind == "static" and isinstance(plan, dict):
-        _check_length(scene, "analysis.continuation.unknown_scale", plan["opts"], plan["hb"].size,
-                      f"the {_dofs(plan['hb'].size)}")
-    elif kind == "backbone" and isinstance(plan, dict):
-        for problem in plan["problems"]:
-            _check_length(scene, "analysis.continuation.unknown_scale", plan["opts"], problem.m + 2,
-                          f"{problem.m} coefficients, the frequency and the amplitude")
-    elif kind == "bifurcation_curve" and isinstance(plan, dict):
-        hb = plan["hb"]
-        _check_length(scene, "analysis.continuation.unknown_scale", plan["opts"], hb.size,
-                      f"{_dofs(hb.n)} x {2 * hb.H + 1} coefficients")
-        _check_length(scene, "analysis.curve_continuation.unknown_scale", plan["curve_opts"], hb.size + 1,
-                      f"{hb.size} coefficients and {hb.parameter}")
+    for c in checks:
+        _check_length(scene, c.key, c.options, c.size, c.what, c.note)

@@ -1,141 +1,76 @@
-"""The analyses a scene can run, by ``analysis.type``, and what a run hands them.
+"""The analyses a scene can run, by ``analysis.type``: the one table :data:`ANALYSES`.
 
-Each analysis module (:data:`ANALYSIS_MODULES`) registers with
-:func:`register_analysis` a function ``run(context) -> dict`` (the analysis
-part of ``summary.json``; see :mod:`contin.app.runner`), the schema of its
-``analysis`` section (built from :mod:`contin.scene.schema`) and its checks.
-A new analysis is a new module listed in :data:`ANALYSIS_MODULES`; nothing
-else changes. The modules are imported by name when a scene is checked, as
-the built-in models are (:mod:`contin.model.catalog`).
+Each entry names the class of an analysis (a subclass of
+:class:`contin.analyses.base.Analysis`, whose docstring lists the steps to add
+one). The scene schemas (:func:`contin.scene.parse.analysis_schemas`),
+``contin check``, ``contin run``, the Python API's calls and the generated
+scene reference all read this table; an analysis's module is imported by name
+when first asked for, as the built-in models are (:mod:`contin.model.catalog`).
 """
 
 from __future__ import annotations
 
 import importlib
-from dataclasses import dataclass, field
-from pathlib import Path
-from typing import TYPE_CHECKING, Callable
 
-from contin.model.base import Model
+__all__ = ["ANALYSES", "analysis", "analysis_names", "check_output", "check_scene", "shortfalls"]
 
-if TYPE_CHECKING:
-    from contin.scene.parse import Scene
+#: ``analysis.type`` -> ``module:Class`` of its :class:`~contin.analyses.base.Analysis` (or the class itself,
+#: for one defined outside the package), in the order the reference and the API list them
+ANALYSES = {
+    "frequency_response": "contin.analyses.frequency_response:FrequencyResponse",
+    "simulate": "contin.analyses.simulate:Simulate",
+    "modes": "contin.analyses.modes:Modes",
+    "frf": "contin.analyses.frf:Frf",
+    "bifurcation_curve": "contin.analyses.bifurcation_curve:BifurcationCurve",
+    "static": "contin.analyses.static:Static",
+    "backbone": "contin.analyses.backbone:Backbone",
+    "convergence": "contin.analyses.convergence:Convergence",
+}
 
-__all__ = ["RunContext", "RunError", "ANALYSIS_CHECKS", "ANALYSIS_RUNNERS", "ANALYSIS_SCHEMAS", "ANALYSIS_MODULES", "ANALYSIS_VALIDATORS",
-           "check_output", "check_scene", "register_analysis", "get_runner", "load_all", "shortfalls"]
-
-
-class RunError(RuntimeError):
-    """A run that could not proceed for numerical reasons (for example no starting solution)."""
-
-
-@dataclass
-class RunContext:
-    """What an analysis needs while it runs."""
-
-    scene: Scene
-    model: Model
-    outdir: Path
-    #: a :class:`contin.app.progress.Progress`
-    progress: object
-    timings: dict = field(default_factory=dict)
-    stop_requested: bool = False
-    interrupted: bool = False
-    plot: object = None
-    recorder: object = None
-    resume: bool = False
-    #: what the analysis's check returned (see :func:`check_scene`)
-    plan: object = None
-    #: ``run_scene(scene, outdir, progress=False)``, for analyses made of whole runs (a convergence study)
-    run_scene: Callable | None = None
+_MADE: dict = {}
 
 
-ANALYSIS_RUNNERS: dict[str, Callable] = {}
-ANALYSIS_SCHEMAS: dict[str, dict] = {}
-#: ``analysis.type`` -> ``validate(data, model, analysis, lines)``, further checks of a scene
-#: beyond its section schema (run by :func:`contin.scene.parse.parse_scene`; raises ``SceneError``)
-ANALYSIS_VALIDATORS: dict[str, Callable] = {}
-#: ``analysis.type`` -> ``check(scene, model)``: every check that needs the built model (parameter
-#: names, problem sizes, options objects, output columns), run by ``contin check`` and by
-#: :func:`contin.app.runner.run_scene` before anything is written; raises ``SceneError``
-ANALYSIS_CHECKS: dict[str, Callable] = {}
-
-#: modules that register analyses on import
-ANALYSIS_MODULES = (
-    "contin.analyses.frequency_response",
-    "contin.analyses.simulate",
-    "contin.analyses.modes",
-    "contin.analyses.frf",
-    "contin.analyses.bifurcation_curve",
-    "contin.analyses.static",
-    "contin.analyses.backbone",
-    "contin.analyses.convergence",
-)
+def analysis(name: str):
+    """The analysis ``analysis.type: name`` runs (one instance, made on first use; KeyError if none)."""
+    entry = ANALYSES[name]
+    made = _MADE.get(name)
+    if made is None or _MADE.get((name, "entry")) is not entry:  # made anew when its table line changed
+        if isinstance(entry, str):
+            module, _, cls = entry.partition(":")
+            entry_class = getattr(importlib.import_module(module), cls)
+        else:
+            entry_class = entry
+        made = entry_class()
+        if made.name != name:
+            raise RuntimeError(f"{entry} is named {made.name!r}, listed as {name!r}")
+        _MADE[name], _MADE[(name, "entry")] = made, entry
+    return made
 
 
-def register_analysis(name: str, schema: dict | None = None, validate: Callable | None = None,
-                      check: Callable | None = None):
-    """Decorator registering ``run`` for ``analysis.type: name`` (its section schema and checks).
-
-    Parameters
-    ----------
-    name : str
-        The ``analysis.type``.
-    schema : dict, optional
-        Keys of the ``analysis`` section (:mod:`contin.scene.schema`).
-    validate : callable, optional
-        ``validate(data, model, analysis, lines)``: further checks of the whole
-        scene after the section schema (``data`` the scene as loaded, ``model``
-        and ``analysis`` its checked sections), raising ``SceneError``.
-    check : callable, optional
-        ``check(scene, model)``: the checks that need the built model (see
-        :data:`ANALYSIS_CHECKS`). A scene that passes them is refused by
-        nothing later: a run writes its files only after them.
-    """
-
-    def deco(fn):
-        ANALYSIS_RUNNERS[name] = fn
-        if schema is not None:
-            ANALYSIS_SCHEMAS[name] = schema
-        if validate is not None:
-            ANALYSIS_VALIDATORS[name] = validate
-        if check is not None:
-            ANALYSIS_CHECKS[name] = check
-        return fn
-
-    return deco
-
-
-def load_all() -> None:
-    for mod in ANALYSIS_MODULES:
-        importlib.import_module(mod)
-
-
-def get_runner(name: str) -> Callable:
-    load_all()
-    return ANALYSIS_RUNNERS[name]
+def analysis_names() -> list[str]:
+    """Every ``analysis.type``, in the table's order."""
+    return list(ANALYSES)
 
 
 def check_scene(scene, model):
     """Every check of ``scene`` with its built ``model`` that a run would make (raises ``SceneError``).
 
-    Returns what the analysis's check returns (its prepared setup, handed to
-    its run as ``RunContext.plan``), or None.
+    Returns the analysis's plan (:meth:`contin.analyses.base.Analysis.plan`),
+    which its run is handed.
 
     First the memory and work the scene asks (:func:`contin.scene.budget.check_resources`:
-    before the analysis's check, which builds its problems and their arrays);
+    before the plan, which builds its problems and their arrays);
     after it, the texts its figures draw and ``continuation.unknown_scale``
     against the problems' unknowns (:mod:`contin.scene.preflight`).
     """
-    from contin.scene.budget import check_resources
-    from contin.scene.preflight import check_texts, check_unknown_scale
+    from contin.scene.budget import check_resources  # deferred: hb, stability (0.8 s); ``import contin`` reads ANALYSES
+    from contin.scene.preflight import check_texts, check_unknown_scale  # deferred: numpy, as budget
 
-    load_all()
-    check_resources(scene, model)
-    check = ANALYSIS_CHECKS.get(scene.analysis["type"])
-    plan = None if check is None else check(scene, model)
+    made = analysis(scene.analysis["type"])
+    check_resources(scene, made.demands(scene, model))
+    plan = made.plan(scene, model)
     check_texts(scene, model)
-    check_unknown_scale(scene, plan)
+    check_unknown_scale(scene, made.scale_checks(plan))
     return plan
 
 
@@ -150,7 +85,7 @@ def check_output(scene, measures, names=()) -> None:
     names : sequence of str
         Further names an axis can show (parameters).
     """
-    from contin.util.naming import suggest
+    from contin.util.naming import suggest  # deferred: numpy (0.1 s), not for ``import contin``
 
     out = scene.output
     measures = list(measures)
@@ -188,7 +123,7 @@ def shortfalls(branches: list[dict], parameter: str, failed_switches=(), what: s
     what : str
         What the entries are called in the messages.
     """
-    from contin.engine.branch import BranchStatus
+    from contin.engine.branch import BranchStatus  # deferred: numpy (0.1 s), not for ``import contin``
 
     out = []
     for i, b in enumerate(branches):

@@ -13,7 +13,7 @@ from typing import Any, Callable
 
 from contin.util.naming import is_finite_real, suggest
 
-__all__ = ["SceneError", "Key", "number", "integer", "string", "mapping", "listing", "anything",
+__all__ = ["START_SIMULATION", "SceneError", "Key", "number", "integer", "string", "mapping", "listing", "anything",
            "flag", "int_range", "is_number", "is_int", "number_or_expr", "check_section", "NUMBER", "STR"]
 
 
@@ -119,3 +119,18 @@ def check_section(section: dict, schema: dict, prefix: str, lines: dict) -> dict
             raise SceneError(path, spec.expected, v, lines.get(path))
         out[k] = v
     return out
+
+
+def _start_simulation_ok(v) -> bool:
+    if not isinstance(v, dict) or set(v) - {"transient", "steps_per_period", "run_up"}:
+        return False
+    t, s, r = v.get("transient"), v.get("steps_per_period"), v.get("run_up")
+    return ((t is None or (is_number(t) and t > 0)) and (s is None or (is_int(s) and 4 <= s <= 2**20))
+            and (r is None or (isinstance(r, list) and len(r) <= 100 and all(is_number(x) and x > 0 for x in r))))
+
+
+#: ``start_simulation``: how :func:`contin.bifurcation.start.simulation_start` integrates to its start (the
+#: analyses that start from a simulation share the key)
+START_SIMULATION = Key("a mapping with keys among transient (revolutions, a number > 0), steps_per_period "
+                       "(an integer from 4 to 2**20) and run_up (a list of at most 100 positive parameter values "
+                       "integrated first, in turn)", _start_simulation_ok, {})

@@ -32,7 +32,7 @@ from contin.stability.monodromy import (
     orbit_state,
     switching_events,
 )
-from contin.stability.monitor import StabilityMonitor
+from contin.stability.monitor import StabilityMonitor, describe_ranges, replaced_ranges
 from contin.stability.multiplier_pairing import multiplier_distance, multiplier_step_limit
 from contin.stability.options import StabilityMethod, StabilityOptions
 from contin.stability.verdict import FloquetResult, classify_multipliers, monodromy_result, unevaluated_data
@@ -51,6 +51,7 @@ __all__ = [
     "SwitchEvent",
     "classify_multipliers",
     "describe_crossing",
+    "describe_ranges",
     "floquet_multipliers",
     "hill_spectrum",
     "monodromy_orbit_ivp",
@@ -59,6 +60,7 @@ __all__ = [
     "multiplier_distance",
     "multiplier_step_limit",
     "orbit_state",
+    "replaced_ranges",
     "stability_events",
     "switching_events",
     "unevaluated_data",

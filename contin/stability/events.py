@@ -34,9 +34,10 @@ from contin.engine.branch import SpecialKind
 from contin.engine.events import Event, FunctionEvent, Location, PointInfo, locate, narrow
 from contin.stability.hill import hill_spectrum
 from contin.stability.monitor import StabilityMonitor
-from contin.stability.multiplier_pairing import _pairing, multiplier_step_limit
+from contin.stability.multiplier_pairing import pair_multipliers, multiplier_step_limit
 from contin.stability.options import StabilityMethod
-from contin.stability.point_verdicts import _counts_of, _evaluated_only, _Held, _mark_before, _multipliers_of, _turns
+from contin.stability.point_verdicts import (HeldVerdict, branch_turns, counts_of, evaluated_only, mark_before,
+                                             multipliers_of)
 from contin.stability.verdict import FloquetResult
 
 __all__ = ["MultiplierCrossingEvent", "StabilityChangeEvent", "describe_crossing", "stability_events"]
@@ -120,7 +121,7 @@ class MultiplierCrossingEvent(Event):
         self.name = f"stability {crossing} ({self.kind.value})"
         #: whether this event gives the monitor's step limit (one of a set of events on one monitor does)
         self.predicts = True
-        self._held = _Held()
+        self._held = HeldVerdict()
 
     # -- counts -----------------------------------------------------------
     def _count(self, d: dict | None) -> float:
@@ -129,11 +130,14 @@ class MultiplierCrossingEvent(Event):
         return float(d["n_unstable"] if self.crossing == "complex" else d[self.key])
 
     def _data(self, point: PointInfo):
-        """:func:`~contin.stability.point_verdicts._standing` for a stored point (see :class:`~contin.stability.point_verdicts._Held`), or None."""
-        return self._held.at(point, _counts_of(point, self.monitor))
+        """:func:`~contin.stability.point_verdicts._standing` for a stored point, or None.
+
+        See :class:`~contin.stability.point_verdicts.HeldVerdict`.
+        """
+        return self._held.at(point, counts_of(point, self.monitor))
 
     def test(self, point: PointInfo) -> float:
-        own = _counts_of(point, self.monitor)
+        own = counts_of(point, self.monitor)
         self._held.see(point, own)
         held = self._held.at(point, own)
         return self._count(None if held is None else held[1])
@@ -152,7 +156,7 @@ class MultiplierCrossingEvent(Event):
         crossed = da is not None and db is not None and self._crossed(da[1], db[1])
         if crossed and self.crossing == "+1":
             # a turn anywhere since the evaluated point standing for a (a fold where nothing was evaluated)
-            turned = _turns(da[3], db[3])
+            turned = branch_turns(da[3], db[3])
             crossed = turned if self.kind is SpecialKind.FOLD else not turned
         return np.full(np.shape(ga), crossed)
 
@@ -181,7 +185,7 @@ class MultiplierCrossingEvent(Event):
 
     def _tracked(self, mu_a: np.ndarray, mu_b: np.ndarray):
         """``(mu_a, mu_b)`` of the multiplier that crosses between two points with these multipliers, or None."""
-        pair = _pairing(mu_a, mu_b)
+        pair = pair_multipliers(mu_a, mu_b)
         if (pair < 0).any():
             return None
         tol, thr = self.monitor.options.real_angle_tol, self._threshold()
@@ -208,7 +212,7 @@ class MultiplierCrossingEvent(Event):
         da = held_a[1]
         mu_a = np.asarray(da["multipliers"], dtype=complex)
         mu_b = np.asarray(held_b[1]["multipliers"], dtype=complex)
-        point_at = _evaluated_only(point_at, self.monitor)
+        point_at = evaluated_only(point_at, self.monitor)
         thr = self._threshold()
         if self.crossing == "complex":
             tracked = self._tracked(mu_a, mu_b)
@@ -220,7 +224,7 @@ class MultiplierCrossingEvent(Event):
                     return math.nan
                 q = (info.s - a.s) / span if math.isfinite(info.s) else 0.5
                 target = tracked[0] + q * (tracked[1] - tracked[0])
-                mu = _multipliers_of(info, self.monitor)
+                mu = multipliers_of(info, self.monitor)
                 if mu is None:
                     return math.nan
                 mu = np.concatenate([mu, mu.conjugate()])
@@ -229,13 +233,13 @@ class MultiplierCrossingEvent(Event):
             v_a, v_b = (abs(tracked[0]) - thr, abs(tracked[1]) - thr) if tracked is not None else (math.nan, math.nan)
         else:
             def value(info):
-                mu = _multipliers_of(info, self.monitor)
+                mu = multipliers_of(info, self.monitor)
                 return math.nan if mu is None else self._product(mu)
 
             v_a, v_b = self._product(mu_a), self._product(mu_b)
 
         def side(info, v):
-            d = _counts_of(info, self.monitor)
+            d = counts_of(info, self.monitor)
             if d is None:
                 raise ArithmeticError(f"no stability verdict at {info.lam:.10g}")
             return not self._crossed(da, d)
@@ -243,7 +247,7 @@ class MultiplierCrossingEvent(Event):
         loc = narrow(point_at, 0.0, h, a, b, v_a, v_b, h, side=side, value=value, tol=tol, max_iter=max_iter)
         end = self._data(loc.point)
         loc.value = self._count(None if end is None else end[1])
-        return [_mark_before(loc, a, held_a, self.monitor)]
+        return [mark_before(loc, a, held_a, self.monitor)]
 
     def step_limit(self, a: PointInfo, b: PointInfo, h: float) -> float:
         """The step limit of :func:`multiplier_step_limit`, from evaluated points only.
@@ -253,10 +257,10 @@ class MultiplierCrossingEvent(Event):
         """
         if not self.predicts:
             return math.inf
-        mu_b = _multipliers_of(b, self.monitor)
+        mu_b = multipliers_of(b, self.monitor)
         if mu_b is None:
             return math.inf
-        mu_a = _multipliers_of(a, self.monitor)
+        mu_a = multipliers_of(a, self.monitor)
         if mu_a is None:
             held = self._data(a)
             if held is None or not (math.isfinite(held[0]) and math.isfinite(b.s) and b.s > held[0]):
@@ -287,35 +291,35 @@ class StabilityChangeEvent(Event):
     def __init__(self, monitor: StabilityMonitor):
         self.monitor = monitor
         self._turned = False
-        self._held = _Held()
+        self._held = HeldVerdict()
 
     def test(self, point: PointInfo) -> float:
-        own = _counts_of(point, self.monitor)
+        own = counts_of(point, self.monitor)
         self._held.see(point, own)
-        held = self._held.at(point, own)  # a point without a verdict holds the last one (see _Held)
+        held = self._held.at(point, own)  # a point without a verdict holds the last one (see HeldVerdict)
         return math.nan if held is None else float(held[1]["n_unstable"])
 
     def triggered(self, ga, gb, a, b):
-        da, db = self._held.at(a, _counts_of(a, self.monitor)), self._held.at(b, _counts_of(b, self.monitor))
-        self._turned = _turns(a.tangent[-1] if da is None else da[3], b.tangent[-1] if db is None else db[3])
+        da, db = self._held.at(a, counts_of(a, self.monitor)), self._held.at(b, counts_of(b, self.monitor))
+        self._turned = branch_turns(a.tangent[-1] if da is None else da[3], b.tangent[-1] if db is None else db[3])
         return ga != gb
 
     def locate(self, component, point_at, h, a, b, ga, gb, *, tol=1e-10, max_iter=60):
         """Bisection on ``n_unstable`` (:func:`contin.engine.events.locate`); a point without a verdict ends it."""
         def count(info):
-            d = _counts_of(info, self.monitor)
+            d = counts_of(info, self.monitor)
             if d is None:
                 raise ArithmeticError(f"no stability verdict at {info.lam:.10g}")
             return float(d["n_unstable"])
 
         counter = FunctionEvent(count, name=self.name, kind=self.kind, integer_valued=True)
-        locs = locate(counter, component, _evaluated_only(point_at, self.monitor), h, a, b, ga, gb, tol=tol,
+        locs = locate(counter, component, evaluated_only(point_at, self.monitor), h, a, b, ga, gb, tol=tol,
                       max_iter=max_iter)
-        held = self._held.at(a, _counts_of(a, self.monitor))
-        return [_mark_before(loc, a, held, self.monitor) for loc in locs]
+        held = self._held.at(a, counts_of(a, self.monitor))
+        return [mark_before(loc, a, held, self.monitor) for loc in locs]
 
     def describe(self, point: PointInfo) -> dict:
-        mu = _multipliers_of(point, self.monitor)
+        mu = multipliers_of(point, self.monitor)
         if mu is None:
             return {"evaluated": False}
         i = int(np.argmin(np.abs(np.log(np.maximum(np.abs(mu), 1e-300)))))
@@ -347,7 +351,7 @@ def describe_crossing(monitor: StabilityMonitor, point: PointInfo, crossing: str
         ``disagreement``.
     """
     opts = monitor.options
-    d = _counts_of(point, monitor)
+    d = counts_of(point, monitor)
     if d is None:
         return {"classification": kind.value, "crossing": crossing, "evaluated": False}
     mu_all = np.asarray(d["multipliers"], dtype=complex)

@@ -30,8 +30,8 @@ from contin.stability.monodromy import monodromy_orbit_ivp, monodromy_reference,
 from contin.stability.multiplier_pairing import multiplier_distance
 from contin.stability.options import StabilityMethod, StabilityOptions
 from contin.stability.rk4_step_limit import RK4StepError
-from contin.stability.saltation import _period, _switching_elements
-from contin.stability.verdict import FloquetResult, _log_exponents, _result, classify_multipliers
+from contin.stability.saltation import solution_period, switching_elements
+from contin.stability.verdict import FloquetResult, log_exponents, floquet_result, classify_multipliers
 
 __all__ = ["floquet_multipliers", "IVP_FALLBACK_EVALUATIONS"]
 
@@ -68,7 +68,7 @@ def _monodromy(hb, u, lam, options):
 
 def _adaptive_monodromy(hb, u, lam, options, steps, exc):
     """:func:`monodromy_orbit_ivp` where RK4 needs more steps than allowed, if affordable."""
-    phase = exc.phase if math.isfinite(exc.phase) else exc.rate * _period(hb, lam)
+    phase = exc.phase if math.isfinite(exc.phase) else exc.rate * solution_period(hb, lam)
     cost = _IVP_EVALUATIONS_PER_RADIAN * phase
     if not cost <= IVP_FALLBACK_EVALUATIONS:
         raise ArithmeticError(f"{exc} (the adaptive integration would take about {cost:.2g} right-hand sides, "
@@ -87,7 +87,7 @@ def _force_jumps(hb, u, lam, options) -> bool:
     saltation matrix carries in the monodromy): at such orbits Hill's
     multipliers are wrong whatever ``H`` (how far: docs/validation/stability-notes.md).
     """
-    if not _switching_elements(hb.model):
+    if not switching_elements(hb.model):
         return False
     try:
         events = switching_events(hb, u, lam, 2 * max(options.steps_per_period, hb.H + 1))
@@ -140,11 +140,11 @@ def floquet_multipliers(hb, u: np.ndarray, lam: float, options: StabilityOptions
     if method is StabilityMethod.FLOQUET:
         mono = _monodromy(hb, u, lam, options)
         mu = np.linalg.eigvals(mono.matrix)
-        ex = _log_exponents(mu, mono.period)
-        return _result(mu, ex, StabilityMethod.FLOQUET, mono.period, options, monodromy_multipliers=mu.copy())
+        ex = log_exponents(mu, mono.period)
+        return floquet_result(mu, ex, StabilityMethod.FLOQUET, mono.period, options, monodromy_multipliers=mu.copy())
     spec = hill_spectrum(hb, u, lam, vectors=options.eigenvectors, shift_tol=options.shift_tol)
     ambiguous = spec.quality < options.ambiguity_threshold
-    hill = _result(
+    hill = floquet_result(
         spec.multipliers.copy(), spec.exponents.copy(), StabilityMethod.HILL, spec.period, options,
         ambiguous=ambiguous, quality=spec.quality, hill_multipliers=spec.multipliers.copy(),
         eigenvectors=spec.vectors,
@@ -174,8 +174,8 @@ def floquet_multipliers(hb, u: np.ndarray, lam: float, options: StabilityOptions
         return dataclasses.replace(hill, confirmed=True, monodromy_multipliers=mu.copy(), gap=gap)
     # Hill and the monodromy disagree, or Hill misses a force jump: the time integration is trusted
     near = np.abs(np.abs(np.concatenate([spec.multipliers, mu])) - 1.0 - options.tolerance)
-    ex = _log_exponents(mu, mono.period)
-    return _result(
+    ex = log_exponents(mu, mono.period)
+    return floquet_result(
         mu, ex, StabilityMethod.FLOQUET, mono.period, options, ambiguous=ambiguous, quality=spec.quality,
         confirmed=True, disagreement=counts != hill.counts, fallback=fallback, gap=gap,
         marginal=bool(counts != hill.counts and gap <= _MARGINAL_GAP and near.min() <= 2.0 * gap + options.tolerance),

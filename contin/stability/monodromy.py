@@ -47,21 +47,21 @@ from contin.hb import aft
 from contin.hb.harmonics import coefficient_blocks
 from contin.stability.monodromy_reference import Monodromy, monodromy_orbit_ivp, monodromy_reference
 from contin.stability.rk4 import (
-    _force_jacobians,
-    _full_state_matrices,
-    _lower_blocks,
-    _variational_rk4,
+    force_jacobians,
+    full_state_matrices,
+    lower_blocks,
+    variational_rk4,
     rk4_propagate,
 )
-from contin.stability.rk4_step_limit import RK4StepError, _check_rk4_step
+from contin.stability.rk4_step_limit import RK4StepError, check_rk4_step
 from contin.stability.saltation import (
-    _SWITCH_MODES,
+    SWITCH_MODES,
     SwitchEvent,
-    _frequency,
-    _period,
-    _switch_values,
-    _switching_elements,
-    _switching_events,
+    checked_base_frequency,
+    solution_period,
+    switch_values,
+    switching_elements,
+    element_switching_events,
     orbit_state,
     switching_events,
 )
@@ -102,7 +102,7 @@ def state_matrices(hb, u: np.ndarray, lam: float, samples: int):
         raise ValueError(f"need at least 2H+1 = {2 * hb.H + 1} orbit samples, got {samples}")
     p = hb.params_at(lam)
     x, xd, tau, T = _orbit_samples(hb, u, lam, samples)
-    return _full_state_matrices(_lower_blocks_at(hb, p, x, xd, tau)), T
+    return full_state_matrices(_lower_blocks_at(hb, p, x, xd, tau)), T
 
 
 def _orbit_samples(hb, u, lam, samples):
@@ -111,7 +111,7 @@ def _orbit_samples(hb, u, lam, samples):
     Returns ``(x, xd, tau, T)``: states (samples, n) each, the excitation
     phases ``nu theta_j`` (samples,) and the period.
     """
-    Omega = _frequency(hb, lam)
+    Omega = checked_base_frequency(hb, lam)
     U = np.ascontiguousarray(coefficient_blocks(u, hb.n))
     x, xp = aft.synthesize(U, samples)
     xd = Omega * xp
@@ -133,8 +133,8 @@ def _lower_blocks_at(hb, p, x, xd, tau):
     ndarray, shape (N, n, 2n)
         The upper block row of ``A`` is ``[0, I]`` everywhere and is not stored.
     """
-    _, dfdx, dfdxd = _force_jacobians(hb, x, xd, tau, p, scratch=True)
-    return _lower_blocks(*_linear_terms(hb, p), dfdx, dfdxd)
+    _, dfdx, dfdxd = force_jacobians(hb, x, xd, tau, p, scratch=True)
+    return lower_blocks(*_linear_terms(hb, p), dfdx, dfdxd)
 
 
 def _linear_terms(hb, p):
@@ -144,16 +144,16 @@ def _linear_terms(hb, p):
 
 
 def _integrate(hb, p, x, xd, tau, starts, steps, h, jumps, T, lam, nominal):
-    """``Phi(T)`` of the variational equations on the orbit nodes ``(x, xd, tau)`` (see :func:`_variational_rk4`).
+    """``Phi(T)`` of the variational equations on the orbit nodes ``(x, xd, tau)`` (see :func:`variational_rk4`).
 
     The largest step is first checked against RK4's stability limit at every
-    node (:func:`_check_rk4_step`; ``nominal``: the steps per period asked
+    node (:func:`check_rk4_step`; ``nominal``: the steps per period asked
     for, which its advice scales).
     """
-    _, dfdx, dfdxd = _force_jacobians(hb, x, xd, tau, p, scratch=True)
+    _, dfdx, dfdxd = force_jacobians(hb, x, xd, tau, p, scratch=True)
     Minv, K, C = _linear_terms(hb, p)
-    _check_rk4_step(Minv, K, C, dfdx, dfdxd, float(np.max(h)), T, lam, nominal)
-    Phi = _variational_rk4(Minv, K, C, dfdx, dfdxd, starts, steps, h, jumps)
+    check_rk4_step(Minv, K, C, dfdx, dfdxd, float(np.max(h)), T, lam, nominal)
+    Phi = variational_rk4(Minv, K, C, dfdx, dfdxd, starts, steps, h, jumps)
     if not np.isfinite(Phi).all():
         raise ArithmeticError(f"monodromy at lambda = {lam:.10g}: the RK4 integration is not finite")
     return Phi
@@ -208,8 +208,8 @@ def monodromy_rk4(hb, u: np.ndarray, lam: float, steps: int = 512, switches: str
     steps = int(steps)
     if steps < hb.H + 1:
         raise ValueError(f"steps_per_period must be >= H+1 = {hb.H + 1}, got {steps}")
-    if switches not in _SWITCH_MODES:
-        raise ValueError(f"switches must be one of {list(_SWITCH_MODES)}, got {switches!r}")
+    if switches not in SWITCH_MODES:
+        raise ValueError(f"switches must be one of {list(SWITCH_MODES)}, got {switches!r}")
     first = steps
     while True:
         try:
@@ -233,8 +233,8 @@ def _monodromy_rk4(hb, u, lam, steps, switches):
     p = hb.params_at(lam)
     x, xd, tau, T = _orbit_samples(hb, u, lam, 2 * steps)
     if switches != "ignore":
-        sw = _switching_elements(hb.model)
-        events = _switching_events(hb, u, lam, 2 * steps, switches == "saltation", sw, (x, xd)) if sw else []
+        sw = switching_elements(hb.model)
+        events = element_switching_events(hb, u, lam, 2 * steps, switches == "saltation", sw, (x, xd)) if sw else []
         if events:
             return _piecewise_rk4(hb, u, lam, steps, events, switches == "saltation")
     Phi = _integrate(hb, p, x, xd, tau, np.zeros(1, np.int64), np.array([steps], np.int64), np.array([T / steps]),
@@ -246,22 +246,22 @@ def _modes(hb, u, lam, p, t, z=None, sw_elements=None):
     """Signs ``h > 0`` of every switching function at the orbit times ``t``: shape (len(t), total m).
 
     ``z`` (shape (len(t), 2n)): the orbit states there, if already known;
-    ``sw_elements``: :func:`_switching_elements` of the model, if known.
+    ``sw_elements``: :func:`switching_elements` of the model, if known.
     """
     n = hb.n
     if z is None:
         z = orbit_state(hb, u, lam, np.asarray(t, dtype=float))
     if sw_elements is None:
-        sw_elements = _switching_elements(hb.model)
+        sw_elements = switching_elements(hb.model)
     tau = hb.excitation_frequency(p) * np.asarray(t, dtype=float)
-    cols = [_switch_values(el, z[:, :n], z[:, n:], tau, p) > 0.0 for _, el, _ in sw_elements]
+    cols = [switch_values(el, z[:, :n], z[:, n:], tau, p) > 0.0 for _, el, _ in sw_elements]
     return np.concatenate(cols, axis=1) if cols else np.zeros((len(t), 0), dtype=bool)
 
 
 def _mode_columns(model) -> dict:
     """Column of each ``(element index, function)`` in :func:`_modes`."""
     cols, k = {}, 0
-    for e, _, m in _switching_elements(model):
+    for e, _, m in switching_elements(model):
         for i in range(m):
             cols[(e, i)] = k
             k += 1
@@ -277,7 +277,7 @@ def _piecewise_nodes(hb, u, lam, p, events, T, steps):
     that the elements evaluate the segment's law there; every node of a
     segment is checked to be in the segment's contact mode.
     """
-    sw_elements = _switching_elements(hb.model)
+    sw_elements = switching_elements(hb.model)
     bounds = np.array([0.0] + [ev.time for ev in events] + [T])
     a, b = bounds[:-1], bounds[1:]
     G = a.size
@@ -341,7 +341,7 @@ def _piecewise_nodes(hb, u, lam, p, events, T, steps):
 def _piecewise_rk4(hb, u, lam, steps, events, saltation):
     n = hb.n
     p = hb.params_at(lam)
-    T = _period(hb, lam)
+    T = solution_period(hb, lam)
     t, z, starts, nsteps, h = _piecewise_nodes(hb, u, lam, p, events, T, steps)
     jumps = np.array([ev.saltation for ev in events])
     tau = hb.excitation_frequency(p) * t

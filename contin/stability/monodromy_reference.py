@@ -25,11 +25,11 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from contin.stability.saltation import (
-    _check_switch_mode,
-    _period,
-    _saltation,
-    _segments,
-    _switching_elements,
+    check_switch_mode,
+    solution_period,
+    switch_event,
+    switch_segments,
+    switching_elements,
     orbit_state,
     switching_events,
 )
@@ -166,13 +166,13 @@ def monodromy_orbit_ivp(hb, u: np.ndarray, lam: float, rtol: float = 1e-11, atol
     ends evaluated ``1e-9`` of its length inside, and the saltation matrices
     are applied in between.
     """
-    _check_switch_mode(switches)
+    check_switch_mode(switches)
     n = hb.n
     p = hb.params_at(lam)
-    T = _period(hb, lam)
+    T = solution_period(hb, lam)
     _, C, K, Minv, forces, _ = _pointwise(hb, p)
     events = [] if switches == "ignore" else switching_events(hb, u, lam, samples, saltation=switches == "saltation")
-    pieces = [(a, b, lambda t: orbit_state(hb, u, lam, t)) for a, b in _segments(events, T)]
+    pieces = [(a, b, lambda t: orbit_state(hb, u, lam, t)) for a, b in switch_segments(events, T)]
     Phi, nfev = _variational_ivp(pieces, events, (Minv, C, K, forces, n), rtol, atol)
     return Monodromy(Phi, T, "orbit-dop853", evaluations=nfev, switches=tuple(events),
                      saltation=bool(events) and switches == "saltation")
@@ -210,14 +210,14 @@ def monodromy_reference(hb, u: np.ndarray, lam: float, rtol: float = 1e-11, atol
         ``solve_ivp`` fails, more than ``max_switches`` switches (chatter), or
         a switch without a defined saltation matrix.
     """
-    _check_switch_mode(switches)
+    check_switch_mode(switches)
     n = hb.n
     p = hb.params_at(lam)
-    T = _period(hb, lam)
+    T = solution_period(hb, lam)
     _, C, K, Minv, forces, excitation = _pointwise(hb, p)
     d = 2 * n
     z0 = orbit_state(hb, u, lam, 0.0)
-    sw = [] if switches == "ignore" else _switching_elements(hb.model)
+    sw = [] if switches == "ignore" else switching_elements(hb.model)
     if sw:
         return _reference_with_switches(hb, p, T, z0, sw, rtol, atol, switches == "saltation", max_switches)
 
@@ -292,7 +292,7 @@ def _reference_with_switches(hb, p, T, z0, sw, rtol, atol, saltation, max_switch
         tc, zc = float(sol.t_events[k][0]), np.array(sol.y_events[k][0])
         e, el, i = funcs[k]
         direction = -1 if mode[k] else 1
-        events.append(_saltation(hb, p, el, e, i, direction, tc, zc, force_in_mode(tc, zc, mode), saltation))
+        events.append(switch_event(hb, p, el, e, i, direction, tc, zc, force_in_mode(tc, zc, mode), saltation))
         if len(events) > max_switches:
             raise ArithmeticError(f"more than {max_switches} switches in one period (chatter) at t = {tc:.9g}")
         mode[k] = not mode[k]

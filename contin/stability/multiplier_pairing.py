@@ -1,7 +1,7 @@
 """Two sets of Floquet multipliers compared: their distance, and where the next crossing of the circle is predicted.
 
 Multipliers of two points (or of two methods at one point) are paired by
-the assignment that moves them least (:func:`_pairing`).
+the assignment that moves them least (:func:`pair_multipliers`).
 :func:`multiplier_distance` is the largest distance after that pairing;
 :func:`multiplier_step_limit` extrapolates each multiplier's distance to the
 unit circle, and the distances between multipliers near it, to the arclength
@@ -18,10 +18,10 @@ from scipy.optimize import linear_sum_assignment
 
 from contin.engine.events import OVERSHOOT, predicted_zero
 
-__all__ = ["multiplier_distance", "multiplier_step_limit", "COLLISION_NEAR", "COLLISION_STEP"]
+__all__ = ["multiplier_distance", "multiplier_step_limit", "pair_multipliers", "COLLISION_NEAR", "COLLISION_STEP"]
 
 
-def _pairing(mu_a: np.ndarray, mu_b: np.ndarray) -> np.ndarray:
+def pair_multipliers(mu_a: np.ndarray, mu_b: np.ndarray) -> np.ndarray:
     """Index into ``mu_b`` of the partner of each multiplier of ``mu_a`` (closest overall pairing)."""
     if mu_a.shape != mu_b.shape:
         return np.full(mu_a.shape, -1)
@@ -96,7 +96,7 @@ def multiplier_step_limit(mu_a: np.ndarray, mu_b: np.ndarray, h: float, threshol
         nearest predicted collision, but at least ``COLLISION_STEP``; ``inf``
         when nothing approaches.
     """
-    pair = _pairing(mu_b, mu_a)
+    pair = pair_multipliers(mu_b, mu_a)
     if (pair < 0).any():
         return math.inf
     mu_a = mu_a[pair]  # aligned with mu_b

@@ -16,6 +16,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from contin.util.naming import is_real, suggest
+from contin.util.options import from_mapping
 
 __all__ = ["StabilityMethod", "StabilityOptions"]
 
@@ -178,12 +179,9 @@ class StabilityOptions:
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> "StabilityOptions":
-        """Build from a mapping; unknown keys raise ``ValueError`` with a suggestion."""
-        names = cls.field_names()
-        for key in d:
-            if key not in names:
-                raise ValueError(f"StabilityOptions: unknown option {key!r}{suggest(str(key), names)}; expected one of {names}")
-        return cls(**dict(d))
+        """Build from a mapping (:func:`contin.util.options.from_mapping`); an unknown key raises
+        ``ValueError`` naming it and the nearest valid one."""
+        return from_mapping(cls, d)
 
     def replace(self, **changes) -> "StabilityOptions":
         """Copy with changed fields (validated; unknown names rejected)."""

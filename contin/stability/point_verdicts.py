@@ -2,9 +2,9 @@
 
 A point's verdict is its monitored data (or, where the data lack it, the
 monitor's analysis). A point without one (``evaluated`` False) gives no
-information: :class:`_Held` lets the last evaluated stored point before it
-stand in, :func:`_evaluated_only` makes the location stop at a solved point
-without one, and :func:`_mark_before` says where a change lies that could not
+information: :class:`HeldVerdict` lets the last evaluated stored point before it
+stand in, :func:`evaluated_only` makes the location stop at a solved point
+without one, and :func:`mark_before` says where a change lies that could not
 be located past such a point.
 """
 
@@ -16,11 +16,12 @@ from contin.engine.events import PointInfo
 from contin.engine.newton import NUMERICAL_ERRORS
 from contin.stability.monitor import StabilityMonitor
 
+__all__ = ["HeldVerdict", "branch_turns", "counts_of", "evaluated_only", "mark_before", "multipliers_of"]
 
 _VERDICT_KEYS = ("n_plus", "n_minus", "n_complex", "n_unstable", "multipliers")
 
 
-def _counts_of(point: PointInfo, monitor: StabilityMonitor) -> dict | None:
+def counts_of(point: PointInfo, monitor: StabilityMonitor) -> dict | None:
     """The stability data of ``point`` (its monitored data, else the monitor's verdict), or None without a verdict.
 
     A point without one (``evaluated`` False, or the monitor failing there)
@@ -35,13 +36,13 @@ def _counts_of(point: PointInfo, monitor: StabilityMonitor) -> dict | None:
     return d if bool(d.get("evaluated", True)) else None
 
 
-def _multipliers_of(point: PointInfo, monitor: StabilityMonitor) -> np.ndarray | None:
-    """The multipliers of ``point``, or None without a verdict (see :func:`_counts_of`)."""
-    d = _counts_of(point, monitor)
+def multipliers_of(point: PointInfo, monitor: StabilityMonitor) -> np.ndarray | None:
+    """The multipliers of ``point``, or None without a verdict (see :func:`counts_of`)."""
+    d = counts_of(point, monitor)
     return None if d is None else np.asarray(d["multipliers"], dtype=complex)
 
 
-class _Held:
+class HeldVerdict:
     """The verdict of the last evaluated stored point, for the stored points without one.
 
     The engine tests each stored point once, in order along the branch (a new
@@ -81,7 +82,7 @@ def _standing(point: PointInfo, own: dict) -> tuple:
     return float(point.s), own, float(point.lam), float(point.tangent[-1])
 
 
-def _mark_before(loc, a: PointInfo, held, monitor):
+def mark_before(loc, a: PointInfo, held, monitor):
     """Say where a change lies that the location could not put beyond a point without a verdict.
 
     Where ``a`` has no verdict, the change lies between the evaluated point
@@ -90,7 +91,7 @@ def _mark_before(loc, a: PointInfo, held, monitor):
     between ``held`` and ``a``, or just after ``a``: not resolved where
     nothing could be evaluated, so it is not located either.
     """
-    if held is None or _counts_of(a, monitor) is not None:
+    if held is None or counts_of(a, monitor) is not None:
         return loc
     if loc.located and loc.bracket[0] == a.lam:
         loc.located = False
@@ -100,7 +101,7 @@ def _mark_before(loc, a: PointInfo, held, monitor):
     return loc
 
 
-def _evaluated_only(point_at, monitor):
+def evaluated_only(point_at, monitor):
     """``point_at`` of the engine, with a solved point without a stability verdict counted as a failed solve.
 
     Such a point cannot tell on which side of a change it lies: the location
@@ -111,7 +112,7 @@ def _evaluated_only(point_at, monitor):
         if info is None:
             return info, why
         try:
-            own = _counts_of(info, monitor)
+            own = counts_of(info, monitor)
         except NUMERICAL_ERRORS as exc:
             return None, f"no stability verdict ({type(exc).__name__}: {exc})"
         if own is None:
@@ -123,6 +124,6 @@ def _evaluated_only(point_at, monitor):
     return wrapped
 
 
-def _turns(fa: float, fb: float) -> bool:
+def branch_turns(fa: float, fb: float) -> bool:
     """Whether the parameter components ``fa``, ``fb`` of two tangents say that the branch turned between."""
     return bool((fa < 0 <= fb) or (fa > 0 >= fb))

@@ -2,9 +2,9 @@
 
 ``A = [[0, I], B]``, ``B = [-M^-1 (K + df/dx), -M^-1 (C + df/dx')]``.
 :func:`rk4_propagate` and :func:`rk4_segments` take the full ``A`` at the
-RK4 nodes (half steps included); :func:`_variational_rk4`, the kernel of
+RK4 nodes (half steps included); :func:`variational_rk4`, the kernel of
 :func:`contin.stability.monodromy.monodromy_rk4`, takes the element Jacobians
-at the nodes (:func:`_force_jacobians`, evaluated once on all of them into a
+at the nodes (:func:`force_jacobians`, evaluated once on all of them into a
 per-thread workspace) and builds ``B`` itself. Whether a step is within
 RK4's stability limit along the orbit is decided in
 :mod:`contin.stability.rk4_step_limit`.
@@ -25,7 +25,8 @@ import numpy as np
 
 from contin.util.jit import njit
 
-__all__ = ["rk4_propagate", "rk4_segments"]
+__all__ = ["rk4_propagate", "rk4_segments", "force_jacobians", "full_state_matrices", "lower_blocks", "node_block",
+           "nonzero_pattern", "variational_rk4"]
 
 
 
@@ -55,7 +56,7 @@ class _Workspace(threading.local):
 _WORK = _Workspace()
 
 
-def _force_jacobians(hb, x, xd, tau, p, scratch=False):
+def force_jacobians(hb, x, xd, tau, p, scratch=False):
     """Total internal force (N, n) and its Jacobians (N, n, n) at the states ``x``, ``xd`` (N, n).
 
     ``scratch``: return arrays of the thread's workspace, valid until the
@@ -72,7 +73,7 @@ def _force_jacobians(hb, x, xd, tau, p, scratch=False):
 
 
 @njit(cache=True)
-def _nonzero_pattern(Minv):
+def nonzero_pattern(Minv):
     """Column indices of the nonzeros of each row of ``Minv``: ``(count (n,), cols (n, n))``."""
     n = Minv.shape[0]
     count = np.zeros(n, np.int64)
@@ -86,12 +87,12 @@ def _nonzero_pattern(Minv):
 
 
 @njit(cache=True)
-def _node_block(count, cols, Minv, K, C, dfdx, dfdxd, j, out):
+def node_block(count, cols, Minv, K, C, dfdx, dfdxd, j, out):
     """``out = [-Minv (K + dfdx[j]), -Minv (C + dfdxd[j])]``, shape (n, 2n).
 
     Each entry is the sum over ``b`` in ascending order; the terms with
     ``Minv[a, b] = 0`` (most of them: mass matrices are mostly diagonal or
-    banded; ``count``, ``cols`` from :func:`_nonzero_pattern`) would add
+    banded; ``count``, ``cols`` from :func:`nonzero_pattern`) would add
     exact zeros and are skipped.
     """
     n = Minv.shape[0]
@@ -116,8 +117,8 @@ def _node_block(count, cols, Minv, K, C, dfdx, dfdxd, j, out):
 
 
 @njit(cache=True)
-def _lower_blocks(Minv, K, C, dfdx, dfdxd):
-    """``B[j] = [-Minv (K + dfdx[j]), -Minv (C + dfdxd[j])]`` (see :func:`_node_block`).
+def lower_blocks(Minv, K, C, dfdx, dfdxd):
+    """``B[j] = [-Minv (K + dfdx[j]), -Minv (C + dfdxd[j])]`` (see :func:`node_block`).
 
     Parameters
     ----------
@@ -130,14 +131,14 @@ def _lower_blocks(Minv, K, C, dfdx, dfdxd):
     """
     N = dfdx.shape[0]
     n = Minv.shape[0]
-    count, cols = _nonzero_pattern(Minv)
+    count, cols = nonzero_pattern(Minv)
     B = np.empty((N, n, 2 * n))
     for j in range(N):
-        _node_block(count, cols, Minv, K, C, dfdx, dfdxd, j, B[j])
+        node_block(count, cols, Minv, K, C, dfdx, dfdxd, j, B[j])
     return B
 
 
-def _full_state_matrices(B):
+def full_state_matrices(B):
     """``A = [[0, I], B]`` from its lower block rows ``B`` (N, n, 2n): shape (N, 2n, 2n)."""
     N, n = B.shape[0], B.shape[1]
     A = np.zeros((N, 2 * n, 2 * n))
@@ -326,11 +327,11 @@ def _rk4_block_step(B0, B1, B2, Phi, h, k1, k2, k3, k4, tmp):
 
 
 @njit(cache=True)
-def _variational_rk4(Minv, K, C, dfdx, dfdxd, starts, steps, h, jumps):
+def variational_rk4(Minv, K, C, dfdx, dfdxd, starts, steps, h, jumps):
     """Classical RK4 for ``Phi' = A(t) Phi``, ``Phi(0) = I``, with ``A`` built node by node.
 
     ``A = [[0, I], [-Minv (K + dfdx[j]), -Minv (C + dfdxd[j])]]`` at node
-    ``j`` (:func:`_node_block`), each node's lower block row built once, as
+    ``j`` (:func:`node_block`), each node's lower block row built once, as
     its step needs it, and never stored. Segment ``s`` takes ``steps[s]``
     steps of length ``h[s]`` on the nodes ``starts[s] + i``, ``i = 0 .. 2
     steps[s]`` (half steps included; node indices are taken modulo ``N``, so
@@ -354,18 +355,18 @@ def _variational_rk4(Minv, K, C, dfdx, dfdxd, starts, steps, h, jumps):
     N = dfdx.shape[0]
     n = Minv.shape[0]
     d = 2 * n
-    count, cols = _nonzero_pattern(Minv)
+    count, cols = nonzero_pattern(Minv)
     Phi = np.eye(d)
     k1, k2, k3, k4, tmp = np.empty((d, d)), np.empty((d, d)), np.empty((d, d)), np.empty((d, d)), np.empty((d, d))
     Ba, Bm, Bb = np.empty((n, d)), np.empty((n, d)), np.empty((n, d))
     for seg in range(steps.shape[0]):
         if steps[seg] > 0:
             j0 = starts[seg]
-            _node_block(count, cols, Minv, K, C, dfdx, dfdxd, j0 % N, Ba)
+            node_block(count, cols, Minv, K, C, dfdx, dfdxd, j0 % N, Ba)
             for step in range(steps[seg]):
                 jm = j0 + 2 * step + 1
-                _node_block(count, cols, Minv, K, C, dfdx, dfdxd, jm % N, Bm)
-                _node_block(count, cols, Minv, K, C, dfdx, dfdxd, (jm + 1) % N, Bb)
+                node_block(count, cols, Minv, K, C, dfdx, dfdxd, jm % N, Bm)
+                node_block(count, cols, Minv, K, C, dfdx, dfdxd, (jm + 1) % N, Bb)
                 _rk4_block_step(Ba, Bm, Bb, Phi, h[seg], k1, k2, k3, k4, tmp)
                 Ba, Bb = Bb, Ba
         if seg < jumps.shape[0]:
@@ -374,3 +375,9 @@ def _variational_rk4(Minv, K, C, dfdx, dfdxd, starts, steps, h, jumps):
                 for j in range(d):
                     Phi[i, j] = tmp[i, j]
     return Phi
+
+
+# the former private names, which code outside this package's layers still imports
+_full_state_matrices = full_state_matrices
+_lower_blocks = lower_blocks
+_variational_rk4 = variational_rk4

@@ -1,7 +1,7 @@
 """RK4's stability limit along the orbit: a step too large for the stiffest mode is refused, with the steps it needs.
 
 A step beyond RK4's stability limit for the stiffest eigenvalue of ``A``
-along the orbit is refused (:func:`_check_rk4_step`, raising
+along the orbit is refused (:func:`check_rk4_step`, raising
 :class:`RK4StepError` with the step count that eigenvalue needs,
 rounded up by :func:`fast_steps`).
 
@@ -23,10 +23,10 @@ import math
 import numpy as np
 from scipy.fft import next_fast_len
 
-from contin.stability.rk4 import _full_state_matrices, _node_block, _nonzero_pattern
+from contin.stability.rk4 import full_state_matrices, node_block, nonzero_pattern
 from contin.util.jit import njit
 
-__all__ = ["RK4_STABILITY", "RK4StepError", "fast_steps"]
+__all__ = ["RK4_STABILITY", "RK4StepError", "check_rk4_step", "fast_steps"]
 
 
 #: largest h*|lambda| for which classical RK4 is stable (2 sqrt 2 on the imaginary axis, 2.785 on the real one)
@@ -204,7 +204,7 @@ def _row_bound(Bj):
 def _node_bounds(Minv, K, C, dfdx, dfdxd, enough):
     """:func:`_perron_bound` of ``A`` at every node, shape (N,).
 
-    The block rows are built one at a time (:func:`_node_block`) and not
+    The block rows are built one at a time (:func:`node_block`) and not
     stored; each node starts from the vector of the one before. A bound at
     most ``enough`` is not tightened further: where the step is within the
     limit everywhere that costs the row sums alone; where it is not, the
@@ -212,13 +212,13 @@ def _node_bounds(Minv, K, C, dfdx, dfdxd, enough):
     """
     N = dfdx.shape[0]
     n = Minv.shape[0]
-    count, cols = _nonzero_pattern(Minv)
+    count, cols = nonzero_pattern(Minv)
     Bj = np.empty((n, 2 * n))
     x = np.empty(2 * n)
     y = np.empty(2 * n)
     out = np.empty(N)
     for j in range(N):
-        _node_block(count, cols, Minv, K, C, dfdx, dfdxd, j, Bj)
+        node_block(count, cols, Minv, K, C, dfdx, dfdxd, j, Bj)
         out[j] = _perron_bound(Bj, x, y, j > 0, enough)
     return out
 
@@ -227,10 +227,10 @@ def _node_bounds(Minv, K, C, dfdx, dfdxd, enough):
 def _blocks_at(Minv, K, C, dfdx, dfdxd, nodes):
     """The lower block rows of ``A`` at the given nodes: shape (len(nodes), n, 2n)."""
     n = Minv.shape[0]
-    count, cols = _nonzero_pattern(Minv)
+    count, cols = nonzero_pattern(Minv)
     B = np.empty((nodes.shape[0], n, 2 * n))
     for q in range(nodes.shape[0]):
-        _node_block(count, cols, Minv, K, C, dfdx, dfdxd, nodes[q], B[q])
+        node_block(count, cols, Minv, K, C, dfdx, dfdxd, nodes[q], B[q])
     return B
 
 
@@ -278,7 +278,7 @@ def _step_verdict(Minv, K, C, dfdx, dfdxd, h):
             return False, rate, bounds
         nodes = cand[k:k + min(chunk, most - k)]
         B = _blocks_at(Minv, K, C, dfdx, dfdxd, nodes)
-        rate = max(rate, float(np.abs(np.linalg.eigvals(_full_state_matrices(B))).max()))
+        rate = max(rate, float(np.abs(np.linalg.eigvals(full_state_matrices(B))).max()))
         if rate * h > RK4_STABILITY:
             return False, rate, bounds
         k += nodes.size
@@ -286,7 +286,7 @@ def _step_verdict(Minv, K, C, dfdx, dfdxd, h):
     return True, rate, bounds
 
 
-def _check_rk4_step(Minv, K, C, dfdx, dfdxd, h, T, lam, steps):
+def check_rk4_step(Minv, K, C, dfdx, dfdxd, h, T, lam, steps):
     """Refuse a step beyond RK4's stability limit for the stiffest eigenvalue of ``A`` along the orbit.
 
     Beyond it the fixed-step monodromy blows up or, worse, returns finite

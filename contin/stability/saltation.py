@@ -56,22 +56,24 @@ import numpy as np
 
 from contin.hb import aft
 from contin.hb.harmonics import coefficient_blocks
-from contin.stability.rk4 import _force_jacobians
+from contin.stability.rk4 import force_jacobians
 from contin.util.jit import njit
 
-__all__ = ["SwitchEvent", "switching_events", "orbit_state"]
+__all__ = ["SwitchEvent", "switching_events", "orbit_state", "SWITCH_MODES", "check_switch_mode",
+           "checked_base_frequency", "solution_period", "switching_elements", "switch_values", "switch_event",
+           "element_switching_events", "switch_segments"]
 
 
-_SWITCH_MODES = ("saltation", "piecewise", "ignore")
+SWITCH_MODES = ("saltation", "piecewise", "ignore")
 _EPS = np.finfo(float).eps
 
 
-def _check_switch_mode(switches):
-    if switches not in _SWITCH_MODES:
-        raise ValueError(f"switches must be one of {list(_SWITCH_MODES)}, got {switches!r}")
+def check_switch_mode(switches):
+    if switches not in SWITCH_MODES:
+        raise ValueError(f"switches must be one of {list(SWITCH_MODES)}, got {switches!r}")
 
 
-def _frequency(hb, lam: float) -> float:
+def checked_base_frequency(hb, lam: float) -> float:
     """The base frequency ``Omega = w/nu`` at ``lam``, checked positive."""
     Omega = hb.base_frequency(hb.params_at(lam))
     if not Omega > 0:
@@ -79,9 +81,9 @@ def _frequency(hb, lam: float) -> float:
     return Omega
 
 
-def _period(hb, lam: float) -> float:
+def solution_period(hb, lam: float) -> float:
     """The solution period ``2 pi nu / w`` at ``lam``, its frequency checked positive."""
-    _frequency(hb, lam)
+    checked_base_frequency(hb, lam)
     return hb.period(hb.params_at(lam))
 
 
@@ -96,7 +98,7 @@ def orbit_state(hb, u: np.ndarray, lam: float, t) -> np.ndarray:
     -------
     ndarray, shape (2n,) or (K, 2n)
     """
-    Omega = _frequency(hb, lam)
+    Omega = checked_base_frequency(hb, lam)
     U = np.ascontiguousarray(coefficient_blocks(u, hb.n), dtype=float)
     tt = np.atleast_1d(np.asarray(t, dtype=float))
     z = _synthesize_at(U, Omega, np.ascontiguousarray(Omega * tt))
@@ -197,7 +199,7 @@ class SwitchEvent:
     saltation: np.ndarray
 
 
-def _switching_elements(model):
+def switching_elements(model):
     """``[(index, element, number of functions)]`` of the force elements with switching functions."""
     out = []
     n = model.n_dof
@@ -213,7 +215,7 @@ def _switching_elements(model):
 _SWITCH_BLOCK = 4096
 
 
-def _switch_values(el, x, xd, tau, p):
+def switch_values(el, x, xd, tau, p):
     """``el.switching_functions(x, xd, tau, p).value`` (N, m), evaluated in blocks of states.
 
     The elements return seven arrays per call, up to (N, m, n, n) each; in
@@ -235,7 +237,7 @@ def _excitation_at(hb, p, tau):
     return fe
 
 
-def _saltation(hb, p, el, e, i, direction, t, z, force_before, saltation=True) -> SwitchEvent:
+def switch_event(hb, p, el, e, i, direction, t, z, force_before, saltation=True) -> SwitchEvent:
     """The :class:`SwitchEvent` of function ``i`` of element ``el`` at ``(t, z)``.
 
     ``force_before`` (shape (n,)) is the total internal force with the laws
@@ -309,21 +311,21 @@ def switching_events(hb, u: np.ndarray, lam: float, samples: int = 4096, saltati
         surface transversally (grazing or sliding), or whose side cannot be
         resolved.
     """
-    sw_elements = _switching_elements(hb.model)
+    sw_elements = switching_elements(hb.model)
     if not sw_elements:
         return []
-    return _switching_events(hb, u, lam, int(samples), saltation, sw_elements)
+    return element_switching_events(hb, u, lam, int(samples), saltation, sw_elements)
 
 
-def _switching_events(hb, u, lam, samples, saltation, sw_elements, orbit=None):
-    """:func:`switching_events` for the elements ``sw_elements`` (see :func:`_switching_elements`).
+def element_switching_events(hb, u, lam, samples, saltation, sw_elements, orbit=None):
+    """:func:`switching_events` for the elements ``sw_elements`` (see :func:`switching_elements`).
 
     ``orbit``: the states ``(x, xd)`` (each (samples, n)) on the detection
     grid, if already synthesised.
     """
     n = hb.n
     p = hb.params_at(lam)
-    Omega = _frequency(hb, lam)
+    Omega = checked_base_frequency(hb, lam)
     T = hb.period(p)
     w = hb.excitation_frequency(p)
     if orbit is None:
@@ -337,7 +339,7 @@ def _switching_events(hb, u, lam, samples, saltation, sw_elements, orbit=None):
     # the brackets, in the order (element, sample, function) in which they are reported at equal times
     rows, elems, funcs, dirs = [], [], [], []
     for q, (_, el, _) in enumerate(sw_elements):
-        on = _switch_values(el, x, xd, tau, p) > 0.0
+        on = switch_values(el, x, xd, tau, p) > 0.0
         after = np.roll(on, -1, axis=0)
         j, i = np.nonzero(on != after)
         rows.append(j)
@@ -482,7 +484,7 @@ def _switch_events_at(hb, u, lam, p, sw_elements, tc, elem, fun, direction, salt
 
     ``elem`` indexes ``sw_elements``; ``fun``, ``direction`` as in
     :class:`SwitchEvent`. The elements are evaluated once each on all the
-    switch states; each event is then what :func:`_saltation` gives, with
+    switch states; each event is then what :func:`switch_event` gives, with
     the force before the switch ``f_nl + (on - [h_i > 0]) difference_i``
     (law ``i`` taken on for a switch off and off for a switch on, the rest
     as evaluated): exact on the surface, where the elements' own choice of
@@ -493,7 +495,7 @@ def _switch_events_at(hb, u, lam, p, sw_elements, tc, elem, fun, direction, salt
     z = orbit_state(hb, u, lam, tc)
     x, xd = np.ascontiguousarray(z[:, :n]), np.ascontiguousarray(z[:, n:])
     tau = w * tc
-    F = _force_jacobians(hb, x, xd, tau, p)[0]
+    F = force_jacobians(hb, x, xd, tau, p)[0]
     fe = _excitation_at(hb, p, tau)
     M, C, K = hb.model.linear(p)
     Minv = np.linalg.inv(M)
@@ -588,7 +590,11 @@ def _fields(z, normal, jump, fe, force_before, direction, Minv, C, K):
     return f_minus, f_plus, nf, nf_plus
 
 
-def _segments(events, T):
+def switch_segments(events, T):
     """Segment bounds ``[(a, b)]`` between the switch times over ``[0, T]``."""
     bounds = [0.0] + [ev.time for ev in events] + [T]
     return list(zip(bounds[:-1], bounds[1:]))
+
+
+# the former private names, which code outside this package's layers still imports
+_switching_elements = switching_elements

@@ -40,7 +40,8 @@ import numpy as np
 
 from contin.stability.options import StabilityMethod, StabilityOptions
 
-__all__ = ["FloquetResult", "classify_multipliers", "monodromy_result", "unevaluated_data"]
+__all__ = ["FloquetResult", "classify_multipliers", "floquet_result", "log_exponents", "monodromy_result",
+           "unevaluated_data"]
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -227,7 +228,7 @@ def _sort_order(mu: np.ndarray) -> np.ndarray:
     return np.lexsort((np.angle(mu), -np.round(np.abs(mu), 12)))
 
 
-def _result(mu, ex, method, period, options, **extra) -> FloquetResult:
+def floquet_result(mu, ex, method, period, options, **extra) -> FloquetResult:
     order = _sort_order(mu)
     mu = mu[order]
     ex = ex[order]
@@ -269,11 +270,11 @@ def monodromy_result(mu: np.ndarray, period: float, options: StabilityOptions | 
     """
     options = StabilityOptions() if options is None else options
     mu = np.asarray(mu, dtype=complex)
-    return _result(mu, _log_exponents(mu, period), StabilityMethod.FLOQUET, period, options,
+    return floquet_result(mu, log_exponents(mu, period), StabilityMethod.FLOQUET, period, options,
                    monodromy_multipliers=mu.copy())
 
 
-def _log_exponents(mu: np.ndarray, period: float) -> np.ndarray:
+def log_exponents(mu: np.ndarray, period: float) -> np.ndarray:
     """Principal-branch exponents ``log(mu) / T`` (a zero multiplier gives ``-inf``)."""
     with np.errstate(divide="ignore"):
         return np.log(mu.astype(complex)) / period

@@ -51,6 +51,7 @@ from typing import Sequence
 import numpy as np
 
 from contin.model.base import Model
+from contin.timedomain.simulation import SimulationError, simulate
 
 __all__ = [
     "Classification",
@@ -451,8 +452,6 @@ def step_refinement(model: Model, params, result, periods: int = REFINE_PERIODS,
     float
         ``max |y_fine - y_run| / scale`` (inf if the finer run blew up).
     """
-    from contin.timedomain.simulation import SimulationError, simulate
-
     n = result.x.shape[1]
     last = result.section.shape[0] - 1
     periods = int(min(periods, last))
@@ -508,8 +507,6 @@ def steady_state(model: Model, params=None, x0=None, v0=None, *, transient: floa
     classification : Classification or None
         None when the run was stopped early by ``should_stop``.
     """
-    from contin.timedomain.simulation import simulate
-
     record = int(math.ceil(record / 2.0)) * 2
     S = int(steps_per_period)
     if samples_per_period < 8 or S % samples_per_period:

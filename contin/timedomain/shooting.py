@@ -52,6 +52,7 @@ from scipy.optimize import brentq, minimize_scalar
 from contin.timedomain.simulation import SimulationError, simulate
 from contin.stability.options import StabilityOptions
 from contin.stability.verdict import FloquetResult, monodromy_result
+from contin.util.options import from_mapping
 
 __all__ = ["ShootingOptions", "ShootingOrbit", "PeriodDoublingScan", "ShootingProblem", "ShootingStability",
            "flow_map", "periodic_orbit", "period_doubling_scan", "period_doubling_start"]
@@ -94,12 +95,9 @@ class ShootingOptions:
 
     @classmethod
     def from_dict(cls, d: Mapping) -> "ShootingOptions":
-        """From a mapping; an unknown key raises ``ValueError`` naming it and the valid ones."""
-        names = [f.name for f in dataclasses.fields(cls)]
-        for k in d:
-            if k not in names:
-                raise ValueError(f"unknown option {k!r} of ShootingOptions; valid: {names}")
-        return cls(**dict(d))
+        """From a mapping (:func:`contin.util.options.from_mapping`); an unknown key raises ``ValueError``
+        naming it, the nearest valid one and all of them."""
+        return from_mapping(cls, d)
 
 
 @dataclasses.dataclass

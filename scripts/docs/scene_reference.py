@@ -2,9 +2,9 @@
 
 The page is made from what the scene parser itself checks against: the
 section schemas of :mod:`contin.scene.parse` (``model`` for built-in and
-custom models, ``output``, the ``frequency_response`` analysis and the keys a
-further start may change), the schema each analysis registers in
-:mod:`contin.scene.registry` (after ``load_all()``), the quantity schemas of
+custom models, ``output``), the schema of each analysis of the table
+:data:`contin.scene.registry.ANALYSES` (with the keys a further start of
+``frequency_response`` may change), the quantity schemas of
 the ``convergence`` analysis, and the fields of the option dataclasses that
 the mappings ``continuation``, ``stability_options``, ``curve_options`` and
 ``shooting_options`` are read into, with the descriptions of their
@@ -145,13 +145,9 @@ def summary_line(module) -> str:
 def render() -> str:
     """The page's text."""
     from contin.scene import fe_model, parse
-    from contin.scene.registry import ANALYSIS_MODULES, ANALYSIS_RUNNERS, load_all
+    from contin.scene.registry import analysis
 
-    load_all()
-    # in the order of the registry's module list, whatever order the modules were imported in
-    order = {mod: i for i, mod in enumerate(ANALYSIS_MODULES)}
-    schemas = dict(sorted(parse.analysis_schemas().items(),
-                          key=lambda kv: order.get(ANALYSIS_RUNNERS[kv[0]].__module__, len(order))))
+    schemas = parse.analysis_schemas()  # in the table's order
     out = [
         "# Scene keys",
         "",
@@ -198,12 +194,12 @@ def render() -> str:
         "`analysis.type` is one of " + ", ".join(f"`{t}`" for t in schemas) + ".",
     ]
     for atype, schema in schemas.items():
-        module = importlib.import_module(ANALYSIS_RUNNERS[atype].__module__)
+        module = importlib.import_module(type(analysis(atype)).__module__)
         out += ["", f"### type: {atype}", "", summary_line(module), "", *schema_table(schema)]
         if atype == "frequency_response":
             out += ["", "Each entry of `analysis.starts` is a further start, drawn in the same diagram; it may "
                     "change these keys (the others are shared): "
-                    + ", ".join(f"`{k}`" for k in parse.START_KEYS) + "."]
+                    + ", ".join(f"`{k}`" for k in module.START_KEYS) + "."]
         if atype == "convergence":
             quantities = getattr(importlib.import_module(QUANTITY_SCHEMAS[0]), QUANTITY_SCHEMAS[1])
             out += ["", "Each entry of `quantities` is a type name or a mapping with a `type` and these keys:"]

@@ -96,7 +96,7 @@ def test_fixed_points_are_where_the_undamped_and_the_locked_responses_cross():
     from pathlib import Path
     from types import SimpleNamespace
 
-    from contin.analyses.frf import _Response, check, fixed_points
+    from contin.analyses.frf import ForceResponse, Frf, fixed_points
     from contin.modal.absorber import fixed_point_height, fixed_points as closed_form
     from contin.modal.absorber_design import design_absorber
     from contin.scene.build import build_model
@@ -104,9 +104,9 @@ def test_fixed_points_are_where_the_undamped_and_the_locked_responses_cross():
     root = Path(__file__).resolve().parents[2]
     scene = parse_scene((root / "scenes" / "absorber_exercise_frf.yaml").read_text())
     model = build_model(scene)
-    plan = check(scene, model)
-    resp = _Response(model, plan["kw"], plan["p0"], plan["cases"][0][1])
-    found = fixed_points(resp, plan["w"], 0)
+    plan = Frf().plan(scene, model)
+    resp = ForceResponse(model, plan.index, plan.parameters, plan.cases[0][1])
+    found = fixed_points(resp, plan.grid, 0)
     m1, k1, m2 = 100.0, 5e5, 10.0
     beta, p = m2 / m1, math.sqrt(k1 / m1)
     (OP, OQ), _ = closed_form(beta, 1 / (1 + beta))
@@ -185,7 +185,7 @@ def test_range_must_be_increasing_and_the_model_linear(tmp_path):
 
 def test_the_frequency_named_by_the_analysis_is_used_and_the_model_keeps_its_own(tmp_path):
     """analysis.frequency: W forces at W (tau = W t) over the range of W; the model's frequency stays w."""
-    from contin.analyses.frf import check
+    from contin.analyses.frf import Frf
     from contin.scene.build import build_model
 
     text = """
@@ -204,8 +204,8 @@ analysis:
 """
     scene = parse_scene(text)
     model = build_model(scene)
-    plan = check(scene, model)
-    assert plan["wname"] == "W" and model.frequency == "w"
+    plan = Frf().plan(scene, model)
+    assert plan.frequency == "W" and model.frequency == "w"
     _, rows = run(text, tmp_path)
     W = rows["W"]
     np.testing.assert_allclose(rows["re_x"] + 1j * rows["im_x"], 0.5 / (2.0 - W**2 + 0.1j * W), rtol=1e-12)

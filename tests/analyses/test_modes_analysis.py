@@ -9,7 +9,7 @@ import scipy.linalg
 
 from contin.output.results import read_csv
 from contin.app.runner import run_scene
-from contin.scene.registry import RunError
+from contin.analyses.base import RunError
 from contin.scene.parse import SceneError, parse_scene
 
 SEED002 = """

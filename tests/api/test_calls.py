@@ -1,6 +1,5 @@
 """The analysis calls: the scene's keys, the scene's checks, the same results as `contin run`, no global change."""
 
-import gc
 import signal
 
 import numpy as np
@@ -39,19 +38,18 @@ def test_type_keyword_and_bad_output_keys_are_refused():
         contin.modes("duffing", output={"formats": ["bmp"]})
 
 
-def test_nothing_global_changes_and_the_temporary_directory_goes_with_the_result():
+def test_nothing_global_changes_and_figures_go_where_outdir_says(tmp_path):
     from threadpoolctl import threadpool_info
 
     handler = signal.getsignal(signal.SIGINT)
     threads = [p["num_threads"] for p in threadpool_info()]
-    r = contin.modes(contin.System.from_scene("scenes/two_dof_modes.yaml"), output={"plots": True})
+    r = contin.modes(contin.System.from_scene("scenes/two_dof_modes.yaml"), output={"plots": True},
+                     outdir=tmp_path / "modes")
     assert signal.getsignal(signal.SIGINT) is handler
     assert [p["num_threads"] for p in threadpool_info()] == threads
-    where = r.outdir
-    assert where.is_dir() and any(f.endswith(".png") for f in r.files)
-    del r
-    gc.collect()
-    assert not where.exists()
+    assert r.outdir == tmp_path / "modes" and any(f.endswith(".png") for f in r.files)
+    held = contin.modes(contin.System.from_scene("scenes/two_dof_modes.yaml"))  # in memory: no directory at all
+    assert held.outdir is None and held.files == [] and held.tables["modes"].keys() == r.tables["modes"].keys()
 
 
 def test_a_wrong_keyword_is_a_type_error_naming_it_before_anything_runs(tmp_path):

@@ -2,7 +2,7 @@
 
 import json
 
-from contin.api.result import Result
+from contin.api.result import load
 
 
 def test_the_summary_line_counts_unlocated_points_apart(tmp_path):
@@ -13,6 +13,6 @@ def test_the_summary_line_counts_unlocated_points_apart(tmp_path):
         "0,pd,0.5,1,0.49,0.51,false,location did not converge in 60 iterations\n"
         "0,pd,0.7,3,0.69,0.71,true,located\n"
         "0,fold,0.8,4,0.8,0.8,true,located\n")
-    result = Result(tmp_path)
+    result = load(tmp_path)
     assert [p.located for p in result.special_points] == [False, True, True]
     assert "special points: 2 pd (1 not located), 1 fold>" in repr(result)

@@ -123,7 +123,8 @@ class Page:
 
 
 def _run_python(block: Block, page: Page) -> None:
-    code = compile(block.text, block.where, "exec")
+    # as a reader's interpreter runs it: not under this file's ``from __future__ import annotations``
+    code = compile(block.text, block.where, "exec", dont_inherit=True)
     if "skip" in block.flags or ("slow" in block.flags and not page.run_slow):
         return
     buf = io.StringIO()

@@ -15,7 +15,7 @@ from contin.engine.stepsize import (
     ILL_RCOND,
     RESCALE_FACTOR,
     ScaleControl,
-    StepControl,
+    StepKeeper,
     condition,
     rescaled_direction,
     rescaled_point,
@@ -29,7 +29,7 @@ def no_diagnosis():
 
 
 def test_an_event_caps_the_step_but_not_below_its_floor():
-    step = StepControl(OPTS)
+    step = StepKeeper(OPTS)
     assert step.trial() == 0.1 and step.ds_free == 0.1
     step.event_cap = 0.03
     assert step.trial() == 0.03 and step.ds_free == 0.1
@@ -38,7 +38,7 @@ def test_an_event_caps_the_step_but_not_below_its_floor():
 
 
 def test_steps_shrink_after_failures_grow_after_easy_steps_and_stay_within_bounds():
-    step = StepControl(OPTS)
+    step = StepKeeper(OPTS)
     failed = StepFailed("no convergence", rcond=1e-3)
     step.rejected(failed)
     step.shrink(0.1, failed, 1e-2, "lambda=0", no_diagnosis)
@@ -46,15 +46,15 @@ def test_steps_shrink_after_failures_grow_after_easy_steps_and_stay_within_bound
     step.ds = 1.5e-3
     step.shrink(1.5e-3, failed, 1e-2, "lambda=0", no_diagnosis)
     assert step.ds == OPTS.ds_min
-    step.grow(OPTS.newton_easy + 1)  # a hard step: no growth
+    step.accepted(0.1, OPTS.newton_easy + 1)  # a hard step: no growth
     assert step.ds == OPTS.ds_min
     for _ in range(20):
-        step.grow(OPTS.newton_easy)
+        step.accepted(0.1, OPTS.newton_easy)
     assert step.ds == OPTS.ds_max
 
 
 def test_a_failure_at_ds_min_or_on_an_ill_conditioned_point_ends_the_branch():
-    step = StepControl(OPTS)
+    step = StepKeeper(OPTS)
     failed = StepFailed("no convergence", rcond=1e-3)
     with pytest.raises(Failure) as info:
         step.shrink(OPTS.ds_min, failed, 1e-2, "lambda=0.5", lambda: "; condition estimate 1e+02")
@@ -70,7 +70,7 @@ def test_a_failure_at_ds_min_or_on_an_ill_conditioned_point_ends_the_branch():
 
 
 def test_a_crawl_is_stall_points_steps_advancing_less_than_ds_max():
-    step = StepControl(OPTS)
+    step = StepKeeper(OPTS)
     step.ds = 0.1
     assert not step.crawled(0.1) and not step.crawled(0.1)
     assert step.crawled(0.1)  # 0.3 < ds_max = 0.4 over 3 points
@@ -80,7 +80,7 @@ def test_a_crawl_is_stall_points_steps_advancing_less_than_ds_max():
 
 
 def test_the_diagnosis_names_the_jacobians_growth_and_condition():
-    step = StepControl(OPTS)
+    step = StepKeeper(OPTS)
     step.jac_norm_start = 1.0
     info = PointInfo(u=np.zeros(1), lam=0.0, tangent=np.ones(2), Ju=np.array([[1e4]]), Jlam=np.zeros(1), det_sign=1,
                      rcond=1e-6)

@@ -11,7 +11,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 from conftest import fuzz_examples
 from contin.scene.build import build_model
 from contin.scene.parse import SceneError, parse_scene
-from contin.scene.registry import check_scene
+from contin.scene.registry import analysis, check_scene
 
 try:
     import contin.scene.budget as budget
@@ -110,7 +110,7 @@ def test_a_scene_within_the_limit_passes_and_its_estimate_bounds_the_problem_it_
             "harmonics: 30, stability: none}\n")
     scene = parse_scene(text)
     model = build_model(scene)
-    groups = budget.check_resources(scene, model)
+    groups = budget.check_resources(scene, analysis(scene.analysis["type"]).demands(scene, model))
     estimate = sum(d.nbytes for d in groups[0])
     from contin.analyses.frequency_response import build_problem
 
@@ -207,6 +207,6 @@ def test_any_sizes_are_accepted_within_the_limit_or_refused_naming_a_key(monkeyp
                            "analysis.stability_options.steps_per_period"), str(exc)
         assert " in all" in str(exc) or "together" in str(exc)
         return
-    for group in budget.demands(scene, model):
+    for group in analysis(scene.analysis["type"]).demands(scene, model):
         assert sum(d.nbytes for d in group) <= limit
         assert all(d.operations <= budget.MAX_SECONDS * budget.OPERATIONS_PER_SECOND for d in group)

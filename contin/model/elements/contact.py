@@ -16,8 +16,9 @@ import numpy as np
 
 from contin.model.base import ForceElement, Switching
 from contin.model.elements.registry import CompiledForm, shorten
+from contin.model.expressions.nodes import Var
 
-__all__ = ["ContactForce", "ContactForm", "contact_values"]
+__all__ = ["ContactForce", "ContactForm", "coefficient_parameter", "contact_values"]
 
 
 class ContactForce(ForceElement):
@@ -83,6 +84,10 @@ class ContactForce(ForceElement):
     def depends_on(self, k):
         return any(m.depends_on(k) for m in (self.clearance, self.stiffness, self.damping))
 
+    def contact_parameters(self, param_names):
+        """The parameters that are the contact's stiffness and clearance (None where a coefficient is not one)."""
+        return coefficient_parameter(self.stiffness, param_names), coefficient_parameter(self.clearance, param_names)
+
     def _contact_matrices(self, p, n: int, dofs):
         """Contact stiffness and damping on the diagonal of ``dofs``, shape (n, n) each (the RK4 step check)."""
         _, k, c = self._values(p)
@@ -91,6 +96,30 @@ class ContactForce(ForceElement):
             Kc[i, i] = k
             Cc[i, i] = c
         return Kc, Cc
+
+
+def coefficient_parameter(coefficient, param_names) -> str | None:
+    """The parameter a coefficient is, when it is exactly one parameter (``k``; not ``2*k``, ``k**2`` or a number).
+
+    Parameters
+    ----------
+    coefficient : Monomial or ExpressionCoefficient
+    param_names : sequence of str
+        The model's parameters, in the order of the parameter vector.
+
+    Returns
+    -------
+    str or None
+    """
+    powers = getattr(coefficient, "powers", None)
+    if powers is not None:  # a Monomial: const * prod p[j]**e
+        if coefficient.const == 1.0 and len(powers) == 1 and powers[0][1] == 1:
+            return param_names[powers[0][0]]
+        return None
+    node = getattr(coefficient, "node", None)  # an expression: one parameter's name alone
+    if isinstance(node, Var) and node.name in param_names:
+        return node.name
+    return None
 
 
 def contact_values(item: Mapping, key: str, scene):

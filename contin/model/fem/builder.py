@@ -45,7 +45,11 @@ from contin.model.fem.matrices import RotorMatrices
 from contin.model.fem.reduction import craig_bampton
 from contin.model.whirl import WHIRL_COLUMNS, WHIRL_SYMBOLS, whirl_radii
 
-__all__ = ["Units", "Contact", "Unbalance", "SideLoad", "Reduction", "fe_rotor_model", "FEInfo"]
+__all__ = ["SPEED", "Units", "Contact", "Unbalance", "SideLoad", "Reduction", "fe_rotor_model", "FEInfo"]
+
+#: the model's speed parameter ``Omega / w0``: its excitation frequency (``tau = w t``) and the
+#: continuation parameter a scene of a rotor defaults to (:func:`contin.scene.parse.model_frequency`)
+SPEED = "w"
 
 
 def _positive(owner: str, name: str, v, allow_zero=False):
@@ -251,7 +255,7 @@ def fe_rotor_model(rotor: RotorMatrices, contact: Contact | None = None, unbalan
     units = Units(L, m_ref, w0)
     d = np.where(np.arange(n) % 4 < 2, L, 1.0)
     DD = np.outer(d, d) / (m_ref * L * L)
-    params = {"w": float(speed)}
+    params = {SPEED: float(speed)}
     if unbalance:
         params["e"] = unbalance[0].magnitude / (m_ref * L)
     if side_load is not None:
@@ -260,7 +264,7 @@ def fe_rotor_model(rotor: RotorMatrices, contact: Contact | None = None, unbalan
         params.update(delta=contact.clearance / L, kbn=contact.stiffness / (m_ref * w0 * w0),
                       cbn=contact.damping / (m_ref * w0))
     names = list(params)
-    iw = 0
+    iw = names.index(SPEED)
     one = Monomial(1.0)
     mats = {"m": [DD * rotor.mass], "c": [DD * rotor.damping / w0], "k": [DD * rotor.stiffness / w0**2]}
     varying = {"m": [], "c": [(Monomial(1.0, ((iw, 1),)), DD * rotor.gyroscopic)], "k": []}
@@ -330,6 +334,7 @@ def fe_rotor_model(rotor: RotorMatrices, contact: Contact | None = None, unbalan
     model = Model(name=name, dof_names=tuple(dofs), parameters=params,
                   mass=ParametricMatrix(nm, tuple(terms["m"])), damping=ParametricMatrix(nm, tuple(terms["c"])),
                   stiffness=ParametricMatrix(nm, tuple(terms["k"])), forces=forces, excitations=excitations,
+                  frequency=SPEED,
                   effects=tuple(k for k, v in (("contact", contact), ("unbalance", unbalance),
                                                ("static_force", side_load)) if v), terms=text)
     parts = {}
@@ -342,6 +347,6 @@ def fe_rotor_model(rotor: RotorMatrices, contact: Contact | None = None, unbalan
         cols = tuple(c for c in WHIRL_COLUMNS if c.rsplit("_", 1)[1] in parts)
         model.observables = functools.partial(whirl_radii, parts=parts)
         model.observable_names = cols
-    model.symbols = {"w": r"\Omega", "kbn": r"k_{bn}", "cbn": r"c_{bn}", "f0": r"f_0", **WHIRL_SYMBOLS}
+    model.symbols = {SPEED: r"\Omega", "kbn": r"k_{bn}", "cbn": r"c_{bn}", "f0": r"f_0", **WHIRL_SYMBOLS}
     model.fe = FEInfo(units, basis, freqs, tuple(rotor.dof_names), d)
     return model

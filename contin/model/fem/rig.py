@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 
 from contin.model.fem.builder import Contact, SideLoad, Unbalance
+from contin.model.fem.ross_bridge import import_ross
 
 __all__ = ["RIG", "rig_scales", "rig_rotor", "rig_items", "RIG_NODES"]
 
@@ -44,8 +45,6 @@ def rig_scales() -> dict:
 
 def rig_rotor():
     """The rig as a ``ross.Rotor`` (needs ROSS: :func:`contin.model.fem.ross_bridge.import_ross`)."""
-    from contin.model.fem.ross_bridge import import_ross
-
     rs = import_ross()
     r, s = RIG, rig_scales()
     steel = rs.Material(name="rig_steel", rho=r["rho"], E=r["E"], G_s=r["G"])
