@@ -119,7 +119,7 @@ def from_the_diagram(outdir: Path, scene, rows, w: float, revolutions: int):
 
 def floor_per_point(outdir: Path, scene) -> dict:
     """Time of one LU of the bordered corrector matrix and of one monodromy, per branch order nu."""
-    from contin.analyses.frequency_response import build_problem
+    from contin.analyses.frequency_response import build_problem, engine_problem
     from contin.output.checkpoint import read_records
     from contin.engine.newton import factorize
     from contin.scene.build import build_model
@@ -142,8 +142,9 @@ def floor_per_point(outdir: Path, scene) -> dict:
             continue
         full = getattr(hb, "full", hb)
         u, lam = np.array(rec["u"]), float(rec["lam"])  # the engine's unknowns (kept dofs when condensed)
-        u_full = hb.expand(u, lam) if hasattr(hb, "expand") else u
-        _, Ju, Jlam = hb.linearize(u, lam)
+        problem = engine_problem(sub, hb)
+        u_full = problem.expand(u, lam) if problem is not hb else u
+        _, Ju, Jlam = hb.linearize(u_full, lam)
         A = np.zeros((Ju.shape[0] + 1, Ju.shape[0] + 1))
         A[:-1, :-1], A[:-1, -1], A[-1] = Ju, Jlam, 1.0
         opts = StabilityOptions(method="floquet", **dict(a.get("stability_options") or {}))
