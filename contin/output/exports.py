@@ -43,14 +43,12 @@ import numpy as np
 from contin.hb.qp_basis import QPBasis
 from contin.output.checkpoint import read_records
 from contin.output.expansion import stores_kept
+from contin.output.formats import EXPORT_FORMATS
 from contin.output.results import read_csv
 from contin.util.safe_files import open_regular, replace_file
 
 __all__ = ["EXPORT_FORMATS", "RunData", "collect_run", "write_exports", "write_coefficients_csv",
            "coefficient_names", "stability_code"]
-
-#: formats of ``output.exports``
-EXPORT_FORMATS = ("npz", "mat")
 
 #: columns that hold a stability verdict (true, false, or empty: none)
 _FLAG_COLUMNS = ("stable", "located")

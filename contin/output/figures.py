@@ -17,12 +17,10 @@ from pathlib import Path
 import matplotlib
 from matplotlib.figure import Figure
 
+from contin.output.formats import CONTIN_STYLES, FIGURE_FORMATS, style_names
 from contin.util.safe_files import replace_file
 
 __all__ = ["FIGURE_FORMATS", "STYLES", "new_figure", "save_figure", "figure_style", "style_names", "legend_below"]
-
-#: file formats a run can write its figures in (``output.formats``)
-FIGURE_FORMATS = ("png", "pdf", "svg")
 
 #: contin's styles (``output.style``); any style shipped with matplotlib is accepted as well
 STYLES = {
@@ -38,13 +36,7 @@ STYLES = {
                      "xtick.labelsize": 12, "ytick.labelsize": 12, "lines.linewidth": 2.2, "lines.markersize": 8,
                      "axes.grid": True, "grid.alpha": 0.3, "figure.figsize": (9.0, 5.6), "savefig.dpi": 150},
 }
-
-
-def style_names() -> tuple:
-    """Every value ``output.style`` accepts: contin's styles, then matplotlib's own."""
-    import matplotlib.style
-
-    return tuple(STYLES) + tuple(sorted(s for s in matplotlib.style.available if not s.startswith("_")))
+assert tuple(STYLES) == CONTIN_STYLES  # the scene check knows them without importing this module
 
 
 @contextlib.contextmanager

@@ -14,9 +14,7 @@ from __future__ import annotations
 import functools
 from pathlib import Path
 
-from contin.bifurcation.start import contact_start
 from contin.model.base import Model
-from contin.model.fem.matrices import load_matrices
 from contin.scene.files import MODEL_FILE_CAP, input_key, read_input
 from contin.scene.schema import Key, SceneError, check_section, flag, integer, is_number, listing, mapping, \
     number, string
@@ -108,8 +106,11 @@ def build_fe_model(scene) -> Model:
         cannot take (a node off the rotor), ``model.parameters.NAME`` for an
         unknown parameter.
     """
+    # every scene's check reads this module's schema: what only builds a rotor is imported here
+    from contin.bifurcation.start import contact_start  # deferred: the starts and their solvers (0.4 s)
     from contin.model.fem.builder import (  # deferred: scipy.interpolate (0.12 s), for a rotor's scene alone
         Contact, Reduction, SideLoad, Unbalance, Units, fe_rotor_model)
+    from contin.model.fem.matrices import load_matrices  # deferred: a rotor file's reader, for a rotor's scene
     from contin.model.fem.ross_bridge import load_rotor  # deferred: scipy.interpolate, as the builder
 
     m = scene.model

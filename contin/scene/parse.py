@@ -28,8 +28,7 @@ import yaml
 
 from contin.model.catalog import get_spec, rule_violation
 from contin.util.naming import suggest
-from contin.output.exports import EXPORT_FORMATS
-from contin.output.figures import FIGURE_FORMATS, style_names
+from contin.output.formats import EXPORT_FORMATS, FIGURE_FORMATS, is_style
 from contin.scene.schema import (Key, SceneError, anything, check_section, integer, is_int, listing,
                            mapping, string)
 from contin.scene import registry
@@ -56,7 +55,7 @@ OUTPUT = {
     "dpi": Key("an integer from 50 to 1200 (dots per inch of PNG figures)", lambda v: is_int(v) and 50 <= v <= 1200,
                200),
     "style": Key("'contin', 'paper', 'presentation' or the name of a style shipped with matplotlib",
-                 lambda v: isinstance(v, str) and v in style_names(), "contin"),
+                 is_style, "contin"),
     # data files beside the CSV tables (contin.output.exports)
     "exports": listing(["npz"], lambda x: x in EXPORT_FORMATS,
                        "a list of export formats among " + ", ".join(repr(f) for f in EXPORT_FORMATS)),
