@@ -103,6 +103,10 @@ class Outcome:
     draw : callable or None
         ``draw() -> list of file names``: the analysis' figures into
         ``outdir`` (not kept by :meth:`from_directory`).
+    cells : dict
+        Table name -> ``(header, rows of cells)`` as its file holds them
+        (:meth:`write_tables`; empty for an outcome read from a directory,
+        whose files hold them).
     """
 
     analysis: dict
