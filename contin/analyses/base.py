@@ -122,12 +122,13 @@ class Analysis:
        ``analysis`` section, built from :mod:`contin.scene.schema`).
     2. :meth:`plan`: every check that needs the built model, made before
        anything is written, returning a frozen dataclass of every checked
-       choice (parameter, range, problems, options). Refuse what the run
-       could not do with ``scene.error(key, expected, found)``.
+       choice (parameter, range, problems, options; an analysis that follows
+       a branch takes its sweep from :func:`contin.scene.sweep_plan.sweep_plan`).
+       Refuse what the run could not do with ``scene.error(key, expected, found)``.
     3. :meth:`run`: compute from the plan; write tables through ``ctx.sink``
        (``ctx.sink.table("my_study.csv", columns)``); return an
-       :class:`~contin.output.outcome.Outcome` (``ctx`` helps:
-       :meth:`outcome`), with its shortfalls.
+       :class:`~contin.output.outcome.Outcome` with its shortfalls
+       (:meth:`outcome` makes it from ``ctx``).
     4. :meth:`describe`: the lines ``contin check`` prints for the plan.
     5. Optionally :meth:`validate` (checks of the whole scene before the
        model is built), :meth:`demands` (its memory and work, refused

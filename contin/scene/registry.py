@@ -27,14 +27,15 @@ ANALYSES = {
     "convergence": "contin.analyses.convergence:Convergence",
 }
 
+#: ``analysis.type`` -> (its table entry, the instance made of it)
 _MADE: dict = {}
 
 
 def analysis(name: str):
     """The analysis ``analysis.type: name`` runs (one instance, made on first use; KeyError if none)."""
     entry = ANALYSES[name]
-    made = _MADE.get(name)
-    if made is None or _MADE.get((name, "entry")) is not entry:  # made anew when its table line changed
+    made_from, made = _MADE.get(name, (None, None))
+    if made_from is not entry:  # first use, or its table line changed
         if isinstance(entry, str):
             module, _, cls = entry.partition(":")
             entry_class = getattr(importlib.import_module(module), cls)
@@ -43,7 +44,7 @@ def analysis(name: str):
         made = entry_class()
         if made.name != name:
             raise RuntimeError(f"{entry} is named {made.name!r}, listed as {name!r}")
-        _MADE[name], _MADE[(name, "entry")] = made, entry
+        _MADE[name] = (entry, made)
     return made
 
 

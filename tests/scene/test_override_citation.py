@@ -51,4 +51,4 @@ def test_any_refused_stability_value_names_its_set_never_a_line(text):
         raise AssertionError(f"analysis.stability={text} was accepted")
     assert message.startswith(f"analysis.stability (--set analysis.stability={text}): ") or \
         message.startswith("--set analysis.stability"), message  # a value YAML cannot parse
-    assert "line" not in message.split(":")[0]
+    assert not re.search(r"line \d", message.split(":")[0]), message  # (the value itself may be 'line')

@@ -87,7 +87,8 @@ def from_ross(rotor, source: str = "ross.Rotor") -> RotorMatrices:
     mats = {}
     for name, A in (("mass", rotor.M0), ("damping", rotor.C0), ("stiffness", rotor.K0), ("gyroscopic", rotor.G0)):
         A = np.asarray(A, float)
-        if other.size and np.abs(A[np.ix_(lat, other)]).max(initial=0.0) > DECOUPLED * np.abs(A).max(initial=1.0):
+        # relative to this matrix's largest entry, whatever its size (a small rotor's G0 is far below 1)
+        if other.size and np.abs(A[np.ix_(lat, other)]).max(initial=0.0) > DECOUPLED * np.abs(A).max(initial=0.0):
             raise ValueError(f"ross.Rotor: its {name} matrix couples lateral and axial/torsional dofs; "
                              "the bridge takes lateral dynamics only")
         mats[name] = A[np.ix_(lat, lat)]
