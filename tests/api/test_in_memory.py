@@ -2,8 +2,6 @@
 branches are those of `contin run` on the same scene, bit for bit."""
 
 import os
-import shutil
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -12,9 +10,8 @@ import pytest
 import contin
 import contin.api.calls  # noqa: F401 (imported before the file system is guarded: matplotlib makes its config dir)
 from contin.app.cli import main
-from contin.output.results import read_csv
 from contin.scene.parse import SceneError
-from contin.util.cachedir import kernel_cache_dir
+from memory_runs import assert_tables_match, forbid_files
 
 ROOT = Path(__file__).resolve().parents[2]
 SETS = ["analysis.range=[0.5, 2.0]", "analysis.harmonics=5"]
@@ -33,57 +30,6 @@ analysis: {type: frequency_response, parameter: w, range: [0.3, 1.2], harmonics:
 """
 
 
-def _refuse(*args, **kwargs):
-    raise AssertionError("a run held in memory made a file or a directory")
-
-
-def no_files(monkeypatch):
-    """Every way of making a temporary directory or a file raises (until ``monkeypatch.undo()``), except in
-    the private cache of compiled kernels (contin.util.cachedir), which is no result of the run."""
-    cache = str(kernel_cache_dir())
-    real = {"mkdir": os.mkdir, "makedirs": os.makedirs, "open": os.open}
-
-    def outside(path) -> bool:
-        return not os.path.abspath(os.fspath(path)).startswith(cache)
-
-    def mkdir(path, *args, **kwargs):
-        if outside(path):
-            _refuse()
-        return real["mkdir"](path, *args, **kwargs)
-
-    def makedirs(path, *args, **kwargs):
-        if outside(path):
-            _refuse()
-        return real["makedirs"](path, *args, **kwargs)
-
-    def guarded_open(path, flags, *args, **kwargs):
-        if flags & (os.O_WRONLY | os.O_RDWR | os.O_CREAT) and outside(path):
-            _refuse()
-        return real["open"](path, flags, *args, **kwargs)
-
-    for name in ("mkdtemp", "mkstemp", "TemporaryDirectory", "NamedTemporaryFile"):
-        def make(*args, _real=getattr(tempfile, name), **kwargs):
-            if kwargs.get("dir") is None or outside(kwargs["dir"]):
-                _refuse()
-            return _real(*args, **kwargs)
-
-        monkeypatch.setattr(tempfile, name, make)
-    monkeypatch.setattr(shutil, "copy2", _refuse)
-    monkeypatch.setattr(os, "mkdir", mkdir)
-    monkeypatch.setattr(os, "makedirs", makedirs)
-    monkeypatch.setattr(os, "open", guarded_open)
-
-
-def same_columns(a: dict, b: dict) -> None:
-    assert list(a) == list(b)
-    for k in a:
-        assert a[k].dtype == b[k].dtype, k
-        if a[k].dtype.kind == "f":
-            np.testing.assert_array_equal(a[k], b[k], err_msg=k)  # NaN equal to NaN, bits otherwise
-        else:
-            assert a[k].tolist() == b[k].tolist(), k
-
-
 @pytest.mark.parametrize("scene", ["duffing", "condensed"])
 def test_a_call_writes_nothing_and_equals_contin_run(scene, tmp_path, monkeypatch):
     if scene == "condensed":  # a 2-dof chain whose linear dof is condensed out (expanded for the coefficients)
@@ -92,14 +38,13 @@ def test_a_call_writes_nothing_and_equals_contin_run(scene, tmp_path, monkeypatc
     else:
         path, sets = ROOT / "scenes" / "duffing.yaml", SETS
     text = path.read_text()
-    no_files(monkeypatch)
-    result = contin.run(text, overrides=sets + ["output.plots=false"])
-    assert result.outdir is None and result.files == [] and result.status == "complete"
-    monkeypatch.undo()  # the command line writes its directory
-    out = tmp_path / "cli"
+    out = tmp_path / "cli"  # first: it compiles the kernels (their cache is no file of the run held in memory)
     assert main(["run", str(path), "-o", str(out), "-q", *[x for s in sets for x in ("--set", s)]]) == 0
-    for name in ("branches", "special_points"):
-        same_columns(result.tables[name], read_csv(out / f"{name}.csv"))
+    forbid_files(monkeypatch)
+    result = contin.run(text, overrides=sets + ["output.plots=false"])
+    monkeypatch.undo()
+    assert result.outdir is None and result.files == [] and result.status == "complete"
+    assert_tables_match(result.outcome.tables, out)
     loaded = contin.load(out)
     assert [(b.id, b.nu, b.status, b.message, len(b)) for b in loaded.branches] == \
         [(b.id, b.nu, b.status, b.message, len(b)) for b in result.branches]
@@ -116,6 +61,6 @@ def test_a_result_held_in_memory_saves_the_files_contin_run_writes(tmp_path):
     result = contin.frequency_response("duffing", range=[0.5, 1.5], harmonics=3)
     out = result.save(tmp_path / "saved")
     assert {"branches.csv", "special_points.csv", "summary.json", "coefficients.csv"} <= set(os.listdir(out))
-    same_columns(read_csv(out / "branches.csv"), result.tables["branches"])
+    assert_tables_match(result.outcome.tables, out)
     loaded = contin.load(out)
     np.testing.assert_array_equal(loaded.coefficients(), result.coefficients())
