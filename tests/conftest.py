@@ -39,7 +39,11 @@ def rng():
 
 #: example scenes whose run falls short, exit 1, and the words each of their shortfalls holds: branches that end
 #: at a grazing point harmonic balance cannot pass, leaving part of the range (docs/reference/outcomes.md)
-FALLS_SHORT = {"rotor_c2_5.yaml": "ended at a grazing point", "rotor_fe_rig.yaml": "ended at a grazing point"}
+FALLS_SHORT = {"rotor_c2_5.yaml": ("ended at a grazing point",),
+               # shooting, handed the nu = 2 halves at their grazing points, does not get past them (yet)
+               "rotor_f0_02.yaml": ("ended step_too_small",),
+               # harmonic balance alone (method: hb): its branches stop at grazing points
+               "rotor_fe_rig.yaml": ("ended at a grazing point", "stopped at a point it cannot pass")}
 
 
 @pytest.fixture(scope="session")
@@ -64,7 +68,8 @@ def scene_run(tmp_path_factory):
             code = main(["run", str(scenes / name), "-o", str(out), "-q"])
             if name in FALLS_SHORT:  # what they cover is checked all the same; their shortfall is the one known
                 summary = json.loads((out / "summary.json").read_text())
-                assert code == 1 and all(FALLS_SHORT[name] in line for line in summary["shortfalls"]), summary
+                assert code == 1 and all(any(w in line for w in FALLS_SHORT[name]) for line in summary["shortfalls"]), \
+                    summary
             else:
                 assert code == 0
             done[name] = out

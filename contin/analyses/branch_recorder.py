@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from contin.analyses.shooting_rows import is_shooting, order_of, shooting_row
 from contin.hb.measures import measure_names, point_measures
 from contin.hb.torus import QuasiPeriodicBalance, torus_measure_names, torus_measures
 from contin.output.checkpoint import read_records, special_record
@@ -52,6 +53,9 @@ class BranchRecorder:
         self.dof_names = list(dof_names)
         self.parameter = parameter
         self.harmonic_columns = harmonic_columns
+        self.H = H  # the harmonics of a shooting row of order nu: nu * H of w / nu
+        # header -> the shooting problem of a resumed shooting branch (set by the analysis; None: rows keep states)
+        self.shooting_problem = None
         self.observables = getattr(model, "observables", None)
         self.measures = row_measures(self.dof_names, harmonic_columns, H, model)
         if torus:  # quasi-periodic branches: their second frequency and main components
@@ -84,6 +88,17 @@ class BranchRecorder:
             return np.asarray(u)
         return problem.expand(u, lam)
 
+    def _solution(self, branch_id: int, u, lam: float, nu: int, problem=None) -> tuple[np.ndarray, dict]:
+        """A point's full coefficients and the measures that are not functions of them.
+
+        A shooting branch's are the coefficients of its integrated orbit and the orbit's sampled extremes
+        (:func:`contin.analyses.shooting_rows.shooting_row`); a harmonic-balance branch's, its (expanded) unknowns.
+        """
+        problem = self.problems.get(branch_id) if problem is None else problem
+        if is_shooting(problem):  # of the problem's own order (a special point may come before the branch's rows)
+            return shooting_row(problem, u, lam, order_of(problem) * self.H, self.dof_names)
+        return self._full(branch_id, u, lam, problem), {}
+
     def _measures(self, u, n, nu, problem=None, lam=None):
         if isinstance(problem, QuasiPeriodicBalance):
             return torus_measures(problem, u, lam, self.dof_names, self.harmonic_columns)
@@ -98,7 +113,8 @@ class BranchRecorder:
         if problem is not None:
             self.problems[branch_id] = problem
         lam = float(branch.parameter[i])
-        u = self._full(branch_id, branch.unknowns[i], lam)
+        u, sampled = self._solution(branch_id, branch.unknowns[i], lam, nu)
+        shooting = is_shooting(self.problems.get(branch_id))
         row = {"branch": branch_id, "nu": nu, self.parameter: lam}
         pd = branch.point_data
         if "stable" in pd and bool(pd["evaluated"][i] if "evaluated" in pd else True):
@@ -108,6 +124,7 @@ class BranchRecorder:
         elif "stable" in pd:  # no verdict at this point: empty cells, not the monitor's placeholders
             row.update(stable=None, n_unstable=None, max_multiplier=None)
         row.update(self._measures(u, len(self.dof_names), nu, self.problems.get(branch_id), lam))
+        row.update(sampled)
         row["newton_iterations"] = int(branch.newton_iterations[i])
         row["residual_norm"] = float(branch.residual_norms[i])
         self.rows.write(row)
@@ -121,9 +138,12 @@ class BranchRecorder:
                       "dofs": None if kept is None else [int(d) for d in kept],
                       "unknowns": ENGINE_UNKNOWNS,  # the engine's (kept dofs'): contin.output.expansion
                       "torus": _torus_header(self.problems.get(branch_id))}
+            if shooting:  # its points hold states (x, x') at t = 0; its rows the coefficients of nu*H harmonics
+                header.update(_shooting_header(self.problems[branch_id]), H=nu * self.H)
             self.headers[branch_id] = header
             self.state.write(header)
-        self.solutions[self.n_rows] = {"branch": branch_id, "lam": lam, "u": u, "H": H, "nu": nu}
+        self.solutions[self.n_rows] = {"branch": branch_id, "lam": lam, "u": u, "H": nu * self.H if shooting else H,
+                                       "nu": nu}
         su, sl = branch.info.get("unknown_scale"), branch.info.get("parameter_scale")
         self.state.write({
             "type": "point", "row": self.n_rows, "branch": branch_id, "nu": nu, "H": H, "lam": lam,
@@ -140,7 +160,11 @@ class BranchRecorder:
         c["rows"].append(row)
         c["stable"].append(row.get("stable"))
         kept = getattr(self.problems.get(branch_id), "dofs", None)
-        self._keep_solution(c, u, branch.tangents[i], su, sl, kept, H)
+        if shooting:  # the tangent is the state's: no direction in the coefficients (drawn through the points)
+            c["method"] = "shooting"
+            self._keep_solution(c, u, branch.tangents[i], None, None, None, nu * self.H)
+        else:
+            self._keep_solution(c, u, branch.tangents[i], su, sl, kept, H)
 
     def _keep_solution(self, c: dict, u, tangent, su, sl, kept, H) -> None:
         """Keep a point's full coefficients ``u`` and its tangent in the unknowns' units (for the dense curves).
@@ -174,9 +198,12 @@ class BranchRecorder:
             if i + 1 < len(branch) and abs(branch.parameter[i + 1] - sp.parameter) < abs(branch.parameter[i] - sp.parameter):
                 i += 1
             row = {"branch": branch_id, "kind": sp.kind.value, self.parameter: float(sp.parameter), "index": off + i}
-            row.update(self._measures(self._full(branch_id, sp.unknowns, float(sp.parameter)), len(self.dof_names),
-                                      self.curves.get(branch_id, {}).get("nu", 1), self.problems.get(branch_id),
-                                      float(sp.parameter)))
+            nu = self.curves.get(branch_id, {}).get("nu", 1)
+            if is_shooting(self.problems.get(branch_id)):
+                nu = order_of(self.problems[branch_id])
+            u, sampled = self._solution(branch_id, sp.unknowns, float(sp.parameter), nu)
+            row.update(self._measures(u, len(self.dof_names), nu, self.problems.get(branch_id), float(sp.parameter)))
+            row.update(sampled)
             lo, hi = sp.bracket
             row.update({"interval_lo": float(lo), "interval_hi": float(hi), "located": bool(sp.located),
                         "detail": _detail(sp)})
@@ -217,7 +244,13 @@ class BranchRecorder:
             c["stable"].append(st)
             if r in solutions:
                 u, tangent, su, sl, kept, H, header, lam = solutions[r]
-                u_full = expansion(header, u, lam)
+                if header.get("method") == "shooting":
+                    c["method"] = "shooting"
+                    if self.shooting_problem is not None:  # the coefficients of its orbit, as when it was written
+                        u, _ = self._solution(bid, u, lam, c["nu"], self.shooting_problem(header))
+                    su = sl = kept = None
+                    H = header.get("H")
+                u_full = u if header.get("method") == "shooting" else expansion(header, u, lam)
                 if u_full is None:
                     raise ValueError(f"row {r} of the checkpoint holds the kept dofs only, and no problem expands it")
                 self._keep_solution(c, u_full, tangent, su, sl, kept, H)
@@ -273,6 +306,13 @@ def _vector(a):
     (its bytes in ``state.bin``)."""
     a = np.asarray(a, dtype=float)
     return a.tolist() if a.size <= INLINE else a
+
+
+def _shooting_header(problem) -> dict:
+    """What a shooting branch's record says of its discretisation (its problem is rebuilt from it on resume)."""
+    o = problem.options
+    return {"method": "shooting", "unknowns": "state",
+            "shooting": {"steps_per_period": int(o.steps_per_period), "segments": int(getattr(o, "segments", 1))}}
 
 
 def _torus_header(problem) -> dict | None:

@@ -26,6 +26,12 @@ from contin.analyses.base import Analysis, RunError, ScaleCheck
 # the recorder's names are part of this analysis' interface (bifurcation_curve, convergence_plan use them)
 from contin.analyses.branch_recorder import SPECIAL_EXTRA, BranchRecorder, row_measures  # noqa: F401
 from contin.analyses.simulate import check_time_step
+from contin.analyses.branch_summary import condition_summary as _condition_summary
+from contin.analyses.branch_summary import interval_or_none as _interval_or_none
+from contin.analyses.branch_summary import stability_summary as _stability_summary
+from contin.analyses.handover import boundary_gap, hand_over
+from contin.analyses.shooting_rows import (METHODS, ShootingSettings, analysis_method, is_shooting, shooting_problem,
+                                           shooting_start)
 from contin.analyses.stability_hooks import stability_setup
 from contin.bifurcation.start import START_LOW_HARMONICS, HomotopyFailed, harmonic_start, simulation_start
 from contin.engine.branch import BranchStatus
@@ -42,7 +48,8 @@ from contin.output.dense import as_number, dense_branch, kept_indices, value_bet
 from contin.output.labels import model_symbols
 from contin.output.outcome import Outcome
 from contin.output.model_figures import model_figures
-from contin.output.plotting import CHANGES, SPECIAL, bifurcation_diagram
+from contin.output.panels import panel_diagram
+from contin.output.plotting import CHANGES, SPECIAL
 from contin.output.results import truncate_to_valid_rows
 from contin.scene.budget import frequency_response_demands
 from contin.scene.parse import Scene, SceneError, check_parameter_values
@@ -51,7 +58,6 @@ from contin.scene.registry import check_output, shortfalls
 from contin.scene.schema import (START_SIMULATION, Key, check_section, integer, is_int, is_number, listing, mapping,
                                  number, string)
 from contin.scene.sweep_plan import SweepPlan, parameter_name, sweep_names, sweep_plan
-from contin.stability.monitor import describe_ranges, replaced_ranges
 from contin.timedomain.simulation import SimulationError
 
 __all__ = ["FrequencyResponse", "FrequencyResponsePlan", "StartSetup", "BranchRecorder", "START_KEYS", "SCHEMA",
@@ -59,7 +65,7 @@ __all__ = ["FrequencyResponse", "FrequencyResponsePlan", "StartSetup", "BranchRe
 
 #: keys a further start (``analysis.starts``) may change; the others are shared
 START_KEYS = ("start", "start_from", "start_simulation", "subharmonic", "harmonics", "samples", "crossings", "both_ways",
-              "guess", "stability_options", "switch", "continuation")
+              "guess", "stability_options", "switch", "continuation", "method", "shooting")
 
 
 def _torus_ok(v) -> bool:
@@ -104,6 +110,12 @@ SCHEMA = {
     "both_ways": Key("true or false", lambda v: isinstance(v, bool), False),
     "guess": Key("a list of numbers (the harmonic coefficients) or null",
                  lambda v: v is None or (isinstance(v, list) and all(is_number(x) for x in v)), None),
+    # harmonic balance, shooting on the integrated flow, or harmonic balance handed to shooting at grazing
+    "method": string("auto", METHODS),
+    # validated by ShootingSettings.from_dict (each key named in its messages)
+    "shooting": Key("a mapping with keys among segments (an integer >= 1 dividing steps_per_period: the shooting "
+                    "segments of the period) and steps_per_period (RK4 steps per forcing period, an integer from 16 "
+                    "to 2**20, default 1024)", lambda v: isinstance(v, dict), {}),
     "starts": listing([], lambda x: isinstance(x, dict),
                       "a list of mappings, each a further start with keys among " + ", ".join(START_KEYS)),
 }
@@ -249,6 +261,10 @@ class StartSetup:
         (:func:`contin.analyses.stability_hooks.stability_setup`).
     scale_key : str
         The key that sets its ``continuation.unknown_scale``.
+    method : str
+        ``hb``, ``shooting`` or ``auto`` (:func:`contin.analyses.shooting_rows.analysis_method`).
+    shooting : ShootingSettings
+        ``analysis.shooting``.
     """
 
     key: str
@@ -259,6 +275,8 @@ class StartSetup:
     options: ContinuationOptions
     follow: Callable
     scale_key: str
+    method: str = "hb"
+    shooting: ShootingSettings = ShootingSettings()
 
 
 @dataclass(frozen=True)
@@ -282,13 +300,33 @@ def _plan(scene, model) -> FrequencyResponsePlan:
         if a["guess"] is not None and len(a["guess"]) != hb.size:
             raise scene.error(f"{key}.guess", f"{hb.size} numbers (n*(2H+1) coefficients)", f"{len(a['guess'])} numbers")
         problem = engine_problem(sc, hb)
+        method = analysis_method(a, hb)
+        shooting = ShootingSettings.from_dict(a.get("shooting"), f"{key}.shooting")
+        if method == "shooting":
+            problem = shooting_problem(hb, shooting)
+            if a["guess"] is not None:
+                raise scene.error(f"{key}.guess", "no guess with method: shooting (its start is a state)", True)
         if a["start_from"] == "simulation" and a["guess"] is None:
             default = inspect.signature(simulation_start).parameters["steps_per_period"].default
             check_time_step(model, {hb.parameter: sweep.start}, a["start_simulation"].get("steps_per_period", default),
                             f"{key}.start_simulation.steps_per_period", scene.lines, f"{key}.start", hb.frequency)
-        setups.append(StartSetup(key, sc, hb, problem, sweep, opts, stability_setup(a, problem), scale_key(scene, i)))
-    check_output(scene, plot_measures(scene, model, setups[0].hb), list(model.parameters))
+        setups.append(StartSetup(key, sc, hb, problem, sweep, opts, stability_setup(a, hb if method == "shooting" else
+                                                                                    problem),
+                                 scale_key(scene, i), method, shooting))
+    check_output(scene, plot_measures(scene, model, setups[0].hb), list(model.parameters), panels=True)
     return FrequencyResponsePlan(tuple(setups))
+
+
+def _shooting_factory(plan: FrequencyResponsePlan):
+    """``make(header) -> ShootingProblem``: a resumed shooting branch's problem from its checkpoint record."""
+    hb = plan.first.hb
+
+    def make(header: dict):
+        d = header.get("shooting") or {}
+        settings = ShootingSettings(int(d.get("segments", 1)), int(d.get("steps_per_period", 1024)))
+        return shooting_problem(hb, settings, int(header.get("nu") or 1))
+
+    return make
 
 
 def _wants_tori(scene) -> bool:
@@ -321,6 +359,7 @@ def _run(plan: FrequencyResponsePlan, ctx) -> Outcome:
         raise SceneError("--resume", "result files of this scene", str(exc),
                          hint="; run again without --resume, or use another -o") from None
     rec.expansion.full = hb
+    rec.shooting_problem = _shooting_factory(plan)
     if previous:
         rec.restore(previous)
     ctx.recorder = rec
@@ -332,6 +371,12 @@ def _run(plan: FrequencyResponsePlan, ctx) -> Outcome:
             a = sc.analysis
             if len(results) in previous:  # taken up from the checkpoint: no start to compute
                 u0 = np.asarray(previous[len(results)].unknowns[0])
+            elif is_shooting(problem):
+                u_hb = None if a["start_from"] == "simulation" else start_guess(sc, model, hb_i, lam0)
+                try:
+                    u0 = shooting_start(problem, hb_i, a, lam0, u_hb)
+                except (SimulationError, ArithmeticError) as exc:
+                    raise RunError(f"no starting orbit at {hb_i.parameter}={lam0:g}: {exc}") from None
             else:
                 u0 = np.array(a["guess"], dtype=float) if a["guess"] is not None else start_guess(sc, model, hb_i,
                                                                                                    lam0, problem, opts)
@@ -341,6 +386,8 @@ def _run(plan: FrequencyResponsePlan, ctx) -> Outcome:
             results += setup.follow(problem, u0, lam0, (lo, hi), opts, rec, ctx, previous, first_id=first)
             if len(results) > first and results[first][0].status == BranchStatus.START_FAILED:
                 results[first][0].message += start_advice(sc, hb_i, lam0)
+            if setup.method == "auto":  # branches that harmonic balance could not take past a grazing point
+                results = hand_over(results, first, setup, rec, ctx, previous, (lo, hi))
             if ctx.stop_requested or any(b.status == BranchStatus.INTERRUPTED for b, _ in results):
                 break
     finally:
@@ -359,16 +406,20 @@ def _run(plan: FrequencyResponsePlan, ctx) -> Outcome:
                        "retried_with_step_halving": branch.info.get("n_backtracked", 0)},
             "rescalings": [list(r) for r in branch.info.get("rescalings", [])],
             "stability": _stability_summary(branch),
-            "uncovered": _interval_or_none(branch.info.get("uncovered")),
+            "uncovered": _interval_or_none(branch.info.get("uncovered")) or boundary_gap(branch, (lo, hi)),
             "torus": meta.get("torus"),
+            "method": meta.get("method", "hb"),
+            **({k: meta[k] for k in ("handed_over_to", "handed_over_from", "handover_failed", "end") if k in meta}),
+            **({"returned": branch.info["returned"]} if "returned" in branch.info else {}),
         })
     ctx.timings["continuation"] = time.perf_counter() - t0
     interrupted = any(b.status == BranchStatus.INTERRUPTED for b, _ in results)
     ctx.interrupted = ctx.interrupted or interrupted
     # a grazing end is an end as asked only where the orbit itself grazes and goes no further
     t_ends = time.perf_counter()
+    checked = {j: p for j, p in rec.problems.items() if j < len(results) and "handed_over_to" not in results[j][1]}
     end_shortfalls = [] if ctx.interrupted or ctx.stop_requested else branch_end_checks(
-        results, rec.problems, branches_info, (lo, hi), max(s.options.newton_tol for s in plan.starts), hb.parameter)
+        results, checked, branches_info, (lo, hi), max(s.options.newton_tol for s in plan.starts), hb.parameter)
     ctx.timings["end_checks"] = time.perf_counter() - t_ends
     part = {
         "parameter": hb.parameter,
@@ -424,9 +475,18 @@ class FrequencyResponse(Analysis):
         a, hb, problem = scene.analysis, plan.first.hb, plan.first.problem
         lines = [f"  parameter {hb.parameter} over {a['range']}, harmonics H={hb.H}, subharmonic nu={hb.nu}, "
                  f"samples N={hb.N}", f"  unknowns: {hb.size} = {hb.n} dof x (2H+1)"]
-        if problem is not hb:
+        if is_shooting(problem):  # its unknowns are the states at the segment starts
+            lines[1] = f"  unknowns: {problem.size} = {hb.n} dof x 2 (x, x') x {plan.first.shooting.segments} segment(s)"
+        elif problem is not hb:
             lines.append(f"  {problem.describe()}")
         lines.append(f"  stability: {a['stability']}; switching at: {', '.join(a['switch']) or 'none'}")
+        sh = plan.first.shooting
+        if plan.first.method != "hb":  # harmonic balance alone: as before, nothing to add
+            lines.append({"shooting": f"  method: shooting ({sh.segments} segment(s), {sh.steps_per_period} RK4 "
+                                      "steps a forcing period)",
+                          "auto": f"  method: harmonic balance, handed to shooting ({sh.segments} segment(s), "
+                                  f"{sh.steps_per_period} steps a period) at a grazing point it cannot pass"}
+                         [plan.first.method])
         if "ns" in a["switch"]:
             t = TorusSettings.from_dict(a.get("torus") or {}, hb.H)
             o = t.options
@@ -441,60 +501,20 @@ class FrequencyResponse(Analysis):
             switch = [k for k in s.scene.analysis.get("switch") or () if k in ("pd", "ns")]
             n = getattr(s.problem, "n", s.hb.n)
             what = f"{dofs_text(n)} x {2 * s.hb.H + 1} coefficients" + (" (condensed)" if s.problem is not s.hb else "")
+            if is_shooting(s.problem):
+                what = f"{dofs_text(n)} x 2 states x {s.shooting.segments} segment(s)"
             out.append(ScaleCheck(s.scale_key, s.options, s.problem.size, what,
                                   f"analysis.switch: [{', '.join(switch)}]" if switch else ""))
         return out
 
 
-def _interval_or_none(gap):
-    return None if gap is None else [float(gap[0]), float(gap[1])]
-
-
-def _finite_or_none(v):
-    return float(v) if v is not None and np.isfinite(v) else None
-
-
-def _condition_summary(branch) -> dict:
-    """Largest and last condition estimates of the scaled bordered Newton Jacobian (None if singular/absent)."""
-    info = branch.info
-    return {"max": _finite_or_none(info.get("max_condition")),
-            "max_at": _finite_or_none(info.get("max_condition_parameter")),
-            "last": _finite_or_none(info.get("last_condition"))}
-
-
-def _stability_summary(branch) -> dict | None:
-    """Where Hill's multipliers were replaced by the monodromy's, and why."""
-    st = branch.info.get("stability")
-    if not st:
-        return None
-    out = {"method": st.get("method"),
-           "hill_monodromy_gap": st.get("largest_hill_monodromy_gap"),
-           # points of the branch (the statistics count every evaluation: rejected steps and locations too)
-           "fallbacks": replaced_ranges(branch, "hill_fallback")[0],
-           "disagreements": replaced_ranges(branch, "disagreement")[0],
-           "unevaluated": len(st.get("unevaluated", []))}
-    if st.get("unevaluated"):
-        lam, why = st["unevaluated"][0]
-        out["unevaluated_message"] = (f"no stability verdict at {len(st['unevaluated'])} points (first at "
-                                      f"{lam:.10g}: {why}); their rows have empty stability cells")
-    count, ranges = replaced_ranges(branch, ("disagreement", "hill_fallback"))
-    if count:
-        out["first_fallback_at"] = ranges[0][0]
-        out["replaced_points"] = count
-        out["replaced_ranges"] = [list(r) for r in ranges]
-        out["message"] = (f"Hill and the monodromy disagreed at {count} of the branch's {len(branch)} points "
-                          f"({describe_ranges(branch.parameter_name, ranges)}): the monodromy's multipliers were "
-                          "used there")
-    return out
-
-
 def _plot(ctx, rec, hb):
     out = ctx.scene.output
     measure = out["measure"] or f"amp_{hb.model.dof_names[0]}"  # checked by check()
-    curves, special = diagram_branches(rec, measure)
-    return bifurcation_diagram(curves, special, hb.parameter, measure, ctx.outdir / "bifurcation_diagram",
-                               units=out["units"], labels=out["labels"], symbols=model_symbols(hb.model),
-                               title=out["title"], formats=out["formats"], dpi=out["dpi"], style=out["style"])
+    drawn = [(m, *diagram_branches(rec, m)) for m in out.get("panels") or [measure]]  # output.panels: stacked
+    return panel_diagram(drawn, hb.parameter, ctx.outdir / "bifurcation_diagram", zoom=out.get("zoom"),
+                         units=out["units"], labels=out["labels"], symbols=model_symbols(hb.model),
+                         title=out["title"], formats=out["formats"], dpi=out["dpi"], style=out["style"])
 
 
 def diagram_branches(rec: BranchRecorder, measure: str) -> tuple[list, list]:
@@ -536,7 +556,8 @@ def diagram_branches(rec: BranchRecorder, measure: str) -> tuple[list, list]:
             special.append({"x": float(s[rec.parameter]), "y": sy, "kind": s["kind"], "branch": bid,
                             "located": bool(s.get("located", True))})
         evaluate, U, directions = None, np.zeros((x.size, 0)), None
-        if measure in rec.measures and len(c.get("u", ())) == x.size and x.size > 1:  # a function of u
+        if (measure in rec.measures and len(c.get("u", ())) == x.size and x.size > 1
+                and c.get("method") != "shooting"):  # a function of u (a shooting row's extremes are sampled)
             evaluate, U = _evaluator(rec, measure, c["nu"], rec.problems.get(bid)), np.array(c["u"])
             if all(d is not None for d in c["direction"]):
                 directions = np.array(c["direction"])

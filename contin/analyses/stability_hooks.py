@@ -7,6 +7,7 @@ from contin.scene.parse import SceneError
 from contin.stability import StabilityOptions
 from contin.bifurcation.diagram import follow as follow_diagram
 from contin.bifurcation.torus_branch import TorusSettings
+from contin.analyses.shooting_rows import is_shooting, order_of
 
 __all__ = ["stability_setup"]
 
@@ -29,12 +30,17 @@ def stability_setup(analysis: dict, hb):
     Returns
     -------
     follow : callable
-        ``follow(hb, u0, lam0, lam_range, options, recorder, ctx, previous, first_id) -> [(Branch, meta)]``:
+        ``follow(hb, u0, lam0, lam_range, options, recorder, ctx, previous, first_id, both_ways=None)
+        -> [(Branch, meta)]``:
         traces the first branch with stability (unless ``stability: none``),
         in both directions from the start if ``analysis.both_ways``,
         switches at the kinds listed in ``analysis.switch`` (one generation,
         at most ``analysis.max_branches`` branches), and records every point
-        as it is found; branch ids start at ``first_id``.
+        as it is found; branch ids start at ``first_id``. ``hb`` may be a
+        shooting problem (the flow's multipliers; a period doubling starts a
+        shooting branch of twice the period); ``both_ways`` overrides
+        ``analysis.both_ways`` (a branch handed over at a grazing point runs on
+        in its own direction only).
     """
     stab = stability_options(analysis)
     switch = tuple(analysis["switch"])
@@ -47,11 +53,13 @@ def stability_setup(analysis: dict, hb):
     except ValueError as exc:
         raise SceneError("analysis.torus", "valid torus settings", analysis.get("torus"), hint=f": {exc}") from None
 
-    def follow(hb, u0, lam0, lam_range, options, rec, ctx, previous=None, first_id=0):
+    def follow(hb, u0, lam0, lam_range, options, rec, ctx, previous=None, first_id=0, both_ways=None):
         def factory(index, problem):
+            nu = order_of(problem)
+
             def callback(branch, i):
-                rec.point(index, problem.nu, branch, i, problem.H, problem=problem)
-                ctx.progress.update(f"branch {index} (nu={problem.nu})  {problem.parameter}={branch.parameter[i]:.6g}"
+                rec.point(index, nu, branch, i, getattr(problem, "H", None), problem=problem)
+                ctx.progress.update(f"branch {index} (nu={nu})  {problem.parameter}={branch.parameter[i]:.6g}"
                                     f"  point {i}  ds={branch.step_sizes[i]:.3g}",
                                     parameter=branch.parameter, bounds=lam_range, task=f"branch {index}")
                 return not ctx.stop_requested
@@ -62,7 +70,8 @@ def stability_setup(analysis: dict, hb):
             return lambda branch, state: rec.checkpoint(index, branch, state)
 
         previous = previous or {}
-        runs = runs_from_start(options, analysis["both_ways"], lam0, lam_range)
+        both = analysis["both_ways"] if both_ways is None else both_ways
+        runs = runs_from_start(options, both, lam0, lam_range)
         pairs, offset = [], first_id
         for opts in runs:
             def shifted(index, problem, offset=offset):
@@ -85,7 +94,8 @@ def stability_setup(analysis: dict, hb):
         for j, (br, prob) in enumerate(pairs, start=first_id):
             rec.special_points(j, br, prob)
             org = br.info.get("origin")
-            out.append((br, {"nu": prob.nu, "harmonics": prob.H, "parent": br.info.get("parent"),
+            out.append((br, {"nu": order_of(prob), "harmonics": getattr(prob, "H", None),
+                             "method": "shooting" if is_shooting(prob) else "hb", "parent": br.info.get("parent"),
                              "torus": br.info.get("torus"),
                              "origin": None if org is None else {k: org[k] for k in ("kind", "parameter", "located",
                                                                                      "note") if k in org}}))

@@ -17,6 +17,8 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
+from contin.bifurcation.shooting_branch import (ReturnEvent, ShootingMonitor, finish_return, is_shooting,
+                                                return_events, shooting_pd_start, watch_return)
 from contin.bifurcation.switching import BranchStart, continuation_scales, switch_at
 from contin.bifurcation.torus_branch import TorusSettings, run_torus
 from contin.bifurcation.torus_start import torus_start
@@ -26,6 +28,7 @@ from contin.hb.grazing import grazing_events
 from contin.stability.events import stability_events
 from contin.stability.monitor import StabilityMonitor
 from contin.stability.options import StabilityMethod, StabilityOptions
+from contin.timedomain.shooting_events import shooting_events
 
 __all__ = ["BifurcationDiagram", "follow", "switch_branch"]
 
@@ -39,9 +42,9 @@ def _run(start: BranchStart, lam_range, options: ContinuationOptions, stability:
         return _resume(previous, start.problem, lam_range, opts, parameter_name, events, monitors, callback,
                        checkpoint), monitor
     tangent = np.concatenate([start.tangent[:-1] / su, [start.tangent[-1] / sl]])
-    br = continuation(start.problem, start.u, start.lam, lam_range, opts, parameter_name=parameter_name,
-                      events=events, monitors=monitors, tangent=tangent, solve_start=False, callback=callback,
-                      checkpoint=checkpoint)
+    br = _continue(start.problem, start.u, start.lam, lam_range, opts, parameter_name=parameter_name,
+                   events=events, monitors=monitors, tangent=tangent, solve_start=False, callback=callback,
+                   checkpoint=checkpoint)
     return br, monitor
 
 
@@ -54,10 +57,25 @@ def _stability(problem, stability: StabilityOptions, options: ContinuationOption
     """
     monitor, events, monitors = None, [], []
     if stability.method is not StabilityMethod.NONE:
-        monitor = StabilityMonitor(problem, stability)
+        # a shooting branch's multipliers are the flow's (its monodromy), not Hill's
+        monitor = ShootingMonitor(problem, stability) if is_shooting(problem) else StabilityMonitor(problem, stability)
         events = stability_events(monitor, folds=not options.detect_folds)
         monitors = [monitor]
+    # a shooting branch locates its grazing points and passes them (and its return to the branch of half its
+    # period); a harmonic balance ends at them
+    if is_shooting(problem):
+        return monitor, events + shooting_events(problem) + return_events(problem), monitors
     return monitor, events + grazing_events(problem), monitors
+
+
+def _continue(problem, u0, lam0, lam_range, options, *, events=(), monitors=(), callback=None, checkpoint=None,
+              **kw) -> Branch:
+    """:func:`continuation`, a branch of twice the period ending where it returns to the branch it was born on
+    (:func:`contin.bifurcation.shooting_branch.watch_return`)."""
+    br = continuation(problem, u0, lam0, lam_range, options, events=events, monitors=monitors,
+                      callback=watch_return(callback, events), checkpoint=checkpoint, **kw)
+    finish_return(br, events, monitors, checkpoint)
+    return br
 
 
 def _resume(prev: Branch, problem, lam_range, options: ContinuationOptions, name: str, events, monitors, callback,
@@ -77,9 +95,9 @@ def _resume(prev: Branch, problem, lam_range, options: ContinuationOptions, name
     state = prev.info.pop("restart", None)
     if state is None or not len(prev):
         raise ValueError("resume: a branch without the engine state of its last point")
-    return continuation(problem, prev.unknowns[0], float(prev.parameter[0]), lam_range, options, parameter_name=name,
-                        events=events, monitors=monitors, callback=callback, checkpoint=checkpoint,
-                        restart=(prev, state))
+    return _continue(problem, prev.unknowns[0], float(prev.parameter[0]), lam_range, options, parameter_name=name,
+                     events=events, monitors=monitors, callback=callback, checkpoint=checkpoint,
+                     restart=(prev, state))
 
 
 def switch_branch(problem, branch: Branch, point: SpecialPoint, lam_range=None, options=None, *,
@@ -141,6 +159,8 @@ def _origin(point: SpecialPoint, parent: int | None, st: BranchStart) -> dict:
 
 
 def _annotate_problem(br: Branch, problem) -> None:
+    if is_shooting(problem):
+        br.info.update(subharmonic=int(problem.options.subharmonic), method="shooting")
     for attr, key in (("nu", "subharmonic"), ("H", "harmonics"), ("N", "samples")):
         if hasattr(problem, attr):
             br.info[key] = int(getattr(problem, attr))
@@ -223,7 +243,7 @@ def _switch_candidates(br: Branch, kinds: set, origin_lam: float | None, tol: fl
     chosen: dict[tuple, SpecialPoint] = {}
     for sp in br.special_points:
         kind = _kind(sp)
-        if kind.value not in kinds:
+        if kind.value not in kinds or sp.event == ReturnEvent.name:  # a return to the parent: no new branch
             continue
         scale = tol * max(1.0, abs(sp.parameter))
         if origin_lam is not None and abs(sp.parameter - origin_lam) <= 1e3 * scale and sp.index <= 1:
@@ -263,6 +283,16 @@ def _torus_child(prob, br: Branch, sp: SpecialPoint, torus: TorusSettings | None
                                         "message": f"no first point of the torus branch: {why}"
                                                    + (f" ({_from_bracket(sp)})" if not sp.located else "")})
     return st
+
+
+def _shooting_pd(prob, sp: SpecialPoint, failed: list) -> list:
+    """The one first point of the doubled branch at a shooting branch's period doubling (its two sides are one
+    orbit shifted by a forcing period), or none with the reason in ``failed``."""
+    try:
+        return [shooting_pd_start(prob, sp)]
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+        failed.append({"kind": "pd", "parameter": float(sp.parameter), "side": 1, "message": str(exc)})
+        return []
 
 
 def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | dict | None = None, *,
@@ -362,8 +392,8 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
         root = _resume(previous[0], problem, lam_range, options, name, events, monitors, cb_for(0, problem),
                        ck_for(0, problem))
     else:
-        root = continuation(problem, u0, lam0, lam_range, options, parameter_name=name, events=events,
-                            monitors=monitors, callback=cb_for(0, problem), checkpoint=ck_for(0, problem))
+        root = _continue(problem, u0, lam0, lam_range, options, parameter_name=name, events=events,
+                         monitors=monitors, callback=cb_for(0, problem), checkpoint=ck_for(0, problem))
     root.info.update(parent=None, origin=None, depth=0)
     if monitor is not None:
         _record_stability(root, monitor)
@@ -404,11 +434,14 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
                                   ck_for(j, st.problem), resume)
                 diagram.add(child, st, i, sp, None, depth + 1)
                 continue
-            if sp.kind is SpecialKind.PD and not hasattr(prob, "with_options") and problem_factory is None:
-                continue
             failed: list = []
-            found = switch_at(prob, br, sp, options=options, eps=eps, problem_factory=problem_factory,
-                              pd_direction=pd_direction, failures=failed)
+            if _kind(sp) is SpecialKind.PD and is_shooting(prob):
+                found = _shooting_pd(prob, sp, failed)
+            elif sp.kind is SpecialKind.PD and not hasattr(prob, "with_options") and problem_factory is None:
+                continue
+            else:
+                found = switch_at(prob, br, sp, options=options, eps=eps, problem_factory=problem_factory,
+                                  pd_direction=pd_direction, failures=failed)
             where = _from_bracket(sp)
             diagram.failed_switches.extend({"parent": i, **f, **({"message": f"{f['message']} ({where})"}
                                                                   if where else {})} for f in failed)

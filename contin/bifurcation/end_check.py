@@ -51,8 +51,8 @@ from contin.hb.grazing import orbit_contacts
 from contin.hb.harmonics import coefficient_blocks
 from contin.hb.problem import HarmonicBalance
 
-__all__ = ["GrazingEnd", "EndCheckOptions", "RESOLVED", "REACH", "branch_end_checks", "check_grazing_end",
-           "grazing_end", "higher_harmonics"]
+__all__ = ["GrazingEnd", "EndCheckOptions", "RESOLVED", "REACH", "barrier_point", "branch_end_checks",
+           "check_grazing_end", "grazing_end", "higher_harmonics"]
 
 #: the grazing switching function's extremum at ``H'`` is zero to this fraction of its range over the period
 RESOLVED = 0.05
@@ -170,18 +170,16 @@ def higher_harmonics(H: int) -> int:
 
 
 def _hb_of(problem):
-    hb = getattr(problem, "full", problem)
+    hb = problem.full
     return hb if isinstance(hb, HarmonicBalance) else None
 
 
 def _full(problem, u, lam):
-    expand = getattr(problem, "expand", None)
-    return np.asarray(expand(u, lam) if expand is not None else u, dtype=float)
+    return np.asarray(problem.expand(u, lam) if problem.condensed else u, dtype=float)
 
 
 def _reduced(problem, u_full):
-    restrict = getattr(problem, "restrict", None)
-    return np.asarray(restrict(u_full) if restrict is not None else u_full, dtype=float)
+    return np.asarray(problem.restrict(u_full) if problem.condensed else u_full, dtype=float)
 
 
 def _switching_values(hb: HarmonicBalance, u_full, lam: float, function) -> np.ndarray:
@@ -350,6 +348,13 @@ def _direction(branch: Branch, sp: SpecialPoint) -> int:
     i = min(max(int(sp.index), 0), lam.size - 1)
     before = lam[i - 1] if i >= 1 else lam[0]
     return 1 if sp.parameter >= before else -1
+
+
+def barrier_point(branch: Branch) -> tuple[SpecialPoint, int] | None:
+    """The grazing point a ``boundary`` branch could not pass (the first of a cascade) and the branch's running
+    direction in the parameter as it reached it; None for any other end."""
+    sp = _end_point(branch)
+    return None if sp is None else (sp, _direction(branch, sp))
 
 
 def check_grazing_end(problem, branch: Branch, lam_range, tol: float = 1e-10,

@@ -391,11 +391,11 @@ def switch_at(problem, branch: Branch, point: SpecialPoint, *, options: Continua
         if pd_direction == "hill":
             spec = hill_spectrum(problem, u_star, lam_star, vectors=True)
             j = int(np.argmin(np.abs(spec.multipliers + 1.0)))
-            n_hill = getattr(problem, "full", problem).n  # Hill's vectors are full for a condensed problem
+            n_hill = problem.full.n  # Hill's vectors are full for a condensed problem
             phi = hill_vector_to_doubled(spec.vectors[:, j], spec.exponents[j], spec.Omega, n_hill, hb2.H)
             if np.linalg.norm(phi) < 0.5:
                 phi = hill_vector_to_doubled(spec.vectors[:, j], spec.exponents[j], spec.Omega, n_hill, hb2.H, "imag")
-            if hasattr(hb2, "restrict"):
+            if hb2.condensed:
                 phi = hb2.restrict(phi)
                 phi /= np.linalg.norm(phi)
         elif pd_direction == "svd":

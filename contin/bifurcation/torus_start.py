@@ -66,7 +66,7 @@ def critical_mode(hb, u: np.ndarray, lam: float, multiplier: complex | None = No
         j = cand[np.argmin(np.abs(spec.multipliers[cand] - multiplier))]
     else:
         j = cand[np.argmax(ex[cand].real)]
-    n = getattr(hb, "full", hb).n
+    n = hb.full.n
     Q = spec.vectors[:, j].reshape(-1, n)
     H = (Q.shape[0] - 1) // 2
     c = {0: Q[0].astype(complex)}
@@ -127,9 +127,9 @@ def torus_start(problem, branch: Branch, point: SpecialPoint, options: TorusOpti
         its unknowns ``(coefficients, w2)``. None if Newton failed for every
         ``eps``.
     """
-    hb = getattr(problem, "full", None) or problem
+    hb = problem.full
     u_star = np.asarray(point.unknowns, dtype=float)
-    if hb is not problem:
+    if problem.condensed:
         u_star = problem.expand(u_star, float(point.parameter))
     lam_star = float(point.parameter)
     w2, lines = critical_mode(hb, u_star, lam_star, point.data.get("multiplier"))

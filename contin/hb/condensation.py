@@ -417,6 +417,19 @@ class CondensedHarmonicBalance:
         """The solution period at ``p``, as the full problem has it."""
         return self.full.period(p)
 
+    # the periodic-problem protocol (contin.model.periodic): the frequency and period as the full problem has them
+    condensed = True
+
+    def frequency_at(self, lam: float) -> float:
+        return self.full.frequency_at(lam)
+
+    def period_at(self, lam: float) -> float:
+        return self.full.period_at(lam)
+
+    def orbit(self, u: np.ndarray, lam: float, t):
+        """Every dof's displacements and velocities at times ``t``, shape (full.n, len(t)) each."""
+        return self.full.orbit(self.expand(u, lam), lam, t)
+
     def with_options(self, **changes) -> "CondensedHarmonicBalance":
         """The condensed problem of ``full.with_options(**changes)`` (the same dofs)."""
         return CondensedHarmonicBalance(self.full.with_options(**changes), self.dofs, self.band is not None)

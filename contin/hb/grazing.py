@@ -169,8 +169,8 @@ class GrazingEvent(Event):
 
     def __init__(self, problem):
         self.problem = problem
-        self.hb = getattr(problem, "full", problem)
-        self._expand = getattr(problem, "expand", None)
+        self.hb = problem.full
+        self._expand = problem.expand if problem.condensed else None
         self._cache: OrderedDict = OrderedDict()
 
     def contacts(self, point: PointInfo) -> OrbitContacts:
@@ -212,7 +212,7 @@ class GrazingEvent(Event):
 
 def grazing_events(problem) -> list[Event]:
     """``[GrazingEvent(problem)]`` when the problem's model has switching force elements, else ``[]``."""
-    hb = getattr(problem, "full", problem)
+    hb = problem.full
     model = getattr(hb, "model", None)
     if model is None or not hasattr(hb, "N") or getattr(hb, "H", 0) < 1 or not _switching_elements(model):
         return []

@@ -39,6 +39,7 @@ import numpy as np
 from contin.hb import aft, contact_quadrature, crossings
 from contin.hb.harmonics import coefficient_blocks, default_samples, derivative_coefficients, sample_phases
 from contin.hb.linear import LinearTerms, linear_apply, linear_apply_dOmega, linear_operator, split_operator
+from contin.hb.periodic import SeriesMembers
 from contin.model.base import Model
 from contin.model.elements.harmonic import HarmonicExcitation
 from contin.util.options import from_mapping
@@ -103,7 +104,7 @@ class HBOptions:
         return from_mapping(cls, d)
 
 
-class HarmonicBalance:
+class HarmonicBalance(SeriesMembers):
     """The residual ``R(u, lambda)`` of a model's periodic solutions.
 
     Parameters

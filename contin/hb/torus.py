@@ -44,6 +44,7 @@ from contin.hb.factory import harmonic_balance
 from contin.hb.problem import HBOptions
 from contin.hb.qp_basis import QPBasis
 from contin.model.base import Model
+from contin.model.periodic import AllDofs
 
 __all__ = ["TorusOptions", "QuasiPeriodicBalance", "COMPONENTS", "torus_measure_names", "torus_measures"]
 
@@ -91,7 +92,7 @@ class TorusOptions:
                                  f"got {v!r}")
 
 
-class QuasiPeriodicBalance:
+class QuasiPeriodicBalance(AllDofs):
     """The residual of a model's quasi-periodic solutions, with the second frequency as an unknown.
 
     Parameters
@@ -183,6 +184,20 @@ class QuasiPeriodicBalance:
     def base_frequency(self, p: np.ndarray) -> float:
         """``Omega1 = w/nu`` at ``p``."""
         return self.periodic.base_frequency(p)
+
+    # -- the periodic-problem protocol (contin.model.periodic; full, condensed, dof_names from AllDofs) --
+    def frequency_at(self, lam: float) -> float:
+        """The excitation frequency ``w`` at ``lam``."""
+        return self.periodic.frequency_at(lam)
+
+    def period_at(self, lam: float) -> float:
+        """``2 pi nu / w``, the period of the forced base frequency (the torus' first angle)."""
+        return self.periodic.period_at(lam)
+
+    def orbit(self, u: np.ndarray, lam: float, t):
+        """:meth:`state_at` along the trajectory with ``theta2 = w2 t``, transposed: shape (n, len(t)) each."""
+        x, xd = self.state_at(u, lam, t)
+        return x.T.copy(), xd.T.copy()
 
     def frequencies(self, u: np.ndarray, lam: float) -> np.ndarray:
         """The pairs' frequencies ``k1 Omega1 + k2 w2`` at a point, shape (P,)."""

@@ -1,4 +1,4 @@
-"""Mechanical models: linear matrices plus force and excitation elements, expressions and their compiled kernels, the catalogue of built-in models.
+"""Mechanical models: linear matrices plus force and excitation elements, expressions and their compiled kernels, the catalogue of built-in models; the protocol every periodic problem offers.
 """
 
 from contin.util.lazy import lazy_exports
@@ -7,6 +7,7 @@ from contin.util.lazy import lazy_exports
 _FACE = {
     "base": "Model Monomial ParametricMatrix ForceElement ExcitationElement",
     "catalog": "MODELS build_model get_spec rule_violation load_builtin_models",
+    "periodic": "PeriodicProblem",
     "elements.registry": "CompiledForm Joined SceneContext kinds_with_compiled_form scene_forms shorten",
     "elements.expression": "ExpressionCoefficient state_names",
     "elements.gap": "GapForce",

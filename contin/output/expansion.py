@@ -23,6 +23,11 @@ __all__ = ["ENGINE_UNKNOWNS", "StoredExpansion", "stores_kept"]
 ENGINE_UNKNOWNS = "engine"
 
 
+def _full_of(problem):
+    """The problem in every dof behind ``problem`` (:attr:`contin.model.periodic.PeriodicProblem.full`); None stays None."""
+    return None if problem is None else problem.full
+
+
 def stores_kept(header: dict | None) -> bool:
     """Whether the points of the branch ``header`` describes hold only its kept dofs' coefficients."""
     return bool(header) and header.get("unknowns") == ENGINE_UNKNOWNS and header.get("dofs") is not None
@@ -47,7 +52,7 @@ class StoredExpansion:
     """
 
     def __init__(self, full=None, known: dict | None = None, make=None):
-        self._full = getattr(full, "full", full)
+        self._full = _full_of(full)
         self._make = make
         self.known = known if known is not None else {}
         self._made: dict = {}
@@ -57,17 +62,17 @@ class StoredExpansion:
         """The run's full problem (made on first use when given as ``make``)."""
         if self._full is None and self._make is not None:
             made, self._make = self._make(), None
-            self._full = getattr(made, "full", made)
+            self._full = _full_of(made)
         return self._full
 
     @full.setter
     def full(self, problem) -> None:
-        self._full = getattr(problem, "full", problem)
+        self._full = _full_of(problem)
 
     def problem(self, header: dict):
         """The condensed problem of the branch ``header`` describes (None when none can be made)."""
         known = self.known.get(header.get("branch"))
-        if known is not None and hasattr(known, "expand"):
+        if known is not None and known.condensed:
             return known
         if self.full is None:
             return None

@@ -24,8 +24,8 @@ from matplotlib.transforms import Affine2D, ScaledTranslation
 from contin.output.figures import figure_style, new_figure, save_figure
 from contin.output.labels import axis_label, math
 
-__all__ = ["bifurcation_diagram", "draw_bifurcation_diagram", "branch_label", "axis_label", "kind_name", "point_marker",
-           "SPECIAL", "CHANGES"]
+__all__ = ["bifurcation_diagram", "draw_bifurcation_diagram", "draw_curves", "branch_label", "axis_label", "kind_name",
+           "point_marker", "SPECIAL", "CHANGES"]
 
 #: special points drawn: marker, name in the table, short name (narrow figures)
 SPECIAL = {"fold": ("o", "fold", "fold"), "pd": ("s", "period doubling", "PD"), "ns": ("D", "Neimark-Sacker", "NS"),
@@ -108,6 +108,61 @@ def _groups(branches) -> list:
     return list(zip(labels, out))
 
 
+def draw_curves(ax, branches, special) -> tuple:
+    """Draw the branches and mark the special points in ``ax``, without axis labels, legend or numbers.
+
+    Parameters
+    ----------
+    ax : matplotlib Axes
+    branches, special : list of dict
+        As :func:`draw_bifurcation_diagram` takes them.
+
+    Returns
+    -------
+    handles : list
+        The legend's entries: a colour per group of branches (with more than one group) and the line
+        styles drawn.
+    points : list of dict
+        The special points drawn (finite ones of a kind of :data:`SPECIAL`), copies with ``located`` set.
+    ms : float
+        The markers' size (points).
+    """
+    styles = _line_styles()
+    colors = matplotlib.rcParams["axes.prop_cycle"].by_key().get("color", ["C0"])
+    groups = _groups(branches)
+    seen_styles = set()
+    handles = []
+    for gi, (label, members) in enumerate(groups):
+        color = colors[gi % len(colors)]
+        for i in members:
+            br = branches[i]
+            if br.get("torus"):  # quasi-periodic: a light band under the line
+                ax.plot(br["x"], br["y"], linewidth=5 * styles[True][1], alpha=0.22, color=color,
+                        solid_capstyle="round")
+                seen_styles.add("torus")
+            for xs, ys, st in _segments(np.asarray(br["x"], float), np.asarray(br["y"], float), br.get("stable")):
+                ls, lw = styles[st]
+                ax.plot(xs, ys, linestyle=ls, linewidth=lw, color=color)
+                seen_styles.add(st if br.get("stable") is not None else "plain")
+        if label and len(groups) > 1:  # a colour swatch: the branch's style varies along it, keyed below
+            handles.append(Patch(facecolor=color, edgecolor=color, label=label))
+    key_color = colors[0] if len(groups) == 1 else "0.3"
+    for st, text in ((True, "stable"), (False, "unstable"), (None, "no stability verdict")):
+        if st in seen_styles:  # the styles drawn (none for branches without stability)
+            handles.append(Line2D([], [], linestyle=styles[st][0], linewidth=styles[st][1], color=key_color,
+                                  label=text))
+    if "torus" in seen_styles:
+        handles.append(Line2D([], [], linewidth=5 * styles[True][1], alpha=0.22, color=key_color,
+                              label="quasi-periodic (torus)"))
+    points = [dict(sp) for sp in special
+              if sp.get("kind") in SPECIAL and np.isfinite(sp["x"]) and np.isfinite(sp["y"])]
+    ms = 0.9 * float(matplotlib.rcParams["lines.markersize"])
+    for sp in points:
+        sp["located"] = bool(sp.get("located", True))
+        ax.plot(sp["x"], sp["y"], zorder=5, **point_marker(sp["kind"], sp["located"], ms))
+    return handles, points, ms
+
+
 def draw_bifurcation_diagram(ax, branches, special, parameter: str, measure: str, *, units=None, labels=None,
                              symbols=None, title: str | None = None, extra=None, vertical_parameter: bool = False,
                              log_y: bool = False, table: bool = True, short_names: bool | None = None):
@@ -155,39 +210,7 @@ def draw_bifurcation_diagram(ax, branches, special, parameter: str, measure: str
     -------
     Axes
     """
-    styles = _line_styles()
-    colors = matplotlib.rcParams["axes.prop_cycle"].by_key().get("color", ["C0"])
-    groups = _groups(branches)
-    seen_styles = set()
-    handles = []
-    for gi, (label, members) in enumerate(groups):
-        color = colors[gi % len(colors)]
-        for i in members:
-            br = branches[i]
-            if br.get("torus"):  # quasi-periodic: a light band under the line
-                ax.plot(br["x"], br["y"], linewidth=5 * styles[True][1], alpha=0.22, color=color,
-                        solid_capstyle="round")
-                seen_styles.add("torus")
-            for xs, ys, st in _segments(np.asarray(br["x"], float), np.asarray(br["y"], float), br.get("stable")):
-                ls, lw = styles[st]
-                ax.plot(xs, ys, linestyle=ls, linewidth=lw, color=color)
-                seen_styles.add(st if br.get("stable") is not None else "plain")
-        if label and len(groups) > 1:  # a colour swatch: the branch's style varies along it, keyed below
-            handles.append(Patch(facecolor=color, edgecolor=color, label=label))
-    key_color = colors[0] if len(groups) == 1 else "0.3"
-    for st, text in ((True, "stable"), (False, "unstable"), (None, "no stability verdict")):
-        if st in seen_styles:  # the styles drawn (none for branches without stability)
-            handles.append(Line2D([], [], linestyle=styles[st][0], linewidth=styles[st][1], color=key_color,
-                                  label=text))
-    if "torus" in seen_styles:
-        handles.append(Line2D([], [], linewidth=5 * styles[True][1], alpha=0.22, color=key_color,
-                              label="quasi-periodic (torus)"))
-    points = [dict(sp) for sp in special
-              if sp.get("kind") in SPECIAL and np.isfinite(sp["x"]) and np.isfinite(sp["y"])]
-    ms = 0.9 * float(matplotlib.rcParams["lines.markersize"])
-    for sp in points:
-        sp["located"] = bool(sp.get("located", True))
-        ax.plot(sp["x"], sp["y"], zorder=5, **point_marker(sp["kind"], sp["located"], ms))
+    handles, points, ms = draw_curves(ax, branches, special)
     if log_y:
         ax.set_yscale("log")
     if extra is not None:
@@ -208,9 +231,9 @@ def draw_bifurcation_diagram(ax, branches, special, parameter: str, measure: str
         for sp in points:
             sp.setdefault("parameter", sp["y"] if vertical_parameter else sp["x"])
         # the table first (it narrows the axes), then the numbers from the final layout, then the table's rows
-        rows = _table(ax, points, parameter, symbols, short_names, units)
-        _place_numbers(ax, points, legend, ms)
-        _fill_table(rows, points, short_names)
+        rows = special_table(ax, points, parameter, symbols, short_names, units)
+        place_numbers(ax, points, legend, ms)
+        fill_table(rows, points, short_names)
     return ax
 
 
@@ -227,7 +250,8 @@ def _fontsize() -> float:
                  .get_size_in_points())
 
 
-def _renderer(fig):
+def laid_out_renderer(fig):
+    """The renderer of ``fig`` after its layout has run (the axes in their final place)."""
     fig.draw_without_rendering()  # runs the layout: the axes have their final place
     get = getattr(fig.canvas, "get_renderer", None)
     return get() if get is not None else fig._get_renderer()
@@ -284,15 +308,15 @@ def _value_texts(values) -> list:
     return [f"{v:.{d}g}".replace("-", "\u2212") for v, d in zip(values, digits)]
 
 
-def _table(ax, points, parameter, symbols, short_names, units) -> list:
+def special_table(ax, points, parameter, symbols, short_names, units) -> list:
     """The list of the special points beside the axes (right of it, from its top), one row per point.
 
-    Returns the rows' artists ``(marker, kind, value)``, filled by :func:`_fill_table` once the points
+    Returns the rows' artists ``(marker, kind, value)``, filled by :func:`fill_table` once the points
     are numbered: the columns are as wide as their widest entry, whatever the order.
     """
     fig = ax.figure
     fontsize = _fontsize()
-    renderer = _renderer(fig)
+    renderer = laid_out_renderer(fig)
     values = _value_texts([sp["parameter"] for sp in points])
     for sp, v in zip(points, values):
         sp["value_text"] = v
@@ -339,7 +363,7 @@ def _table(ax, points, parameter, symbols, short_names, units) -> list:
     return rows
 
 
-def _fill_table(rows, points, short_names) -> None:
+def fill_table(rows, points, short_names) -> None:
     """Write each point into the row of its number."""
     for sp in points:
         mark, name, value = rows[sp["number"] - 1]
@@ -363,15 +387,17 @@ def _overlap(a, b) -> bool:
     return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
 
 
-def _place_numbers(ax, points, legend, ms) -> None:
+def place_numbers(ax, points, legend, ms, numbering=None, renderer=None) -> None:
     """Number the points and put each label where it covers no other label, marker or the legend,
     and as little of the curves as it can: beside its point, else farther out with a leader line.
 
     Points whose markers touch share a label; a label that finds no free place joins the
-    nearest other group, and the search starts again.
+    nearest other group, and the search starts again. ``numbering(points, p, groups)`` makes the
+    labels (default :func:`_numbering`: left to right; the panels' figure gives numbers of its own).
+    ``renderer``: of the figure's final layout, when the caller has run it (else it is run here).
     """
     fig = ax.figure
-    renderer = _renderer(fig)  # the final layout: the distances are those of the saved figure
+    renderer = renderer or laid_out_renderer(fig)  # the final layout: the distances are those of the saved figure
     fontsize = _fontsize()
     scale = 72.0 / fig.dpi
     frame = np.array(ax.get_window_extent(renderer).extents) * scale
@@ -385,7 +411,7 @@ def _place_numbers(ax, points, legend, ms) -> None:
     groups = _clusters(p, 2 * r_mark)
     curve = _curve_points(ax)
     while True:
-        numbers = _numbering(points, p, groups)
+        numbers = (numbering or _numbering)(points, p, groups)
         spots = _search(numbers, p, r_mark, frame, blocked, curve, fig, renderer, fontsize, scale)
         failed = next((k for k, spot in enumerate(spots) if spot is None), None)
         if failed is None or len(numbers) == 1:

@@ -29,6 +29,7 @@ import yaml
 from contin.model.catalog import get_spec, rule_violation
 from contin.util.naming import suggest
 from contin.output.formats import EXPORT_FORMATS, FIGURE_FORMATS, is_style
+from contin.output.panel_options import PANELS_EXPECTED, ZOOM_EXPECTED, PanelError, ZoomWindow, is_panel_list
 from contin.scene.schema import (Key, SceneError, anything, check_section, integer, is_int, listing,
                            mapping, string)
 from contin.scene import registry
@@ -49,6 +50,9 @@ OUTPUT = {
     "units": mapping(),
     "labels": mapping(),
     "title": string(),
+    # several measures in stacked panels, a window beside them (contin.output.panel_options)
+    "panels": Key(PANELS_EXPECTED, is_panel_list, None),
+    "zoom": Key(ZOOM_EXPECTED, lambda v: isinstance(v, dict), None),
     # figures: file formats, resolution of raster files, style (contin.output.figures)
     "formats": listing(["png"], lambda x: x in FIGURE_FORMATS,
                        "a list of figure formats among " + ", ".join(repr(f) for f in FIGURE_FORMATS)),
@@ -396,7 +400,20 @@ def scene_from_data(data: dict, source: str = "<string>", lines: dict | None = N
     if not isinstance(output, dict):
         raise SceneError("output", "a mapping", output, lines.get("output"))
     output = check_section(output, OUTPUT, "output", lines)
+    _check_zoom(output.get("zoom"), lines)
     return Scene({"model": model, "analysis": analysis, "output": output}, source, lines)
+
+
+def _check_zoom(zoom, lines: dict) -> None:
+    """``output.zoom`` as :class:`contin.output.panel_options.ZoomWindow` takes it (the measures' names are the
+    analysis's to check: :func:`contin.scene.registry.check_output`)."""
+    if zoom is None:
+        return
+    try:
+        ZoomWindow.from_dict(zoom)
+    except PanelError as exc:
+        key = f"output.zoom.{exc.field}"
+        raise SceneError(key, exc.expected, exc.found, lines.get(key) or lines.get("output.zoom")) from None
 
 
 def check_model_section(model: dict, lines: dict | None = None) -> dict:

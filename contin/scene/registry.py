@@ -75,7 +75,7 @@ def check_scene(scene, model):
     return plan
 
 
-def check_output(scene, measures, names=()) -> None:
+def check_output(scene, measures, names=(), panels: bool = False) -> None:
     """``output.measure`` one of ``measures``; ``output.labels`` and ``output.units`` keys among them or ``names``.
 
     Parameters
@@ -85,6 +85,12 @@ def check_output(scene, measures, names=()) -> None:
         Columns the analysis can plot (``output.measure``).
     names : sequence of str
         Further names an axis can show (parameters).
+    panels : bool
+        Whether the analysis draws ``output.panels`` and ``output.zoom``
+        (each panel one of ``measures``; ``output.measure``, if given, one
+        of the panels; ``output.zoom.measure_range`` keys among the measures
+        drawn, the first of ``measures`` when neither is given). Else those keys are refused: nothing would
+        draw them.
     """
     from contin.util.naming import suggest  # deferred: numpy (0.1 s), not for ``import contin``
 
@@ -93,6 +99,7 @@ def check_output(scene, measures, names=()) -> None:
     if out.get("measure") is not None and out["measure"] not in measures:
         raise scene.error("output.measure", "one of the measures " + ", ".join(measures), out["measure"],
                           hint=suggest(str(out["measure"]), measures))
+    _check_panels(scene, measures, panels)
     known = measures + [n for n in names if n not in measures]
     for key in ("labels", "units"):
         for name in out.get(key) or {}:
@@ -101,14 +108,52 @@ def check_output(scene, measures, names=()) -> None:
                                   hint=suggest(str(name), known))
 
 
+def _check_panels(scene, measures: list, panels: bool) -> None:
+    """``output.panels`` and ``output.zoom`` against the analysis's measures (:func:`check_output`)."""
+    from contin.util.naming import suggest  # deferred: numpy (0.1 s), not for ``import contin``
+
+    out = scene.output
+    if not panels:
+        for key in ("panels", "zoom"):
+            if out.get(key) is not None:
+                raise scene.error(f"output.{key}", f"no {key}: the figure of analysis type "
+                                  f"{scene.analysis.get('type')!r} draws one measure (output.panels and output.zoom "
+                                  "are drawn by frequency_response)", out[key])
+        return
+    stacked = list(out.get("panels") or ())
+    for i, name in enumerate(stacked):
+        if name not in measures:
+            raise scene.error(f"output.panels[{i}]", "one of the measures " + ", ".join(measures), name,
+                              hint=suggest(str(name), measures))
+    if stacked and out.get("measure") is not None and out["measure"] not in stacked:
+        raise scene.error("output.measure", "one of output.panels (" + ", ".join(stacked) + "): the figure draws "
+                          "the panels", out["measure"])
+    # without either, the figure draws the analysis's first measure
+    drawn = stacked or ([out["measure"]] if out.get("measure") is not None else measures[:1])
+    for name in (out.get("zoom") or {}).get("measure_range") or {}:
+        if name not in drawn:
+            raise scene.error(f"output.zoom.measure_range.{name}", "a measure the figure draws: " + ", ".join(drawn),
+                              name, hint=suggest(str(name), drawn))
+
+
+def _stopped_short(b: dict) -> bool:
+    """A ``boundary`` end (a point the branch cannot pass) that leaves part of the range uncovered, neither handed
+    over to another method (``end: handover``) nor reported by the end checks already (another ``end``)."""
+    gap = b.get("uncovered")
+    return b.get("end") is None and gap is not None and gap[1] > gap[0]
+
+
 def shortfalls(branches: list[dict], parameter: str, failed_switches=(), what: str = "branch") -> list[str]:
     """What a run did not do that its scene asked: branches whose numerics gave up, switches without a branch.
 
     A branch ends as asked at a range end (also after turning back), a
-    closed loop, a located point it cannot pass, or the ``max_points`` the
+    closed loop, or the ``max_points`` the
     scene set (:attr:`contin.engine.branch.BranchStatus.as_asked`; the default
     cap, ``default_max_points``, is a shortfall); an interrupted one is the
-    run's interruption, not a shortfall.
+    run's interruption, not a shortfall. A branch stopped at a located point
+    it cannot pass (``boundary``, a grazing point of harmonic balance) falls
+    short when it leaves part of its range uncovered (its ``uncovered``),
+    unless it was handed over to shooting (``end: handover``).
 
     Parameters
     ----------
@@ -129,6 +174,14 @@ def shortfalls(branches: list[dict], parameter: str, failed_switches=(), what: s
     out = []
     for i, b in enumerate(branches):
         status = BranchStatus(b["status"])
+        if status is BranchStatus.BOUNDARY and _stopped_short(b):
+            gap = b["uncovered"]
+            name = f"{what} {b.get('branch', i)}" + (f" (nu={b['nu']})" if "nu" in b else "")
+            tip = (f"; shooting could not take it over: {b['handover_failed']}" if b.get("handover_failed") else
+                   "" if b.get("method") == "shooting" else "; to go on: analysis.method: auto or shooting")
+            out.append(f"{name} stopped at a point it cannot pass ({b.get('message', '')}); {parameter} in "
+                       f"[{gap[0]:.10g}, {gap[1]:.10g}] not covered{tip}")
+            continue
         if status is BranchStatus.INTERRUPTED or status.as_asked:
             continue
         gap = b.get("uncovered")

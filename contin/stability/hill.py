@@ -275,7 +275,7 @@ def hill_spectrum(
     -------
     HillSpectrum
     """
-    if getattr(hb, "full", None) is not None:  # a condensed problem: Hill's method needs every dof
+    if hb.condensed:  # Hill's method needs every dof
         u, hb = hb.expand(u, lam), hb.full
     D0, D1, D2 = hb.hill_matrices(u, lam) if matrices is None else matrices
     p = hb.params_at(lam)

@@ -108,8 +108,8 @@ class StabilityMonitor:
         if key == self._last_key and self.last is not None:
             return self.last
         # a condensed problem (contin.hb.condensation): Hill and the monodromy on the full problem and coefficients
-        hb = getattr(self.hb, "full", self.hb)
-        uf = self.hb.expand(u, lam) if hb is not self.hb else u
+        hb = self.hb.full
+        uf = self.hb.expand(u, lam) if self.hb.condensed else u
         previous = self._restored_counts if self.last is None else self.last.counts
         res = floquet_multipliers(hb, uf, lam, self.options, previous=previous)
         self.evaluations += 1
@@ -157,9 +157,9 @@ class StabilityMonitor:
         """How many multipliers the points have: those of the last verdict, else ``2 rank(M)`` (Hill's count)."""
         if self._size is not None:
             return self._size
-        hb = getattr(self.hb, "full", self.hb)
-        if hb is None:
+        if self.hb is None:
             return 0
+        hb = self.hb.full
         return 2 * int(np.linalg.matrix_rank(hb.model.linear(hb.params_at(lam))[0]))
 
     def state(self) -> dict:

@@ -15,7 +15,8 @@ Each element gives its *compiled form*
 ``compiled_form()``, in the element's own file): polynomial forces call their
 element kernel (:func:`contin.model.elements.polynomial._poly_kernel`) on 1-sample
 views; expression forces and excitations are emitted as code from their
-expression trees (value only, no Jacobian); harmonic excitations are a cosine
+expression trees (their symbolic Jacobians too, for the variational equations of
+:mod:`contin.timedomain.variational`); harmonic excitations are a cosine
 line; gap and radial-gap contacts call mode-aware kernels of their own files.
 This module only assembles the forms: it knows no element kind.
 
@@ -58,6 +59,7 @@ import numpy as np
 from contin.model import codegen
 from contin.model.base import Model
 from contin.model.elements.registry import CompiledForm, kinds_with_compiled_form
+from contin.timedomain.variational_source import jacobian_functions
 
 __all__ = ["SimulationError", "CompiledModel", "compile_model", "RK4_STABILITY", "SIMULATION_TEMPLATE_VERSION"]
 
@@ -386,6 +388,71 @@ class CompiledModel:
         src = "\n".join(head + rhs) + "\n" + _INTEGRATOR
         _check_syntax(src)
         return src
+
+    def jacobian_source(self) -> str:
+        """The generated functions of the variational equations (appended to :attr:`source`).
+
+        ``jac(y, tau, p, Minv, C, K, cst, mode, X, V, TAU, F, DX, DXD, B)``
+        writes ``B = -M^-1 [K + df/dx, C + df/dx']`` (shape (n, 2n)), the lower
+        block rows of the state matrix in the frozen ``mode``;
+        ``switch_grad(y, p, cst, X, V, G)`` the gradients of the switching
+        functions (shape (NS, 2n));
+        ``rhs_tau(y, tau, p, Minv, C, K, cst, mode, X, V, TAU, F, R, out)``
+        the right-hand side's derivative in the phase ``tau`` (for the
+        derivative of a step in its start and end times at a located switch).
+
+        Raises
+        ------
+        SimulationError
+            Naming the element kinds whose compiled form has no Jacobian,
+            gradient or (for a phase-dependent element) tau-derivative lines
+            (a Jacobian is never taken as zero silently).
+        """
+        p0 = self.model.parameter_vector()
+        jac, grad, missing = [], [], []
+        ftau, etau, untimed = [], [], []
+        c = m = 0
+
+        def name(f):
+            el = f.element
+            return f"'{getattr(el, 'kind', '') or type(el).__name__}' ({type(el).__name__})"
+
+        for i, f in enumerate(self.forces):
+            tag = f"_f{i}_"
+            lines = f.jacobian_lines(tag, c, m)
+            glines = f.switch_gradient_lines(tag, c, m)
+            tlines = f.force_dtau_lines(tag, c, m)
+            if lines is None or glines is None:
+                missing.append(name(f))
+            else:
+                jac += [f"    # force {i}: {type(f.element).__name__}"] + ["    " + s for s in lines]
+                grad += ["    " + s for s in glines]
+            if tlines is None:
+                untimed.append(name(f))
+            else:
+                ftau += ["    " + s for s in tlines]
+            c += len(f.constants(p0))
+            m += f.n_switch
+        for i, f in enumerate(self.excitations):
+            tlines = f.excitation_dtau_lines(f"_e{i}_", c)
+            if tlines is None:
+                untimed.append(name(f))
+            else:
+                etau += ["    " + s for s in tlines]
+            c += len(f.constants(p0))
+        if missing:
+            raise SimulationError(
+                f"model '{self.model.name}': the element kind(s) {', '.join(missing)} have no Jacobian lines in "
+                f"their compiled form, so the variational equations cannot be integrated; give the form "
+                f"jacobian_lines() (and switch_gradient_lines() for a contact), or use central differences")
+        if untimed:
+            # the derivative of a step in its start and end times (at located switches) needs d rhs / d tau
+            raise SimulationError(
+                f"model '{self.model.name}': the element kind(s) {', '.join(untimed)} depend on the phase tau and "
+                f"have no tau-derivative lines in their compiled form (force_dtau_lines() or "
+                f"excitation_dtau_lines()), so the variational equations cannot be integrated; use central "
+                f"differences")
+        return jacobian_functions(jac, grad, ftau, etau)
 
     @property
     def module(self):

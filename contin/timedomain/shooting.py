@@ -29,15 +29,16 @@ changes sign (a complex pair contributes ``|mu + 1|^2 > 0``; Kuznetsov,
 *Elements of Applied Bifurcation Theory*, 3rd ed., 2004, sec. 7.4). It is
 located by Brent's method in the parameter, each evaluation a converged orbit.
 
-Branches: :class:`ShootingProblem` hands ``R(z, lambda) = phi_T(z) - z`` to the
-continuation engine, :class:`ShootingStability` gives it the flow's
-multipliers at every point (so the classified stability events locate folds,
-period doublings, Neimark-Sacker and branch points of the flow), and
-:func:`period_doubling_start` starts the branch of twice the period at a
-period doubling. Where an orbit starts or stops touching a contact (grazing)
-the flow map stays continuous but its derivative jumps, so the branch has a
-corner there, which harmonic balance, whose truncated series ripples about
-the contact, cannot pass.
+Branches: :class:`ShootingProblem`, :class:`ShootingStability`,
+:func:`period_doubling_start` and :class:`ShootingOptions` live in
+:mod:`contin.timedomain.multiple_shooting` (multiple shooting with the
+variational equations, the production discretisation) and are re-exported
+here. This module keeps the single-shooting reference of central differences:
+:func:`flow_map`, :func:`periodic_orbit` and :func:`period_doubling_scan`.
+Where an orbit starts or stops touching a contact (grazing) the flow map
+stays continuous but its derivative jumps, so the branch has a corner there,
+which harmonic balance, whose truncated series ripples about the contact,
+cannot pass (:mod:`contin.timedomain.shooting_events`).
 """
 
 from __future__ import annotations
@@ -49,55 +50,12 @@ from typing import Mapping
 import numpy as np
 from scipy.optimize import brentq, minimize_scalar
 
+from contin.timedomain.multiple_shooting import (ShootingOptions, ShootingProblem, ShootingStability, flip_test,
+                                                 period_doubling_start)
 from contin.timedomain.simulation import SimulationError, simulate
-from contin.stability.options import StabilityOptions
-from contin.stability.verdict import FloquetResult, monodromy_result
-from contin.util.options import from_mapping
 
 __all__ = ["ShootingOptions", "ShootingOrbit", "PeriodDoublingScan", "ShootingProblem", "ShootingStability",
            "flow_map", "periodic_orbit", "period_doubling_scan", "period_doubling_start"]
-
-
-@dataclasses.dataclass(frozen=True)
-class ShootingOptions:
-    """Options of :func:`periodic_orbit`.
-
-    Attributes
-    ----------
-    steps_per_period : int
-        RK4 steps per forcing period ``2 pi / w`` (the rotor paper: 4096).
-    tol : float
-        Newton ends when ``max |phi_T(z) - z| <= tol * max(1, max |z|)``.
-    max_iter : int
-        Newton iterations at most.
-    fd_step : float
-        Step of the central differences of the flow map, relative to
-        ``max(1, max |z|)``.
-    subharmonic : int
-        ``nu``: the orbit's period is ``nu`` forcing periods.
-    """
-
-    steps_per_period: int = 4096
-    tol: float = 1e-10
-    max_iter: int = 20
-    fd_step: float = 1e-6
-    subharmonic: int = 1
-
-    def __post_init__(self):
-        for name in ("steps_per_period", "max_iter", "subharmonic"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
-                raise ValueError(f"ShootingOptions.{name} must be a positive integer, got {v!r}")
-        for name, hi in (("tol", 1e-2), ("fd_step", 1e-2)):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not (0.0 < v <= hi):
-                raise ValueError(f"ShootingOptions.{name} must be a number in (0, {hi:g}], got {v!r}")
-
-    @classmethod
-    def from_dict(cls, d: Mapping) -> "ShootingOptions":
-        """From a mapping (:func:`contin.util.options.from_mapping`); an unknown key raises ``ValueError``
-        naming it, the nearest valid one and all of them."""
-        return from_mapping(cls, d)
 
 
 @dataclasses.dataclass
@@ -140,9 +98,7 @@ class ShootingOrbit:
         return bool(np.abs(self.multipliers).max() < 1.0)
 
 
-def _flip(mu: np.ndarray) -> float:
-    """``det(Phi + I) = prod (mu_i + 1)`` from the multipliers (module docstring)."""
-    return float(np.real(np.prod(mu + 1.0)))
+_flip = flip_test
 
 
 def flow_map(model, params: Mapping[str, float], z: np.ndarray, options: ShootingOptions = ShootingOptions()):
@@ -364,175 +320,3 @@ def period_doubling_scan(model, params: Mapping[str, float], parameter: str, val
     points = [points[k] for k in order]
     located = [located[k] for k in order]
     return PeriodDoublingScan(parameter, np.array(done), np.array(flips), orbits, points, located, status, message)
-
-
-class ShootingProblem:
-    """``R(z, lam) = phi_T(z; lam) - z`` for the continuation engine (:func:`contin.engine.continuation.continuation`).
-
-    Follows a branch of periodic orbits of the integrated flow through folds
-    with the engine's pseudo-arclength steps, as the independent reference for
-    a harmonic-balance branch (the orbit of a forced system needs no phase
-    condition). Unlike the harmonic-balance problems, its Jacobians are not
-    analytic: ``dR/dz = Phi - I`` with the monodromy by central differences of
-    the flow map (the construction of this module, error about 1e-9 at 4096
-    steps per period for the rotor) and ``dR/dlam`` by a central difference of
-    the flow map in ``lam``; each linearisation costs ``2n + 3`` integrations of
-    the orbit's period.
-
-    Parameters
-    ----------
-    model : Model
-    parameter : str
-        The continuation parameter (the forcing frequency or another).
-    params : dict, optional
-        The other parameter overrides.
-    options : ShootingOptions
-    """
-
-    def __init__(self, model, parameter: str, params: Mapping[str, float] | None = None,
-                 options: ShootingOptions = ShootingOptions()):
-        if parameter not in model.parameters:
-            raise ValueError(f"unknown parameter {parameter!r} of model '{model.name}'; "
-                             f"valid: {list(model.parameters)}")
-        self.model, self.parameter, self.options = model, parameter, options
-        self.base = dict(params or {})
-        self.size = 2 * model.n_dof
-        # the flow map integrates the model's excitation at its declared frequency
-        self.frequency = model.frequency
-        self._kw = model.parameter_index(self.frequency)
-
-    def frequency_at(self, lam: float) -> float:
-        """The forcing frequency at ``lam`` (the parameter itself, or fixed by the overrides)."""
-        params = {**self.base, self.parameter: float(lam)}
-        return float(self.model.parameter_vector(params)[self._kw])
-
-    def period_at(self, lam: float) -> float:
-        """The orbit's period, ``subharmonic`` forcing periods ``2 pi / w``, at ``lam``."""
-        return self.options.subharmonic * 2.0 * math.pi / self.frequency_at(lam)
-
-    def params_at(self, lam: float) -> dict:
-        """Parameter overrides at ``lam``; a Newton iterate with no positive forcing period fails the evaluation."""
-        w = self.frequency_at(lam)
-        if not w > 0.0:
-            raise ArithmeticError(f"the iterate has {self.frequency} = {w:g}: no positive forcing period")
-        return {**self.base, self.parameter: float(lam)}
-
-    def _flow(self, z, lam):
-        try:
-            return flow_map(self.model, self.params_at(lam), z, self.options)
-        except SimulationError as exc:
-            raise ArithmeticError(str(exc)) from None
-
-    def residual(self, z: np.ndarray, lam: float) -> np.ndarray:
-        """``phi_T(z) - z``, shape (2n,)."""
-        return self._flow(np.asarray(z, float), lam) - z
-
-    def linearize(self, z: np.ndarray, lam: float):
-        """Residual (2n,), ``Phi - I`` (2n, 2n) and ``d phi_T / d lam`` (2n,)."""
-        z = np.asarray(z, float)
-        try:
-            f, Phi = _flow_and_jacobian(self.model, self.params_at(lam), z, self.options)
-        except SimulationError as exc:
-            raise ArithmeticError(str(exc)) from None
-        h = self.options.fd_step * max(1.0, abs(float(lam)))
-        dlam = (self._flow(z, lam + h) - self._flow(z, lam - h)) / (2.0 * h)
-        return f - z, Phi - np.eye(z.size), dlam
-
-    def monitor(self, z, lam, Ju, Jlam) -> dict:
-        """Engine monitor: the multipliers of the integrated flow (``Ju + I`` is the monodromy)."""
-        mu = np.linalg.eigvals(Ju + np.eye(Ju.shape[0]))
-        return {"max_multiplier": float(np.abs(mu).max()), "flip_test": _flip(mu)}
-
-
-class ShootingStability:
-    """Stability monitor of a :class:`ShootingProblem` branch: the multipliers of the integrated flow.
-
-    The engine passes ``Ju = Phi - I`` to its monitors, so the monodromy costs
-    nothing more. The returned data are those of
-    :class:`contin.stability.StabilityMonitor` (``stable``, ``n_unstable``,
-    ``n_plus``, ``n_minus``, ``n_complex``, ``max_multiplier``,
-    ``multipliers``, ...) plus ``flip_test``, so the classified events of
-    :func:`contin.stability.stability_events` locate the period doublings
-    (a real multiplier through -1), Neimark-Sacker points (a complex pair
-    through the unit circle) and branch points of the flow on the branch.
-    Pass the same object in ``monitors`` and to ``stability_events``.
-
-    Parameters
-    ----------
-    problem : ShootingProblem
-    options : StabilityOptions, optional
-        Its ``tolerance`` and ``real_angle_tol`` decide the verdict (the
-        method is that of the problem: the flow's monodromy).
-    """
-
-    #: no harmonic-balance problem: located points carry no Hill eigenvector
-    hb = None
-
-    def __init__(self, problem: ShootingProblem, options: StabilityOptions | None = None):
-        self.problem = problem
-        self.options = StabilityOptions(method="floquet") if options is None else options
-
-    def analyze(self, u: np.ndarray, lam: float, Ju: np.ndarray | None = None) -> FloquetResult:
-        """The verdict at ``(u, lam)``, from ``Ju = Phi - I`` when given (else one linearisation)."""
-        if Ju is None:
-            _, Ju, _ = self.problem.linearize(u, lam)
-        period = self.problem.period_at(lam)
-        return monodromy_result(np.linalg.eigvals(Ju + np.eye(Ju.shape[0])), period, self.options)
-
-    def __call__(self, u, lam, Ju=None, Jlam=None) -> dict:
-        res = self.analyze(u, lam, Ju)
-        return {**res.monitor_data(), "flip_test": _flip(res.multipliers)}
-
-
-def period_doubling_start(problem: ShootingProblem, z, lam: float, eps: float = 1e-3):
-    """The first point of the branch of period ``2 nu`` born at a period doubling of ``problem``'s branch.
-
-    At a period doubling the monodromy ``Phi`` of the period-``nu`` orbit
-    ``z`` has a multiplier ``-1`` with real eigenvector ``v``; seen with twice
-    the period, the orbit has the double multiplier ``+1`` and the new branch
-    leaves it tangent to ``(v, 0)`` (a pitchfork in the parameter; Kuznetsov
-    2004, sec. 7.4). Pass the returned point and tangent to
-    :func:`contin.engine.continuation.continuation` with ``solve_start=False``: the
-    engine corrects the point on the hyperplane through it normal to the
-    tangent, which cuts the new branch and not the old one.
-
-    Parameters
-    ----------
-    problem : ShootingProblem
-        The problem of the period-``nu`` branch.
-    z : array_like, shape (2n,)
-        The located period-doubling orbit (e.g. a point of
-        :func:`period_doubling_scan` or a located ``pd`` special point).
-    lam : float
-        Its parameter value.
-    eps : float
-        Offset along ``v``, relative to ``max(1, max |z|)``.
-
-    Returns
-    -------
-    doubled : ShootingProblem
-        The problem of period ``2 nu`` (same model, parameter and options).
-    u0 : ndarray, shape (2n,)
-        ``z + eps v``.
-    tangent : ndarray, shape (2n + 1,)
-        ``(v, 0)``.
-
-    Raises
-    ------
-    ValueError
-        If no multiplier of ``Phi`` lies within 1e-3 of ``-1`` (not a period
-        doubling).
-    """
-    z = np.asarray(z, dtype=float)
-    _, Ju, _ = problem.linearize(z, lam)
-    mu, V = np.linalg.eig(Ju + np.eye(z.size))
-    j = int(np.argmin(np.abs(mu + 1.0)))
-    if abs(mu[j] + 1.0) > 1e-3:
-        raise ValueError(f"no multiplier near -1 at {problem.parameter} = {lam:.10g} (closest {complex(mu[j]):.6g}): "
-                         "not a period doubling")
-    v = np.real(V[:, j]) if np.linalg.norm(np.real(V[:, j])) >= np.linalg.norm(np.imag(V[:, j])) else np.imag(V[:, j])
-    v = v / np.linalg.norm(v)
-    opts = dataclasses.replace(problem.options, subharmonic=2 * problem.options.subharmonic)
-    doubled = ShootingProblem(problem.model, problem.parameter, problem.base, opts)
-    u0 = z + eps * max(1.0, float(np.max(np.abs(z)))) * v
-    return doubled, u0, np.r_[v, 0.0]

@@ -4,21 +4,9 @@ no range end it did not reach, no requested switch dropped without a word."""
 from contin.app.runner import run_scene
 from contin.output.results import read_csv
 from contin.scene.parse import parse_scene
+from linear_scene import LINEAR_OSCILLATOR
 
-LINEAR = """
-model:
-  dofs: [x]
-  parameters: {m: 1.0, c: 0.2, k: 2.0, F: 0.5, w: 1.0}
-  mass: [[m]]
-  damping: [[c]]
-  stiffness: [[k]]
-  excitation: [{dof: x, expr: "F*cos(tau)"}]
-analysis:
-  type: frequency_response
-  range: [0.5, 2.5]
-  harmonics: 1
-  stability: none
-  continuation: {ds: 0.01, ds_max: 0.01%s}
+LINEAR = LINEAR_OSCILLATOR + """  continuation: {ds: 0.01, ds_max: 0.01%s}
 output: {plots: false}
 """
 

@@ -262,7 +262,7 @@ def test_every_switch_asked_on_a_contact_orbit_starts_a_branch_or_says_why(tmp_p
     scene = load_scene(Path(__file__).resolve().parents[2] / "scenes" / "rotor_f0_05.yaml", overrides=[
         "model.parameters.f0=0.7", "analysis.harmonics=8", "analysis.samples=256", "analysis.starts=[]",
         "analysis.switch=[pd]", "analysis.max_branches=64", "analysis.continuation.locate_max_iter=20",
-        "output.plots=false"])
+        "output.plots=false", "analysis.method=hb"])
     summary = run_scene(scene, tmp_path / "out", progress=False)
     rows = read_csv(tmp_path / "out" / "special_points.csv")
     pds = [(w, located) for b, kind, w, located in zip(rows["branch"], rows["kind"], rows["w"], rows["located"])
@@ -275,5 +275,6 @@ def test_every_switch_asked_on_a_contact_orbit_starts_a_branch_or_says_why(tmp_p
     from_bracket = sorted([b["origin"]["parameter"] for b in children if not b["origin"]["located"]]
                           + [f["parameter"] for f in failed if "switched from the bracket" in f["message"]])
     assert from_bracket == pytest.approx(sorted(unlocated), abs=1e-9)
-    assert (summary["status"] == "incomplete") == bool(failed)
+    # a failed switch makes the run incomplete (so may a branch stopped at a grazing point: analysis.method hb)
+    assert summary["status"] == "incomplete" or not failed
     assert len(summary["analysis"]["shortfalls"]) >= len(failed)

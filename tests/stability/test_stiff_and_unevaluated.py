@@ -222,6 +222,11 @@ class _Problem:
     """What the monitor reads of a harmonic-balance problem where it has no verdict yet: one dof."""
 
     parameter = "lam"
+    condensed = False  # the periodic-problem protocol: the problem in every dof is itself
+
+    @property
+    def full(self):
+        return self
 
     class model:
         @staticmethod

@@ -176,7 +176,10 @@ def test_switched_shooting_branch_is_a_period_two_orbit_of_scipys_integration(ma
                        solve_start=False)
     assert len(sub) == 15
     assert abs(sub.parameter[0] - pd.parameter) < 1e-5  # the first point is next to the period doubling
-    for z, delta in zip(sub.unknowns[1:], sub.parameter[1:]):
+    assert doubled.segments == 2  # the doubled problem: two segments of one period each
+    for u, delta in zip(sub.unknowns[1:], sub.parameter[1:]):
+        z = u[:2]  # the state at t = 0
+
         def rhs(t, y):
             return [y[1], -0.1 * y[1] - (delta + 0.4 * np.cos(t)) * y[0] - y[0] ** 3]
 

@@ -8,7 +8,8 @@ forces of a model into one generated numba module: a kernel filling ``f``,
 is cached on disk by :mod:`contin.model.codegen`, so numba's own cache works across
 processes. Its scene items are ``{dof: x, expr: "g*x**3"}`` (no ``type``
 needed); all of them join into one element. Its compiled time-domain form
-(:class:`ExpressionForceForm`) emits the expressions as code (value only).
+(:class:`ExpressionForceForm`) emits the expressions and their symbolic
+Jacobians as code.
 
 :class:`ExpressionCoefficient` is a parameter-dependent coefficient with the
 interface of :class:`contin.model.base.Monomial` (``value``, ``derivative``,
@@ -272,7 +273,7 @@ class ExpressionForce(ForceElement):
 
 
 class ExpressionForceForm(CompiledForm):
-    """Expression forces in the generated simulation module: their totals as code, value only."""
+    """Expression forces in the generated simulation module: their totals and symbolic Jacobians as code."""
 
     def _name_of(self, name):
         e = self.element
@@ -282,6 +283,32 @@ class ExpressionForceForm(CompiledForm):
     def force_lines(self, tag, c, m):
         w = ex.CodeWriter(self._name_of, f"{tag}t")
         targets = [(i, t) for i, t in enumerate(self.element.totals) if t != ex.ZERO]
+        for _, t in targets:
+            w.count(t)
+        stmts = [f"F[0, {i}] += {w.emit(t)}" for i, t in targets]
+        return list(w.lines) + stmts
+
+    def jacobian_lines(self, tag, c, m):
+        # the symbolic derivatives of the totals, as the harmonic-balance kernel has them
+        e = self.element
+        w = ex.CodeWriter(self._name_of, f"{tag}j")
+        targets = []
+        for i, t in enumerate(e.totals):
+            for jn, d in enumerate(e.dof_names):
+                for arr, name in (("DX", d), ("DXD", f"{d}_dot")):
+                    dt = ex.diff(t, name)
+                    if dt != ex.ZERO:
+                        targets.append((f"{arr}[0, {i}, {jn}]", dt))
+        for _, t in targets:
+            w.count(t)
+        stmts = [f"{a} += {w.emit(t)}" for a, t in targets]
+        return list(w.lines) + stmts
+
+    def force_dtau_lines(self, tag, c, m):
+        # the symbolic derivatives of the totals in tau (nothing where they do not depend on it)
+        w = ex.CodeWriter(self._name_of, f"{tag}d")
+        targets = [(i, ex.diff(t, "tau")) for i, t in enumerate(self.element.totals)]
+        targets = [(i, t) for i, t in targets if t != ex.ZERO]
         for _, t in targets:
             w.count(t)
         stmts = [f"F[0, {i}] += {w.emit(t)}" for i, t in targets]

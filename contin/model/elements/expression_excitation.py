@@ -114,3 +114,13 @@ class ExpressionExcitationForm(CompiledForm):
             w.count(node)
         stmts = [f"R[{d}] += {w.emit(node)}" for d, node in self.element.exprs]
         return list(w.lines) + stmts
+
+    def excitation_dtau_lines(self, tag, c):
+        # the symbolic derivatives in tau, emitted as the values are
+        w = ex.CodeWriter(self._name_of, f"{tag}d")
+        targets = [(d, ex.diff(node, "tau")) for d, node in self.element.exprs]
+        targets = [(d, t) for d, t in targets if t != ex.ZERO]
+        for _, t in targets:
+            w.count(t)
+        stmts = [f"R[{d}] += {w.emit(t)}" for d, t in targets]
+        return list(w.lines) + stmts

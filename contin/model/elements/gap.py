@@ -210,12 +210,46 @@ def _gap_switch(X, V, d, g, k, c, side, clip, S, off):
         S[off + 1] = -1.0
 
 
+@njit(cache=True)
+def _gap_force_jac(X, V, d, g, k, c, side, active_plus, active_minus, DX, DXD):
+    """Jacobian of :func:`_gap_force` (the frozen mode's law: ``k`` and ``c`` on the diagonal where active)."""
+    if side >= 0 and active_plus != 0:
+        DX[0, d, d] += k
+        DXD[0, d, d] += c
+    if side <= 0 and active_minus != 0:
+        DX[0, d, d] += k
+        DXD[0, d, d] += c
+
+
+@njit(cache=True)
+def _gap_switch_grad(X, V, d, g, k, c, side, clip, G, off):
+    """Gradients of :func:`_gap_switch` in ``y = (x, x')``, rows ``off`` and ``off + 1`` of ``G``.
+
+    With ``clip`` the branch of the ``min`` that gives the value gives the gradient
+    (the force's, ``(k, c)/k``, where it is the smaller).
+    """
+    n = X.shape[1]
+    x = X[0, d]
+    v = V[0, d]
+    kref = k if k > 0.0 else 1.0
+    for i in range(2):
+        s = 1.0 if i == 0 else -1.0
+        if (i == 0 and side < 0) or (i == 1 and side > 0):
+            continue  # an absent side: a constant -1
+        pen = s * x - g
+        if clip and (k * pen + s * c * v) / kref < pen:
+            G[off + i, d] = s * k / kref
+            G[off + i, n + d] = s * c / kref
+        else:
+            G[off + i, d] = s
+
+
 class GapForm(ContactForm):
     """The gap in the generated simulation module: the frozen mode's law and the two switching functions."""
 
     n_switch = 2
-    imports = ("from contin.model.elements.gap import _gap_force, _gap_switch",)
-    kernels = (_gap_force, _gap_switch)
+    imports = ("from contin.model.elements.gap import _gap_force, _gap_force_jac, _gap_switch, _gap_switch_grad",)
+    kernels = (_gap_force, _gap_switch, _gap_force_jac, _gap_switch_grad)
 
     def dofs(self):
         return (self.element.dof,)
@@ -229,3 +263,13 @@ class GapForm(ContactForm):
         e = self.element
         return [f"_gap_switch(X, V, {e.dof}, cst[{c}], cst[{c + 1}], cst[{c + 2}], {e.side}, "
                 f"cst[{c + 3}] != 0.0, S, {m})"]
+
+    def jacobian_lines(self, tag, c, m):
+        e = self.element
+        return [f"_gap_force_jac(X, V, {e.dof}, cst[{c}], cst[{c + 1}], cst[{c + 2}], {e.side}, mode[{m}], "
+                f"mode[{m + 1}], DX, DXD)"]
+
+    def switch_gradient_lines(self, tag, c, m):
+        e = self.element
+        return [f"_gap_switch_grad(X, V, {e.dof}, cst[{c}], cst[{c + 1}], cst[{c + 2}], {e.side}, "
+                f"cst[{c + 3}] != 0.0, G, {m})"]

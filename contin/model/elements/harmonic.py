@@ -108,3 +108,11 @@ class HarmonicForm(CompiledForm):
         if e.order == 0.0:
             return [f"R[{e.dof}] += cst[{c}]"]
         return [f"R[{e.dof}] += cst[{c}] * np.cos({literal(e.order)} * tau + {literal(e.phase)})"]
+
+    def excitation_dtau_lines(self, tag, c):
+        # d/dtau A cos(order tau + phase) = -A order sin(order tau + phase); a constant adds nothing
+        e = self.element
+        if e.order == 0.0:
+            return []
+        o = literal(e.order)
+        return [f"R[{e.dof}] -= cst[{c}] * {o} * np.sin({o} * tau + {literal(e.phase)})"]

@@ -138,3 +138,7 @@ class PointForm(CompiledForm):
     def force_lines(self, tag, c, m):
         K = self.element.degree + 1
         return [f"_point_kernel(X, {tag}s, cst[{c}:{c + K}], F, DUM, False)"]
+
+    def jacobian_lines(self, tag, c, m):
+        K = self.element.degree + 1
+        return [f"_point_kernel(X, {tag}s, cst[{c}:{c + K}], F, DX, True)"]

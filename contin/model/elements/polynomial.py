@@ -148,7 +148,7 @@ class PolynomialForce(ForceElement):
 
 
 class PolynomialForm(CompiledForm):
-    """The polynomial in the generated simulation module: its kernel on the one-sample views, no Jacobian."""
+    """The polynomial in the generated simulation module: its kernel on the one-sample views (Jacobian too)."""
 
     imports = ("from contin.model.elements.polynomial import _poly_kernel",)
     kernels = (_poly_kernel,)
@@ -168,4 +168,9 @@ class PolynomialForm(CompiledForm):
         T = len(self.element.coefs)
         return [f"_poly_kernel(X, V, TAU, {tag}target, cst[{c}:{c + T}], {tag}ex, {tag}ev, {tag}torder, "
                 f"{tag}tphase, F, DUM, DUM, False)"]
+
+    def jacobian_lines(self, tag, c, m):
+        T = len(self.element.coefs)
+        return [f"_poly_kernel(X, V, TAU, {tag}target, cst[{c}:{c + T}], {tag}ex, {tag}ev, {tag}torder, "
+                f"{tag}tphase, F, DX, DXD, True)"]
 

@@ -243,12 +243,77 @@ def _radial_switch(X, V, ix, iy, delta, k, c, clip, S, off):
     S[off] = pen
 
 
+@njit(cache=True)
+def _radial_force_jac(X, V, ix, iy, delta, k, c, active, DX, DXD):
+    """Jacobian of :func:`_radial_force` (as in :func:`_radial_kernel`, without its test of the side)."""
+    if active == 0:
+        return
+    x = X[0, ix]
+    y = X[0, iy]
+    r = np.sqrt(x * x + y * y)
+    if r == 0.0:
+        return
+    ex_ = x / r
+    ey_ = y / r
+    vx = V[0, ix]
+    vy = V[0, iy]
+    vn = vx * ex_ + vy * ey_
+    Fn = k * (r - delta) + c * vn
+    # the radial direction turns with the position
+    dexdx = ey_ * ey_ / r
+    dexdy = -ex_ * ey_ / r
+    deydy = ex_ * ex_ / r
+    dvndx = vx * dexdx + vy * dexdy
+    dvndy = vx * dexdy + vy * deydy
+    dFndx = k * ex_ + c * dvndx
+    dFndy = k * ey_ + c * dvndy
+    DX[0, ix, ix] += dFndx * ex_ + Fn * dexdx
+    DX[0, ix, iy] += dFndy * ex_ + Fn * dexdy
+    DX[0, iy, ix] += dFndx * ey_ + Fn * dexdy
+    DX[0, iy, iy] += dFndy * ey_ + Fn * deydy
+    DXD[0, ix, ix] += c * ex_ * ex_
+    DXD[0, ix, iy] += c * ex_ * ey_
+    DXD[0, iy, ix] += c * ey_ * ex_
+    DXD[0, iy, iy] += c * ey_ * ey_
+
+
+@njit(cache=True)
+def _radial_switch_grad(X, V, ix, iy, delta, k, c, clip, G, off):
+    """Gradient of :func:`_radial_switch` in ``y = (x, x')``, row ``off`` of ``G`` (the branch of the ``min``)."""
+    n = X.shape[1]
+    x = X[0, ix]
+    y = X[0, iy]
+    r = np.sqrt(x * x + y * y)
+    if r == 0.0:
+        return  # the centre: no direction (the surface is far)
+    ex_ = x / r
+    ey_ = y / r
+    pen = r - delta
+    if clip:
+        kref = k if k > 0.0 else 1.0
+        vx = V[0, ix]
+        vy = V[0, iy]
+        vn = vx * ex_ + vy * ey_
+        if (k * pen + c * vn) / kref < pen:
+            dexdx = ey_ * ey_ / r
+            dexdy = -ex_ * ey_ / r
+            deydy = ex_ * ex_ / r
+            G[off, ix] = (k * ex_ + c * (vx * dexdx + vy * dexdy)) / kref
+            G[off, iy] = (k * ey_ + c * (vx * dexdy + vy * deydy)) / kref
+            G[off, n + ix] = c * ex_ / kref
+            G[off, n + iy] = c * ey_ / kref
+            return
+    G[off, ix] = ex_
+    G[off, iy] = ey_
+
+
 class RadialGapForm(ContactForm):
     """The radial contact in the generated simulation module: the frozen mode's law and ``r - delta``."""
 
     n_switch = 1
-    imports = ("from contin.model.elements.radial_gap import _radial_force, _radial_switch",)
-    kernels = (_radial_force, _radial_switch)
+    imports = ("from contin.model.elements.radial_gap import _radial_force, _radial_force_jac, _radial_switch, "
+               "_radial_switch_grad",)
+    kernels = (_radial_force, _radial_switch, _radial_force_jac, _radial_switch_grad)
 
     def dofs(self):
         # the radial direction may point along either dof
@@ -262,3 +327,12 @@ class RadialGapForm(ContactForm):
         e = self.element
         return [f"_radial_switch(X, V, {e.ix}, {e.iy}, cst[{c}], cst[{c + 1}], cst[{c + 2}], "
                 f"cst[{c + 3}] != 0.0, S, {m})"]
+
+    def jacobian_lines(self, tag, c, m):
+        e = self.element
+        return [f"_radial_force_jac(X, V, {e.ix}, {e.iy}, cst[{c}], cst[{c + 1}], cst[{c + 2}], mode[{m}], DX, DXD)"]
+
+    def switch_gradient_lines(self, tag, c, m):
+        e = self.element
+        return [f"_radial_switch_grad(X, V, {e.ix}, {e.iy}, cst[{c}], cst[{c + 1}], cst[{c + 2}], "
+                f"cst[{c + 3}] != 0.0, G, {m})"]

@@ -214,6 +214,48 @@ class CompiledForm:
         """Statements writing the switching functions ``S[m:m+n_switch]``."""
         return []
 
+    def jacobian_lines(self, tag: str, c: int, m: int):
+        """Statements accumulating ``d f_nl / dx`` into ``DX`` and ``d f_nl / dx'`` into ``DXD`` (shape (1, n, n)).
+
+        The Jacobian of the frozen mode's law (a contact in mode 0 adds
+        nothing, in mode 1 its law's Jacobian even past the surface), for the
+        variational equations (:mod:`contin.timedomain.variational`). ``F`` is
+        scratch there: lines may add the force to it. None (the default) when
+        the element has no such lines: a Jacobian of a model holding it is
+        refused by name, never taken as zero. Excitations depend on ``tau``
+        alone and need none.
+        """
+        return None
+
+    def switch_gradient_lines(self, tag: str, c: int, m: int):
+        """Statements writing the gradients of the switching functions into ``G[m + i, :]`` (shape (NS, 2n)).
+
+        ``G[m + i, j]`` is ``d S[m + i] / d y_j`` for the state ``y = (x, x')``,
+        the normal of the surface in the saltation matrix. None (the default)
+        for an element with switching functions but no gradient lines; an
+        element without switching functions needs none.
+        """
+        return None if self.n_switch else []
+
+    def force_dtau_lines(self, tag: str, c: int, m: int):
+        """Statements accumulating ``d f_nl / d tau`` into ``F`` (shape (1, n)) in the frozen mode.
+
+        For the derivative of an RK4 step in its start and end times
+        (:mod:`contin.timedomain.variational`). The default: nothing for an
+        element whose force does not vary explicitly in time (empty
+        ``tau_orders()``), None otherwise, so that a Jacobian of a model
+        holding it is refused by name.
+        """
+        return None if getattr(self.element, "tau_orders", tuple)() else []
+
+    def excitation_dtau_lines(self, tag: str, c: int):
+        """Statements accumulating ``d f_ext / d tau`` into ``R`` (shape (n,)).
+
+        None (the default) when the element has no such lines: a Jacobian of
+        a model holding it is refused by name, never taken as zero.
+        """
+        return None
+
     def notes(self) -> list:
         """Caveats reported with the result (e.g. unlocated non-smooth terms)."""
         return []

@@ -113,3 +113,6 @@ class StringStretchingForm(CompiledForm):
 
     def force_lines(self, tag, c, m):
         return [f"_stretch_kernel(X, {tag}q, cst[{c}], F, DUM, False)"]
+
+    def jacobian_lines(self, tag, c, m):
+        return [f"_stretch_kernel(X, {tag}q, cst[{c}], F, DX, True)"]

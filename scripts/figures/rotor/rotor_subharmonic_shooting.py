@@ -7,8 +7,10 @@ and returns unstable to the harmonic solution at the period doubling D. The conv
 harmonic balance of scenes/rotor_f0_05.yaml follows it only where the bearing stays on
 its casing (README, "Bearing rotor"). This script follows it on the flow map of the time
 integrator itself (contin.timedomain.shooting: compiled RK4 with the contact switches located, 4096
-steps per revolution; the orbit's period is two revolutions), where the bearing bounces
-too:
+steps per revolution; the orbit's period is two revolutions, shot as one segment), where
+the bearing bounces too. The Jacobian is the central difference of the flow map
+(``jacobian="differences"``), so the reference shares no code with the variational
+equations of the production discretisation:
 
 1. the period doublings of the harmonic orbit of the flow, located on a grid of w
    (period_doubling_scan, started from the harmonic balance): D and F;
@@ -32,7 +34,7 @@ It prints the branch's folds, bifurcations and stable stretches, writes ``branch
 switches in two revolutions) and ``special_points.csv`` (kind, w) and draws
 ``fig4_shooting.png`` in ``-o DIR``.
 
-    python scripts/figures/rotor/rotor_subharmonic_shooting.py          # ~7 min on two cores
+    python scripts/figures/rotor/rotor_subharmonic_shooting.py          # ~3 min on two cores
     python scripts/figures/rotor/rotor_subharmonic_shooting.py --harmonic-balance
                           # and the harmonic balance near F, ~3 min more
     python scripts/figures/rotor/rotor_subharmonic_shooting.py --quick  # the scan near F and a short stretch, ~20 s
@@ -58,8 +60,9 @@ from contin.stability import orbit_state, stability_events
 from contin.bifurcation.start import simulation_start
 
 W0 = 2.16
-HARMONIC = ShootingOptions(steps_per_period=4096)
-NU2 = ShootingOptions(steps_per_period=4096, subharmonic=2)
+# central differences of the flow map: independent of the variational equations (module docstring)
+HARMONIC = ShootingOptions(steps_per_period=4096, jacobian="differences")
+NU2 = ShootingOptions(steps_per_period=4096, subharmonic=2, jacobian="differences")
 SPAN = (2.1, 2.25)
 
 
@@ -126,19 +129,22 @@ def switched_branch(model, pd_orbit, options: ContinuationOptions, back_at: floa
     """The nu = 2 branch born at a period doubling of the flow's harmonic orbit, until it returns to that orbit.
 
     Returns the branch and, per point, the +w/2 radius and contact switches (:func:`orbit_info`).
+    The branch is shot as one segment of two revolutions (``segments=1``): with two segments of
+    one revolution each the branch stalls at the grazing near w = 2.1964, with either Jacobian.
     The branch stops at the first point whose radius falls below ``back_at`` after exceeding
     ``10 back_at``: the other period doubling (beyond it the branch would retrace the same
     orbits shifted by one revolution).
     """
     t = time.perf_counter()
     w = pd_orbit.params["w"]
-    doubled, u0, tangent = period_doubling_start(ShootingProblem(model, "w", options=HARMONIC), pd_orbit.state, w)
+    doubled, u0, tangent = period_doubling_start(ShootingProblem(model, "w", options=HARMONIC), pd_orbit.state, w,
+                                                 segments=1)
     mon = ShootingStability(doubled)
     info, grown = [], [False]
 
     def callback(br, i):
         while len(info) <= i:
-            info.append(orbit_info(model, float(br.parameter[len(info)]), br.unknowns[len(info)]))
+            info.append(orbit_info(model, float(br.parameter[len(info)]), start_state(model, br.unknowns[len(info)])))
         grown[0] = grown[0] or info[-1][0] > 10 * back_at
         return not (grown[0] and info[-1][0] < back_at)
 
@@ -146,6 +152,11 @@ def switched_branch(model, pd_orbit, options: ContinuationOptions, back_at: floa
                       tangent=tangent, solve_start=False, callback=callback)
     report(f"switched at the period doubling w = {w:.8f}", br, time.perf_counter() - t)
     return br, info[:len(br)]
+
+
+def start_state(model, u: np.ndarray) -> np.ndarray:
+    """The orbit's state ``(x, x')`` at ``t = 0`` from a branch point's unknowns (its first segment's start)."""
+    return np.asarray(u[:2 * model.n_dof], dtype=float)
 
 
 def entrained_orbit(model, revolutions: int = 1500):
@@ -163,7 +174,7 @@ def harmonic_balance_near_f(model, br, index: int = 4, harmonics: int = 120) -> 
     t = time.perf_counter()
     n = model.n_dof
     hb = HarmonicBalance(model, "w", HBOptions(harmonics=harmonics, subharmonic=2, samples=2048, crossings="none"))
-    w, z = float(br.parameter[index]), br.unknowns[index]
+    w, z = float(br.parameter[index]), start_state(model, br.unknowns[index])
     u = simulation_start(hb, w, transient=2, x0=z[:n], v0=z[n:])
     hbr = continuation(hb, u, w, (2.19, 2.21), ContinuationOptions(ds=0.005, ds_max=0.02, newton_tol=1e-9,
                                                                    direction=-1, max_points=300), parameter_name="w")
@@ -243,7 +254,7 @@ def fig4_branches(model, quick: bool, harmonic_balance: bool = False):
     orb = entrained_orbit(model)
     first = next((i for i in range(1, len(br)) if (br.parameter[i - 1] - W0) * (br.parameter[i] - W0) <= 0), None)
     if orb.converged and first is not None:
-        on_branch = periodic_orbit(model, {"w": W0}, br.unknowns[first], NU2)
+        on_branch = periodic_orbit(model, {"w": W0}, start_state(model, br.unknowns[first]), NU2)
         gap = same_orbit(model, W0, orb.state, on_branch.state)
         print(f"  a time simulation from rest at w = {W0} settles on an orbit {gap:.1e} from the branch's "
               f"(stable: {on_branch.stable}; {time.perf_counter() - t:.0f} s)")
@@ -256,7 +267,7 @@ def fig4_branches(model, quick: bool, harmonic_balance: bool = False):
             i = int(r[r.size // 2])
             print(f"  w = {br.parameter[i]:.6f} ({'stable' if stable[i] else 'unstable'}, largest multiplier "
                   f"{br.point_data['max_multiplier'][i]:.4f}): 400 revolutions from 1e-6 off the orbit end "
-                  f"{drift(model, float(br.parameter[i]), br.unknowns[i]):.1e} from it")
+                  f"{drift(model, float(br.parameter[i]), start_state(model, br.unknowns[i])):.1e} from it")
     return out
 
 

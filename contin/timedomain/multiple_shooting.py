@@ -1,0 +1,599 @@
+"""Multiple shooting on the integrated flow: periodic orbits as a discretisation for the continuation engine.
+
+The period ``T = nu 2 pi / w`` is cut into ``M`` segments at the RK4 step
+indices ``k L``, ``L = S nu / M`` (``S`` steps per forcing period), so
+segment ``k`` runs from ``t_k = k T / M`` to ``t_{k+1}``. The unknowns are the
+states at the segment starts, ``u = (z_0, ..., z_{M-1})`` (``z = (x, x')``,
+size ``2 n M``), and the residual is
+
+    r_k = phi_{t_k -> t_{k+1}}(z_k) - z_{k+1 mod M},     k = 0 .. M-1,
+
+with ``phi`` the flow map of the compiled integrator
+(:mod:`contin.timedomain.integrator`: RK4, contact switches located in time).
+A forced orbit needs no phase condition. ``M = 1`` is single shooting; more
+segments keep each flow map well conditioned on a strongly unstable orbit.
+
+Jacobians
+---------
+``dR/du`` is the cyclic block-bidiagonal matrix with the segment Jacobians
+``Phi_k = d phi_k / d z_k`` on the diagonal and ``-I`` on the block
+super-diagonal (wrapping round to the first block column). It is stored
+dense, which suits ``2 n M`` up to about 200 (the engine factorises it
+densely). ``Phi_k`` comes from the variational equations integrated with the
+state (``jacobian="variational"``: the exact derivative of the discrete map,
+the saltation matrix at every located switch; one integration per segment)
+or by central differences of the flow map (``jacobian="differences"``, the
+reference: ``4 n + 1`` integrations per segment).
+
+``dR/dlam`` is a central difference of the plain flow maps in ``lam`` (two
+more integrations of the period). A sensitivity equation would need the
+derivative of every element's compiled constants in the parameter, which
+enter them nonlinearly (clearances, stiffness laws, the step ``h = T / S`` and
+the forcing phase through ``w``); the flow map is smooth in ``lam`` away from
+grazing, so the difference with step ``fd_step max(1, |lam|)`` is accurate to
+its truncation ``O(step^2)`` and rounding ``O(eps / step)``, about 1e-10
+relative at the default step.
+
+Multipliers
+-----------
+The monodromy at ``z_0`` is the product ``Phi_{M-1} ... Phi_0`` of the
+segment Jacobians, each itself a product of factors over equal shares of
+its steps. Its eigenvalues come from the factors by a periodic Schur
+decomposition, never from the multiplied-out product, so that the small
+multipliers of a strongly unstable orbit keep their relative accuracy. The
+factors of the last linearisations are cached by ``(u, lam)``: the stability
+monitor at a point the engine has just linearised costs no integration.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections import OrderedDict
+from typing import Mapping
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+
+from contin.stability.options import StabilityOptions
+from contin.stability.periodic_schur import periodic_eigenvalues
+from contin.stability.saltation import orbit_state
+from contin.stability.verdict import FloquetResult, monodromy_result
+from contin.timedomain.integrator import RK4_STABILITY, SimulationError, compile_model
+from contin.timedomain.shooting_events import graze_data, grid_graze, nearest_zero, start_graze
+from contin.timedomain.variational import VariationalFlow
+from contin.util.options import from_mapping
+
+__all__ = ["ShootingOptions", "ShootingProblem", "ShootingStability", "period_doubling_start", "flip_test"]
+
+JACOBIANS = ("variational", "differences")
+#: factors asked of the flow per period (at least), so that the small multipliers survive the product
+MIN_FACTORS = 8
+#: linearisations kept (by (u, lam)) for the monitors and the stability verdict
+CACHE_SIZE = 8
+
+
+@dataclasses.dataclass(frozen=True)
+class ShootingOptions:
+    """Options of shooting (:class:`ShootingProblem`, :func:`contin.timedomain.shooting.periodic_orbit`).
+
+    Attributes
+    ----------
+    steps_per_period : int
+        RK4 steps per forcing period ``2 pi / w`` (the rotor paper: 4096).
+    tol : float
+        Newton of :func:`~contin.timedomain.shooting.periodic_orbit` ends when
+        ``max |phi_T(z) - z| <= tol * max(1, max |z|)``.
+    max_iter : int
+        Newton iterations at most.
+    fd_step : float
+        Step of the central differences (of the flow map in the state for
+        ``jacobian="differences"``, in the parameter always), relative to
+        ``max(1, max |z|)`` and ``max(1, |lam|)``.
+    subharmonic : int
+        ``nu``: the orbit's period is ``nu`` forcing periods.
+    segments : int
+        ``M``, shooting segments of the period; ``steps_per_period * subharmonic``
+        must be a multiple of it (segment ends on the step grid).
+    jacobian : str
+        ``"variational"`` (the variational equations with the flow) or
+        ``"differences"`` (central differences of the flow map, the reference).
+    """
+
+    steps_per_period: int = 4096
+    tol: float = 1e-10
+    max_iter: int = 20
+    fd_step: float = 1e-6
+    subharmonic: int = 1
+    segments: int = 1
+    jacobian: str = "variational"
+
+    def __post_init__(self):
+        for name in ("steps_per_period", "max_iter", "subharmonic", "segments"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+                raise ValueError(f"ShootingOptions.{name} must be a positive integer, got {v!r}")
+        for name, hi in (("tol", 1e-2), ("fd_step", 1e-2)):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not (0.0 < v <= hi):
+                raise ValueError(f"ShootingOptions.{name} must be a number in (0, {hi:g}], got {v!r}")
+        steps = self.steps_per_period * self.subharmonic
+        if steps % self.segments:
+            raise ValueError(f"ShootingOptions.segments must divide steps_per_period * subharmonic = {steps} "
+                             f"(segment ends on the step grid), got {self.segments}")
+        if self.jacobian not in JACOBIANS:
+            raise ValueError(f"ShootingOptions.jacobian must be one of {list(JACOBIANS)}, got {self.jacobian!r}")
+
+    @classmethod
+    def from_dict(cls, d: Mapping) -> "ShootingOptions":
+        """From a mapping (:func:`contin.util.options.from_mapping`); an unknown key raises ``ValueError``
+        naming it, the nearest valid one and all of them."""
+        return from_mapping(cls, d)
+
+
+def flip_test(mu: np.ndarray) -> float:
+    """``det(Phi + I) = prod (mu_i + 1)`` from the multipliers: changes sign where a real one crosses -1."""
+    return float(np.real(np.prod(np.asarray(mu) + 1.0)))
+
+
+def _multipliers(factors: np.ndarray) -> np.ndarray:
+    """Eigenvalues of the product of ``factors`` (K, m, m) by the periodic Schur decomposition.
+
+    Where its QR iteration does not deflate (rare: seen once on the finite-element rig, 8 factors of order 24),
+    the factors are merged pairwise and tried again, down to one factor (the monodromy itself, whose
+    eigenvalues LAPACK computes); each merge
+    costs accuracy only in multipliers smaller than ``eps`` times the merged factors' norm.
+    """
+    f = np.asarray(factors, dtype=float)
+    while True:
+        if f.shape[0] == 1:
+            mu = np.linalg.eigvals(f[0])
+            return mu[np.lexsort((-mu.imag, -np.abs(mu)))]
+        try:
+            return periodic_eigenvalues(f)
+        except ArithmeticError:
+            pass
+        k = f.shape[0]
+        merged = [f[i + 1] @ f[i] for i in range(0, k - 1, 2)] + ([f[-1]] if k % 2 else [])
+        f = np.asarray(merged)
+
+
+def _factor_count(steps: int, want: int) -> int:
+    """The largest divisor of ``steps`` not above ``want`` (factors over equal shares of the steps)."""
+    return max(d for d in range(1, max(1, want) + 1) if steps % d == 0)
+
+
+@dataclasses.dataclass(eq=False)
+class _Linearisation:
+    residual: np.ndarray
+    Ju: np.ndarray
+    Jlam: np.ndarray
+    factors: np.ndarray  # (K_total, 2n, 2n), in time order from t = 0
+    graze: np.ndarray  # (n_switch,)
+
+
+class ShootingProblem:
+    """``R(u, lam)``: multiple shooting of the integrated flow for the continuation engine (module docstring).
+
+    The unknowns are the segment starts ``u = (z_0, ..., z_{M-1})``; ``dR/du``
+    is returned dense, which suits ``2 n M`` up to about 200.
+
+    Parameters
+    ----------
+    model : Model
+    parameter : str
+        The continuation parameter (the forcing frequency or another).
+    params : dict, optional
+        The other parameter overrides.
+    options : ShootingOptions
+
+    Attributes
+    ----------
+    jacobian : str
+        The Jacobian in use: ``options.jacobian``, or ``"differences"`` when
+        an element of the model has no Jacobian lines in its compiled form
+        (said in ``notes``).
+    notes : list of str
+    n : int
+        Dofs of the model.
+    nu : int
+        Subharmonic order.
+    segments : int
+        ``M``.
+    size : int
+        Unknowns, ``2 n M``.
+    """
+
+    def __init__(self, model, parameter: str, params: Mapping[str, float] | None = None,
+                 options: ShootingOptions = ShootingOptions()):
+        if parameter not in model.parameters:
+            raise ValueError(f"unknown parameter {parameter!r} of model '{model.name}'; "
+                             f"valid: {list(model.parameters)}")
+        self.model, self.parameter, self.options = model, parameter, options
+        self.base = dict(params or {})
+        self.n = model.n_dof
+        self.nu = options.subharmonic
+        self.segments = options.segments
+        self.size = 2 * self.n * self.segments
+        # the flow map integrates the model's excitation at its declared frequency
+        self.frequency = model.frequency
+        self._kw = model.parameter_index(self.frequency)
+        self._cm = compile_model(model)
+        self.n_switch = self._cm.n_switch
+        self._steps = options.steps_per_period * options.subharmonic  # steps per orbit period
+        self._seg_steps = self._steps // self.segments
+        # with one segment the flow still hands its Jacobian in factors, so the small multipliers survive
+        self._factors = _factor_count(self._seg_steps, -(-MIN_FACTORS // self.segments))
+        self._flow = None
+        self._cache: OrderedDict = OrderedDict()
+        #: the Jacobian in use, and why it is not the one asked for
+        self.jacobian, self.notes = options.jacobian, []
+        if self.jacobian == "variational":
+            try:
+                self._cm.jacobian_source()  # an element kind without Jacobian lines is named here
+            except SimulationError as exc:
+                self.jacobian = "differences"
+                self.notes.append(f"central differences of the flow map instead of the variational equations: {exc}")
+
+    # ------------------------------------------------------------ the protocol's members
+    @property
+    def full(self) -> "ShootingProblem":
+        """The problem itself: shooting holds every dof."""
+        return self
+
+    condensed = False
+
+    @property
+    def dof_names(self) -> tuple:
+        return tuple(self.model.dof_names)
+
+    def frequency_at(self, lam: float) -> float:
+        """The forcing frequency at ``lam`` (the parameter itself, or fixed by the overrides)."""
+        params = {**self.base, self.parameter: float(lam)}
+        return float(self.model.parameter_vector(params)[self._kw])
+
+    def period_at(self, lam: float) -> float:
+        """The orbit's period, ``subharmonic`` forcing periods ``2 pi / w``, at ``lam``."""
+        return self.nu * 2.0 * math.pi / self.frequency_at(lam)
+
+    def params_at(self, lam: float) -> dict:
+        """Parameter overrides at ``lam``; a Newton iterate with no positive forcing period fails the evaluation."""
+        w = self.frequency_at(lam)
+        if not w > 0.0:
+            raise ArithmeticError(f"the iterate has {self.frequency} = {w:g}: no positive forcing period")
+        return {**self.base, self.parameter: float(lam)}
+
+    # ------------------------------------------------------------ integration
+    def _setup(self, lam: float):
+        """``(p, h, arguments)`` at ``lam``; a step beyond RK4's stability raises ArithmeticError."""
+        params = self.params_at(lam)
+        p = self.model.parameter_vector(params)
+        w = float(p[self._kw])
+        S = self.options.steps_per_period
+        h = 2.0 * math.pi / w / S
+        try:
+            args = self._cm.arguments(p)
+        except SimulationError as exc:
+            raise ArithmeticError(str(exc)) from None
+        if self._cm.fastest_rate(p) * h > RK4_STABILITY:
+            raise ArithmeticError(f"the step T/{S} at {self.parameter} = {lam:.10g} is beyond RK4's stability for "
+                                  f"the stiffest mode of '{self.model.name}': raise steps_per_period")
+        return p, h, args
+
+    def _mode(self, y, p, cst):
+        X, V = np.zeros((1, self.n)), np.zeros((1, self.n))
+        s = np.zeros(max(self.n_switch, 1))
+        if self.n_switch:
+            self._cm.module.switch(y, p, cst, X, V, s)
+        return (s > 0.0).astype(np.int64)
+
+    def _run(self, z, setup, k, record=False, steps=None):
+        """The plain flow over segment ``k`` from ``z`` (or its first ``steps`` steps): the end state, and the
+        states at every step if ``record``."""
+        p, h, (Minv, C, K, cst) = setup
+        y = np.array(z, dtype=float)
+        mode = self._mode(y, p, cst)
+        k0 = k * self._seg_steps
+        k1 = k0 + (self._seg_steps if steps is None else steps)
+        S = self.options.steps_per_period
+        out = np.zeros((k1 - k0 if record else 0, y.size))
+        sec = np.zeros((k1 // S + 1, y.size))
+        stats = np.zeros(5, dtype=np.int64)
+        status = self._cm.module.integrate(y, mode, k0, k1, S, h, p, Minv, C, K, cst, True, 8,
+                                           k0 + 1 if record else k1 + 1, 1, out, sec, stats)
+        if status != 0 or not np.all(np.isfinite(y)):
+            raise ArithmeticError(f"the flow of '{self.model.name}' blew up on segment {k} at "
+                                  f"{self.parameter} = {float(p[self.model.parameter_index(self.parameter)]):.10g}")
+        return y, out
+
+    def _switching(self, states, p, cst) -> np.ndarray:
+        """Switching-function values at the states (K, 2n): shape (K, n_switch)."""
+        X, V = np.zeros((1, self.n)), np.zeros((1, self.n))
+        s = np.zeros(max(self.n_switch, 1))
+        out = np.empty((len(states), self.n_switch))
+        for i, y in enumerate(states):
+            self._cm.module.switch(np.ascontiguousarray(y), p, cst, X, V, s)
+            out[i] = s[: self.n_switch]
+        return out
+
+    def _variational(self):
+        if self.jacobian != "variational":
+            return None
+        if self._flow is None:
+            self._flow = VariationalFlow(self.model, steps_per_period=self.options.steps_per_period)
+        return self._flow
+
+    def _segment(self, z, setup, k):
+        """Segment ``k`` from ``z``: end state, its factors (K, 2n, 2n) and the graze per switching function."""
+        flow = self._variational()
+        if flow is None:
+            return self._segment_differences(z, setup, k)
+        try:
+            run = flow.run(z, setup[0], k * self._seg_steps, (k + 1) * self._seg_steps, jacobian=True,
+                           factors=self._factors)
+        except SimulationError as exc:
+            raise ArithmeticError(str(exc)) from None
+        graze = np.asarray(run.graze, dtype=float).reshape(-1)
+        if self.n_switch:
+            # a run cannot see an extremum at its first step: two plain steps from z give it
+            start = np.vstack([z[None], self._run(z, setup, k, record=True, steps=2)[1]])
+            graze = nearest_zero([graze, start_graze(self._switching(start, setup[0], setup[2][3]))])
+        return run.state, np.asarray(run.factors), graze
+
+    def _segment_differences(self, z, setup, k):
+        """:meth:`_segment` by central differences of the flow map (the reference): one factor per segment."""
+        end, states = self._run(z, setup, k, record=self.n_switch > 0)
+        m = z.size
+        step = self.options.fd_step * max(1.0, float(np.max(np.abs(z))))
+        Phi = np.empty((m, m))
+        for j in range(m):
+            e = np.zeros(m)
+            e[j] = step
+            Phi[:, j] = (self._run(z + e, setup, k)[0] - self._run(z - e, setup, k)[0]) / (2.0 * step)
+        graze = np.full(self.n_switch, math.inf)
+        if self.n_switch:
+            s = self._switching(np.vstack([z[None], states]), setup[0], setup[2][3])
+            graze = nearest_zero([grid_graze(s, periodic=False), start_graze(s[:3])])
+        return end, Phi[None], graze
+
+    def _blocks(self, u):
+        u = np.asarray(u, dtype=float)
+        if u.shape != (self.size,):
+            raise ValueError(f"the unknowns must have shape ({self.size},) = {self.segments} segment start(s) of "
+                             f"(x, x') of model '{self.model.name}', got {u.shape}")
+        return u.reshape(self.segments, 2 * self.n)
+
+    def flows(self, u: np.ndarray, lam: float) -> np.ndarray:
+        """The segment end states ``phi_k(z_k)``, shape (M, 2n)."""
+        Z = self._blocks(u)
+        setup = self._setup(lam)
+        return np.array([self._run(Z[k], setup, k)[0] for k in range(self.segments)])
+
+    def residual(self, u: np.ndarray, lam: float) -> np.ndarray:
+        """``r_k = phi_k(z_k) - z_{k+1 mod M}``, shape (2 n M,)."""
+        Z = self._blocks(u)
+        return (self.flows(u, lam) - np.roll(Z, -1, axis=0)).reshape(-1)
+
+    def linearize(self, u: np.ndarray, lam: float):
+        """Residual (2nM,), ``dR/du`` (2nM, 2nM, dense) and ``dR/dlam`` (2nM,) (module docstring)."""
+        key = (np.asarray(u, dtype=float).tobytes(), float(lam))
+        hit = self._cache.get(key)
+        if hit is not None:
+            self._cache.move_to_end(key)
+            return hit.residual.copy(), hit.Ju.copy(), hit.Jlam.copy()
+        Z = self._blocks(u)
+        M, m = self.segments, 2 * self.n
+        setup = self._setup(lam)
+        ends, factors, graze = np.empty((M, m)), [], []
+        Ju = np.zeros((M * m, M * m))
+        for k in range(M):
+            ends[k], f, g = self._segment(Z[k], setup, k)
+            Phi = f[0]
+            for F in f[1:]:
+                Phi = F @ Phi
+            Ju[k * m:(k + 1) * m, k * m:(k + 1) * m] = Phi
+            j = (k + 1) % M
+            Ju[k * m:(k + 1) * m, j * m:(j + 1) * m] -= np.eye(m)
+            factors.append(f)
+            graze.append(g)
+        if not (np.all(np.isfinite(ends)) and np.all(np.isfinite(Ju))):
+            raise ArithmeticError(f"non-finite flow map at {self.parameter} = {lam:.10g}")
+        # dR/dlam: the plain flow maps at lam +- step (module docstring)
+        step = self.options.fd_step * max(1.0, abs(float(lam)))
+        Jlam = ((self.flows(u, lam + step) - self.flows(u, lam - step)) / (2.0 * step)).reshape(-1)
+        R = (ends - np.roll(Z, -1, axis=0)).reshape(-1)
+        lin = _Linearisation(R, Ju, Jlam, np.concatenate(factors, axis=0), nearest_zero(graze))
+        self._cache[key] = lin
+        if len(self._cache) > CACHE_SIZE:
+            self._cache.popitem(last=False)
+        return R.copy(), Ju.copy(), Jlam.copy()
+
+    def _linearisation(self, u, lam) -> _Linearisation:
+        key = (np.asarray(u, dtype=float).tobytes(), float(lam))
+        if key not in self._cache:
+            self.linearize(u, lam)
+        return self._cache[key]
+
+    def factors(self, u: np.ndarray, lam: float) -> np.ndarray:
+        """The factors of the monodromy at ``z_0``, in time order, shape (K, 2n, 2n) (cached by ``(u, lam)``)."""
+        return self._linearisation(u, lam).factors.copy()
+
+    def multipliers(self, u: np.ndarray, lam: float) -> np.ndarray:
+        """Floquet multipliers of the orbit, by decreasing modulus: periodic Schur of the segment factors."""
+        mu = np.asarray(_multipliers(self._linearisation(u, lam).factors), dtype=complex)
+        return mu[np.argsort(-np.abs(mu), kind="stable")]
+
+    def graze(self, u: np.ndarray, lam: float) -> np.ndarray:
+        """Per switching function, the signed extremum nearest to zero along the orbit (+inf: none), shape (n_switch,)."""
+        return self._linearisation(u, lam).graze.copy()
+
+    def monitor(self, u, lam, Ju=None, Jlam=None) -> dict:
+        """Engine monitor: the largest multiplier, the flip test and, with contacts, the graze (no integration)."""
+        mu = self.multipliers(u, lam)
+        return {"max_multiplier": float(np.abs(mu).max()), "flip_test": flip_test(mu), **graze_data(self, u, lam)}
+
+    # ------------------------------------------------------------ starts and orbits
+    def start_unknowns(self, z0, lam: float) -> np.ndarray:
+        """The unknowns from the state ``z0`` (2n,) at ``t = 0``: each segment start by integrating the previous."""
+        z = np.asarray(z0, dtype=float)
+        if z.shape != (2 * self.n,):
+            raise ValueError(f"z0 must have shape ({2 * self.n},) = (x, x') of model '{self.model.name}', got {z.shape}")
+        setup = self._setup(lam)
+        out = [z]
+        for k in range(self.segments - 1):
+            out.append(self._run(out[-1], setup, k)[0])
+        return np.concatenate(out)
+
+    def from_coefficients(self, hb, c: np.ndarray, lam: float) -> np.ndarray:
+        """The unknowns from a harmonic-balance point: its orbit's states at the segment starts ``k T / M``.
+
+        ``hb`` may be a condensed problem: ``c`` is then expanded to the full coefficients first.
+        """
+        full = hb.full  # the periodic-problem protocol (contin.model.periodic)
+        coeffs = hb.expand(c, lam) if hb.condensed else np.asarray(c, dtype=float)
+        t = np.arange(self.segments) * self.period_at(lam) / self.segments
+        return np.asarray(orbit_state(full, coeffs, lam, t), dtype=float).reshape(-1)
+
+    def orbit(self, u: np.ndarray, lam: float, t):
+        """Displacements and velocities of the orbit ``u`` at times ``t`` in ``[0, period]``.
+
+        The segments are integrated again, recording every step; between steps
+        a cubic spline (periodic when the orbit closes).
+
+        Returns
+        -------
+        x, xd : ndarray, shape (n, len(t))
+        """
+        Z = self._blocks(u)
+        T = self.period_at(lam)
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        if t.size and (np.min(t) < 0.0 or np.max(t) > T * (1 + 1e-12)):
+            raise ValueError(f"orbit: the times must lie in [0, {T:.10g}] (one period), got "
+                             f"[{np.min(t):.10g}, {np.max(t):.10g}]")
+        setup = self._setup(lam)
+        states = [Z[:1]]
+        for k in range(self.segments):
+            states.append(self._run(Z[k], setup, k, record=True)[1])
+        Y = np.vstack(states)
+        grid = np.arange(Y.shape[0]) * T / self._steps
+        closes = np.allclose(Y[-1], Y[0], rtol=0.0, atol=1e-8 * max(1.0, float(np.abs(Y).max())))
+        if closes:
+            Y = Y.copy()
+            Y[-1] = Y[0]
+        y = CubicSpline(grid, Y, axis=0, bc_type="periodic" if closes else "not-a-knot")(np.clip(t, 0.0, T))
+        return y[:, :self.n].T.copy(), y[:, self.n:].T.copy()
+
+
+class ShootingStability:
+    """Stability monitor of a :class:`ShootingProblem` branch: the multipliers of the integrated flow.
+
+    The multipliers come from the factors of the linearisation the engine has
+    just made at the point (cached by the problem), so the verdict costs no
+    integration. The returned data are those of
+    :class:`contin.stability.StabilityMonitor` (``stable``, ``n_unstable``,
+    ``n_plus``, ``n_minus``, ``n_complex``, ``max_multiplier``,
+    ``multipliers``, ...) plus ``flip_test`` and, for a model with contacts,
+    ``graze`` (the signed extremum of a switching function nearest to zero),
+    so the classified events of :func:`contin.stability.stability_events`
+    locate the period doublings, Neimark-Sacker points and branch points of
+    the flow. Pass the same object in ``monitors`` and to ``stability_events``.
+
+    Parameters
+    ----------
+    problem : ShootingProblem
+    options : StabilityOptions, optional
+        Its ``tolerance`` and ``real_angle_tol`` decide the verdict.
+    """
+
+    #: no harmonic-balance problem: located points carry no Hill eigenvector
+    hb = None
+
+    def __init__(self, problem: ShootingProblem, options: StabilityOptions | None = None):
+        self.problem = problem
+        self.options = StabilityOptions(method="floquet") if options is None else options
+
+    def analyze(self, u: np.ndarray, lam: float, Ju: np.ndarray | None = None) -> FloquetResult:
+        """The verdict at ``(u, lam)`` (``Ju`` is accepted for the monitor signature; the factors are cached)."""
+        return monodromy_result(self.problem.multipliers(u, lam), self.problem.period_at(lam), self.options)
+
+    def __call__(self, u, lam, Ju=None, Jlam=None) -> dict:
+        res = self.analyze(u, lam, Ju)
+        return {**res.monitor_data(), "flip_test": flip_test(res.multipliers), **graze_data(self.problem, u, lam)}
+
+
+def period_doubling_start(problem: ShootingProblem, u, lam: float, eps: float = 1e-3, segments: int | None = None):
+    """The first point of the branch of period ``2 nu`` born at a period doubling of ``problem``'s branch.
+
+    At a period doubling the monodromy ``Phi`` at ``z_0`` has a multiplier
+    ``-1`` with real eigenvector ``v``; seen over twice the period the orbit
+    has the double multiplier ``+1`` and the new branch leaves it tangent to
+    ``v`` at ``t = 0`` and to ``-v`` one period later (a pitchfork in the
+    parameter; Kuznetsov, *Elements of Applied Bifurcation Theory*, 3rd ed.,
+    2004, sec. 7.4). Pass the returned point and tangent to
+    :func:`contin.engine.continuation.continuation` with ``solve_start=False``:
+    the engine corrects the point on the hyperplane through it normal to the
+    tangent, which cuts the new branch and not the old one.
+
+    Parameters
+    ----------
+    problem : ShootingProblem
+        The problem of the period-``nu`` branch (``M`` segments).
+    u : array_like, shape (problem.size,)
+        The located period-doubling orbit (a located ``pd`` special point, or
+        for ``M = 1`` a point of :func:`contin.timedomain.shooting.period_doubling_scan`).
+    lam : float
+    eps : float
+        Offset along ``v``, relative to ``max(1, max |z_0|)``.
+    segments : int, optional
+        Segments of the doubled problem (default ``2 M``: the same segment length).
+
+    Returns
+    -------
+    doubled : ShootingProblem
+        Period ``2 nu``; its segment starts of the second lap by integrating the first.
+    u0 : ndarray, shape (doubled.size,)
+        The segment starts of the orbit from ``z_0 + eps v``.
+    tangent : ndarray, shape (doubled.size + 1,)
+        The segment starts' derivative along ``v``, and 0 in the parameter; unit length.
+
+    Raises
+    ------
+    ValueError
+        If no multiplier lies within 1e-3 of ``-1`` (not a period doubling).
+    """
+    Z = problem._blocks(u)
+    factors = problem.factors(np.asarray(u, dtype=float), lam)
+    per_seg = factors.shape[0] // problem.segments
+    Phis = []
+    for k in range(problem.segments):
+        P = factors[k * per_seg]
+        for F in factors[k * per_seg + 1:(k + 1) * per_seg]:
+            P = F @ P
+        Phis.append(P)
+    mono = np.eye(Z.shape[1])
+    for P in Phis:
+        mono = P @ mono
+    mu, V = np.linalg.eig(mono)
+    j = int(np.argmin(np.abs(mu + 1.0)))
+    if abs(mu[j] + 1.0) > 1e-3:
+        raise ValueError(f"no multiplier near -1 at {problem.parameter} = {lam:.10g} (closest {complex(mu[j]):.6g}): "
+                         "not a period doubling")
+    v = np.real(V[:, j]) if np.linalg.norm(np.real(V[:, j])) >= np.linalg.norm(np.imag(V[:, j])) else np.imag(V[:, j])
+    v = v / np.linalg.norm(v)
+    M2 = 2 * problem.segments if segments is None else int(segments)
+    opts = dataclasses.replace(problem.options, subharmonic=2 * problem.nu, segments=M2)
+    doubled = ShootingProblem(problem.model, problem.parameter, problem.base, opts)
+    z0 = Z[0] + eps * max(1.0, float(np.max(np.abs(Z[0])))) * v
+    u0 = doubled.start_unknowns(z0, lam)
+    # the tangent: v carried along the first lap by the segment Jacobians, -v along the second
+    lap = [v]
+    for P in Phis[:-1]:
+        lap.append(P @ lap[-1])
+    if M2 == 2 * problem.segments:
+        vs = np.concatenate(lap + [-x for x in lap])  # at the doubled orbit's starts k T / M (2M of them)
+    else:
+        # other segment counts: the starts lie at other times, the tangent by differences of the start
+        d = 1e-6 * max(1.0, float(np.max(np.abs(Z[0]))))
+        vs = (doubled.start_unknowns(Z[0] + d * v, lam) - doubled.start_unknowns(Z[0] - d * v, lam)) / (2 * d)
+    tangent = np.r_[vs, 0.0]
+    return doubled, u0, tangent / np.linalg.norm(tangent)
