@@ -7,18 +7,17 @@ and the Duffing folds of the converged harmonic balance (H = 25).
 """
 
 import json
-import math
 import signal
 
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
-from scipy.optimize import brentq
 
 from contin.app.cli import main
 from contin.app.runner import run_scene
 from contin.output.results import read_csv
 from contin.scene.parse import SceneError, parse_scene
+from mathieu_reference import damped_mathieu_pd
 
 MATHIEU = """\
 model:
@@ -53,18 +52,6 @@ analysis:
   stability: both
 output: {measure: amp_x, plots: false}
 """
-
-
-def _damped_mathieu_pd(lo, hi, c=0.1, eps=0.4):
-    """delta where x'' + c x' + (delta + eps cos t) x = 0 has the multiplier -1: 1 + tr Phi + exp(-2 pi c) = 0."""
-    def trace(delta):
-        def rhs(t, y):
-            return np.concatenate([y[2:], -(delta + eps * np.cos(t)) * y[:2] - c * y[2:]])
-
-        y = solve_ivp(rhs, (0, 2 * np.pi), [1.0, 0.0, 0.0, 1.0], method="DOP853", rtol=1e-13, atol=1e-14).y[:, -1]
-        return y[0] + y[3]
-
-    return brentq(lambda d: 1 + trace(d) + math.exp(-2 * math.pi * c), lo, hi, xtol=1e-13)
 
 
 # ------------------------------------------------------------------ the keys
@@ -106,7 +93,7 @@ def test_shooting_locates_the_flows_period_doublings_and_switches_onto_nu_2(math
     sp = read_csv(out / "special_points.csv")
     pds = [float(w) for b, k, w in zip(sp["branch"], sp["kind"], sp["delta"]) if int(b) == 0 and k == "pd"]
     # RK4 with 256 steps a period: its error ~ h^4 on the multipliers
-    np.testing.assert_allclose(pds, [_damped_mathieu_pd(0.0, 0.2), _damped_mathieu_pd(0.3, 0.6)], atol=1e-6)
+    np.testing.assert_allclose(pds, [damped_mathieu_pd(0.0, 0.2), damped_mathieu_pd(0.3, 0.6)], atol=1e-6)
     rows = read_csv(out / "branches.csv")
     trivial = np.asarray(rows["branch"]) == 0
     assert np.abs(rows["amp_x"][trivial]).max() < 1e-12  # the trivial orbit's columns are zero

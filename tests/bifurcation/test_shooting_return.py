@@ -8,16 +8,14 @@ of the linear damped Mathieu equation (scipy's DOP853 monodromy, Liouville's
 determinant), and the returning orbit is the trivial one (zero amplitude).
 """
 
-import math
 
 import numpy as np
 import pytest
-from scipy.integrate import solve_ivp
-from scipy.optimize import brentq
 
 from contin.app.runner import run_scene
 from contin.output.results import read_csv
 from contin.scene.parse import parse_scene
+from mathieu_reference import damped_mathieu_pd
 
 BUBBLE = """\
 model:
@@ -44,23 +42,11 @@ output: {measure: amp_x, plots: false}
 """
 
 
-def _damped_mathieu_pd(lo, hi, c=0.1, eps=0.4):
-    """delta where x'' + c x' + (delta + eps cos t) x = 0 has the multiplier -1: 1 + tr Phi + exp(-2 pi c) = 0."""
-    def trace(delta):
-        def rhs(t, y):
-            return np.concatenate([y[2:], -(delta + eps * np.cos(t)) * y[:2] - c * y[2:]])
-
-        y = solve_ivp(rhs, (0, 2 * np.pi), [1.0, 0.0, 0.0, 1.0], method="DOP853", rtol=1e-13, atol=1e-14).y[:, -1]
-        return y[0] + y[3]
-
-    return brentq(lambda d: 1 + trace(d) + math.exp(-2 * math.pi * c), lo, hi, xtol=1e-13)
-
-
 def test_the_subharmonic_bubble_returns_to_the_other_period_doubling_and_ends_there(tmp_path):
     out = tmp_path / "out"
     s = run_scene(parse_scene(BUBBLE), out, progress=False)
     assert s["status"] == "complete" and s["shortfalls"] == []
-    pds = [_damped_mathieu_pd(0.0, 0.2), _damped_mathieu_pd(0.3, 0.6)]
+    pds = [damped_mathieu_pd(0.0, 0.2), damped_mathieu_pd(0.3, 0.6)]
     b0, *subs = s["analysis"]["branches"]
     assert b0["status"] == "range_end" and len(subs) == 2
     for b in subs:
