@@ -4,9 +4,10 @@ Harmonic balance truncates a contact force whose derivative jumps, and its
 branch stops (status ``boundary``) at the point where a contact arc appears or
 vanishes. The equations of motion integrated with located switches have no
 such wall: the branch is handed over to shooting
-(:class:`contin.timedomain.shooting.ShootingProblem`) from the grazing point
-it could not pass (the harmonic-balance orbit's state at ``t = 0`` there) and
-continued in the direction the branch reached that point. In the outputs the
+(:class:`contin.timedomain.shooting.ShootingProblem`) from a stored point a
+few steps before the grazing point it could not pass, where the harmonic-balance
+orbit and the flow's agree (:func:`handover_start`), and continued in the
+direction the branch ran there, through the grazing point. In the outputs the
 shooting part is the next branch, with
 ``handed_over_from`` in ``summary.json``; the harmonic-balance branch says
 ``handed_over_to`` and ``end: handover`` (its end is then no shortfall: the
@@ -22,7 +23,7 @@ from contin.bifurcation.end_check import barrier_point
 from contin.engine.branch import BranchStatus
 from contin.stability import orbit_state
 
-__all__ = ["hand_over"]
+__all__ = ["GRAZING_TURN", "HANDOVER_AGREEMENT", "HANDOVER_BACK", "boundary_gap", "hand_over", "handover_start"]
 
 
 def _direction(branch) -> int:
