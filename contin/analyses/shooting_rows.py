@@ -72,9 +72,10 @@ class ShootingSettings:
                 raise SceneError(f"{key}.{k}", "a key among " + ", ".join(names), k)
         try:
             return cls(**d)
-        except ValueError as exc:
-            field = str(exc).split(":")[0].rsplit(".", 1)[-1]
-            raise SceneError(f"{key}.{field}", str(exc).split(": ", 1)[1], None) from None
+        except ValueError as exc:  # "analysis.shooting.FIELD: expected WHAT, got VALUE"
+            where, _, what = str(exc).partition(": expected ")
+            field = where.rsplit(".", 1)[-1]
+            raise SceneError(f"{key}.{field}", what.rsplit(", got ", 1)[0], d.get(field)) from None
 
 
 def has_contacts(hb) -> bool:

@@ -171,3 +171,14 @@ def test_shooting_folds_of_duffing_are_those_of_the_converged_harmonic_balance(t
         folds[method] = sorted(float(w) for k, w in zip(sp["kind"], sp["w"]) if k == "fold")
     assert len(folds["hb"]) == 2
     np.testing.assert_allclose(folds["shooting"], folds["hb"], rtol=1e-6)
+
+
+@pytest.mark.parametrize("value, expected", [(3, r"expected a divisor of steps_per_period \(2048\), found 3"),
+                                             (0, "expected an integer from 1 to 1024, found 0")])
+def test_shooting_segments_are_refused_naming_the_key_once(value, expected):
+    from contin.analyses.shooting_rows import ShootingSettings
+    from contin.scene.parse import SceneError
+
+    with pytest.raises(SceneError, match=r"analysis\.starts\[0\]\.shooting\.segments: " + expected) as info:
+        ShootingSettings.from_dict({"segments": value, "steps_per_period": 2048}, "analysis.starts[0].shooting")
+    assert "expected expected" not in str(info.value)
