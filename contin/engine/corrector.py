@@ -205,14 +205,27 @@ class Corrector:
         self.n_newton += res.iterations
         return res
 
+    def _chord_lu(self, chord, normal: np.ndarray | None = None) -> LUFactor | None:
+        """With a lazy Jacobian, the factorisation of the Jacobian ``chord = (Ju, Jlam)`` of a nearby point
+        (bordered by ``normal`` when given) for the first chord steps; None otherwise or if singular."""
+        sp = self.sp
+        if chord is None or not sp.lazy:
+            return None
+        Ju, Jlam = chord
+        try:
+            return factorize(Ju if normal is None else bordered_matrix(Ju, Jlam, sp.su, sp.sl, normal))
+        except SingularMatrixError:
+            return None
+
     def bordered_solve(self, guess: np.ndarray, x_ref: np.ndarray, normal: np.ndarray, offset: float, lu0=None,
-                       quick: bool = False) -> NewtonResult:
+                       quick: bool = False, chord=None) -> NewtonResult:
         """Newton on ``[R = 0; normal . (x - x_ref) = offset]`` from ``guess`` (all (m+1,), scaled).
 
         ``lu0``: see :func:`~contin.engine.newton.newton`; ``quick``: a solve
         expected to fail where there is no solution, given fewer updates and
-        no retry. The result's ``lu`` factorises the bordered matrix at the
-        solution.
+        no retry; ``chord``: ``(Ju, Jlam)`` (unscaled) of a nearby point, whose
+        bordered matrix a lazy Jacobian starts with (:data:`~contin.engine.problem.LAZY_COST`).
+        The result's ``lu`` factorises the bordered matrix at the solution.
         """
         sp, m = self.sp, self.m
         F = np.empty(m + 1)
@@ -226,25 +239,40 @@ class Corrector:
             A[:m] = Jh
             return F, A
 
+        def residual(x):
+            F[:m] = sp.residual_at(x[:m] * sp.su, float(x[m] * sp.sl))
+            F[m] = normal @ (x - x_ref) - offset
+            return F
+
+        lazy = {"residual": residual} if sp.lazy else {}
+        if lu0 is None:
+            lu0 = self._chord_lu(chord, normal)
         if quick:
             opt = self.opt
             res = newton(fun_and_jac, guess, opt.newton_tol, min(opt.newton_max_iter, QUICK_ITER), stall=QUICK_STALL,
-                         factor_final=True)
+                         factor_final=True, lu0=lu0, **lazy)
             self.n_newton += res.iterations
             return res
-        return self.newton(fun_and_jac, guess, factor_final=True, lu0=lu0)
+        return self.newton(fun_and_jac, guess, factor_final=True, lu0=lu0, **lazy)
 
-    def fixed_solve(self, lam: float, u_guess: np.ndarray) -> NewtonResult:
-        """Newton in ``u`` (m,) at the fixed parameter ``lam`` (unscaled)."""
+    def fixed_solve(self, lam: float, u_guess: np.ndarray, chord=None) -> NewtonResult:
+        """Newton in ``u`` (m,) at the fixed parameter ``lam`` (unscaled); ``chord`` as for
+        :meth:`bordered_solve`."""
         sp = self.sp
 
         def fun_and_jac(u):
             R, Ju, _ = sp.evaluate(u, lam)
             return R, Ju
 
-        return self.newton(fun_and_jac, u_guess)
+        lazy = {"residual": lambda u: sp.residual_at(u, lam)} if sp.lazy else {}
+        return self.newton(fun_and_jac, u_guess, lu0=self._chord_lu(chord), **lazy)
 
     # -- steps -----------------------------------------------------------
+    def effort(self, res: NewtonResult) -> int:
+        """The updates a solve counts for the step control: with a lazy Jacobian, whose chord steps go on at
+        a contraction plain Newton would have ended with a new factorisation, two chord steps count one."""
+        return res.iterations - res.chord_steps // 2 if self.sp.lazy else res.iterations
+
     def check(self, x: np.ndarray, t: np.ndarray, x_new: np.ndarray, xp: np.ndarray, ds: float,
               lu: LUFactor | None, rcond: float, iterations: int, *, landed: bool = False,
               across: bool = False) -> Candidate:
@@ -298,24 +326,26 @@ class Corrector:
                 raise StepFailed(off, rcond)
         return cand
 
-    def step(self, x: np.ndarray, t: np.ndarray, ds: float) -> Candidate:
-        """The pseudo-arclength step of length ``ds`` from ``x`` along ``t`` (both (m+1,))."""
+    def step(self, x: np.ndarray, t: np.ndarray, ds: float, chord=None) -> Candidate:
+        """The pseudo-arclength step of length ``ds`` from ``x`` along ``t`` (both (m+1,)); ``chord``: the
+        linearisation ``(Ju, Jlam)`` at ``x`` (see :meth:`bordered_solve`)."""
         xp = predict(x, t, ds)
-        res = self.bordered_solve(xp.copy(), xp, t, 0.0)
+        res = self.bordered_solve(xp.copy(), xp, t, 0.0, chord=chord)
         if not res.converged:
             raise StepFailed(f"Newton did not converge ({res.message})", res.rcond)
-        return self.check(x, t, res.x, xp, ds, res.lu, res.rcond, res.iterations)
+        return self.check(x, t, res.x, xp, ds, res.lu, res.rcond, self.effort(res))
 
     def land(self, x: np.ndarray, t: np.ndarray, end: float, ds: float, guess_x: np.ndarray, *, landed: bool = True,
-             across: bool = False) -> Candidate:
+             across: bool = False, chord=None) -> Candidate:
         """Newton at the fixed parameter ``lam = end`` from ``guess_x`` (scaled, (m+1,), its parameter ``end``).
 
         ``x``, ``t``: the point the step started from and its tangent (the
         bordering row of the new point's matrix); ``landed``: onto a range
-        end; ``across``: a step across a corner (see :meth:`check`).
+        end; ``across``: a step across a corner (see :meth:`check`);
+        ``chord``: as for :meth:`step`.
         """
         sp, m = self.sp, self.m
-        res = self.fixed_solve(end, guess_x[:m] * sp.su)
+        res = self.fixed_solve(end, guess_x[:m] * sp.su, chord=chord)
         if not res.converged:
             where = "at the range end" if landed else "at"
             raise StepFailed(f"Newton did not converge {where} {format_parameter(self.name, end)} ({res.message})",
@@ -328,4 +358,4 @@ class Corrector:
             lu = factorize(bordered_matrix(Ju, Jlam, sp.su, sp.sl, t))
         except SingularMatrixError:
             lu = None
-        return self.check(x, t, x_new, guess_x, ds, lu, res.rcond, res.iterations, landed=landed, across=across)
+        return self.check(x, t, x_new, guess_x, ds, lu, res.rcond, self.effort(res), landed=landed, across=across)

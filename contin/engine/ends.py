@@ -45,6 +45,7 @@ def attempt(corrector: Corrector, pos, ds: float, lam_range: tuple[float, float]
     lo, hi = lam_range
     sl = corrector.sp.sl
     x, t = pos.x, pos.t
+    chord = (pos.info.Ju, pos.info.Jlam)  # a lazy Jacobian's first chord steps (corrector.bordered_solve)
     t_lam = t[-1]
     lam_pred = (x[-1] + ds * t_lam) * sl
     if lam_pred > hi or lam_pred < lo:
@@ -56,23 +57,23 @@ def attempt(corrector: Corrector, pos, ds: float, lam_range: tuple[float, float]
         guess = predict(x, t, ds_cut)
         guess[-1] = end / sl
         try:
-            return corrector.land(x, t, end, ds_cut, guess)
+            return corrector.land(x, t, end, ds_cut, guess, chord=chord)
         except StepFailed as failed_landing:
             # the branch may turn back before the end (a fold close to it)
             try:
-                cand = corrector.step(x, t, ds)
+                cand = corrector.step(x, t, ds, chord=chord)
             except StepFailed:
                 raise failed_landing from None
             if lo <= cand.lam <= hi:
                 return cand
             raise
-    cand = corrector.step(x, t, ds)
+    cand = corrector.step(x, t, ds, chord=chord)
     if cand.lam > hi or cand.lam < lo:
         end = hi if cand.lam > hi else lo
         theta = (end - pos.lam) / (cand.lam - pos.lam)
         guess = x + theta * (cand.x - x)
         guess[-1] = end / sl
-        return corrector.land(x, t, end, ds, guess)
+        return corrector.land(x, t, end, ds, guess, chord=(cand.Ju, cand.Jlam))
     return cand
 
 

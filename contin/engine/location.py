@@ -215,17 +215,18 @@ class EventLocation:
                 cap = min(cap, limit)
         return cap
 
-    def _solve_on_arc(self, arc: HermiteArc, xa: np.ndarray, ta: np.ndarray, sigma: float):
+    def _solve_on_arc(self, arc: HermiteArc, xa: np.ndarray, ta: np.ndarray, sigma: float, chord=None):
         """The solution on the hyperplane ``ta . (x - xa) = sigma``: ``(NewtonResult, "")`` or ``(None, why)``.
 
         The cubic Hermite guess on the arc first (``O(h^4)`` off the curve,
         where the chord is ``O(h^2)`` off); where Newton's basin is smaller
         still (stiff contact), march from the earlier point in substeps
-        along the family of hyperplanes normal to its tangent.
+        along the family of hyperplanes normal to its tangent. ``chord``:
+        the linearisation of a point nearby (see ``Corrector.bordered_solve``).
         """
         corrector = self.corrector
         try:
-            res = corrector.bordered_solve(arc.at(sigma), xa, ta, sigma)
+            res = corrector.bordered_solve(arc.at(sigma), xa, ta, sigma, chord=chord)
             if res.converged and res.lu is not None:
                 return res, ""
             x, t, ok = xa, ta, True
@@ -257,9 +258,10 @@ class EventLocation:
         h = cand.h
         arc = HermiteArc(xa, ta, cand.x, cand.tangent, h)
         monitors = self.monitors
+        near = [(info_a.Ju, info_a.Jlam)]  # the linearisation of the point solved last (a lazy Jacobian's chord)
 
         def point_at(sigma: float):
-            res, why = self._solve_on_arc(arc, xa, ta, sigma)
+            res, why = self._solve_on_arc(arc, xa, ta, sigma, near[0])
             if res is None:
                 return None, why
             t = unit_tangent(res.lu, self.corrector.e_last)
@@ -269,7 +271,9 @@ class EventLocation:
             # the monitors run when an event's test first reads the point's data: a fold's test
             # (the tangent) needs none, a stability event's the multipliers
             data = LazyData(lambda u=u, lam=lam, Ju=Ju, Jlam=Jlam: evaluate_monitors(monitors, u, lam, Ju, Jlam))
-            return point_info(u, lam, t, res.lu, Ju, Jlam, info_a.s + sigma, data), ""
+            info = point_info(u, lam, t, res.lu, Ju, Jlam, info_a.s + sigma, data)
+            near[0] = (info.Ju, info.Jlam)
+            return info, ""
 
         locations = ev.locate(comp, point_at, h, info_a, info_b, float(ga[comp]), float(gb[comp]),
                               tol=self.opt.locate_tol, max_iter=self.opt.locate_max_iter)

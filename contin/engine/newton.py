@@ -79,6 +79,11 @@ class NewtonResult:
     factorizations : int
         LU factorisations performed (updates that reused the previous one are
         chord steps; ``factor_final`` counts one more).
+    jacobians : int
+        Evaluations of the Jacobian (with a lazy Jacobian, fewer than the
+        evaluations of the residual).
+    chord_steps : int
+        Updates that reused a factorisation.
     """
 
     x: np.ndarray
@@ -93,6 +98,8 @@ class NewtonResult:
     residual_history: tuple = ()
     singular: bool = False
     factorizations: int = 0
+    jacobians: int = 0
+    chord_steps: int = 0
 
 
 #: Within this factor of the tolerance an iteration at its rounding floor is not stopped as stalled.
@@ -103,6 +110,11 @@ STALL_FLOOR = 1e3
 CHORD_MARGIN = 0.1
 #: Largest number of chord steps in a row.
 MAX_CHORDS = 2
+#: With a lazy Jacobian (a residual much cheaper than the Jacobian: shooting), chord steps go on while
+#: each reduces the residual by at least this factor and the iterations left suffice at that rate ...
+LAZY_CONTRACTION = 0.5
+#: ... at most this many in a row.
+LAZY_MAX_CHORDS = 10
 
 
 def _inf_norm(v: np.ndarray) -> float:
@@ -110,10 +122,12 @@ def _inf_norm(v: np.ndarray) -> float:
     return float(np.max(np.abs(v))) if v.size else 0.0
 
 
-def _evaluate(fun_and_jac, x: np.ndarray):
+def _evaluate(fun_and_jac, x: np.ndarray, residual=None):
     """``(F, J, None)`` at ``x`` (``F`` flattened, both float arrays), or ``(None, None, why)`` when the
-    evaluation raised one of :data:`NUMERICAL_ERRORS`."""
+    evaluation raised one of :data:`NUMERICAL_ERRORS`. With ``residual`` (``F`` alone) ``J`` is None."""
     try:
+        if residual is not None:
+            return np.asarray(residual(x), dtype=float).reshape(-1), None, None
         F, J = fun_and_jac(x)
     except NUMERICAL_ERRORS as exc:
         return None, None, f"{type(exc).__name__}: {exc}"
@@ -126,11 +140,17 @@ class _Iteration:
     ``x`` is updated in place (the array ``fun_and_jac`` sees); ``F`` and
     ``J`` are the latest evaluation, ``r = ||F||_inf`` the residual of the
     accepted iterate, ``history`` all of them, ``best`` the finite iterate
-    with the smallest residual, ``k`` the number of updates.
+    with the smallest residual, ``k`` the number of updates. With a lazy
+    Jacobian (``residual`` given) the iterates are evaluated by ``residual``
+    and ``J`` is None until a factorisation or the result needs it.
     """
 
-    def __init__(self, fun_and_jac, x: np.ndarray, scale, reuse_lu: bool, lu0: LUFactor | None):
+    def __init__(self, fun_and_jac, x: np.ndarray, scale, reuse_lu: bool, lu0: LUFactor | None, max_iter: int,
+                 residual=None):
         self.fun_and_jac = fun_and_jac
+        self.max_iter = max_iter
+        self.residual = residual
+        self.lazy = residual is not None
         self.x = x
         self.scale = scale
         self.reuse_lu = reuse_lu
@@ -147,6 +167,24 @@ class _Iteration:
         self.step_lu = self.given  # the factorisation used for chord steps
         self.chords = 0  # consecutive chord steps
         self.no_best = 0  # consecutive updates without a new smallest residual
+        self.jacobians = 0  # evaluations of the Jacobian
+        self.chord_steps = 0  # updates with a factorisation made before
+
+    def evaluate(self, x: np.ndarray, jacobian: bool = False):
+        """``(F, J, why)`` at ``x``: ``J`` None in lazy mode unless ``jacobian``."""
+        lazy = self.lazy and not jacobian
+        if not lazy:
+            self.jacobians += 1
+        return _evaluate(self.fun_and_jac, x, self.residual if lazy else None)
+
+    def ensure_jacobian(self) -> str | None:
+        """Evaluate the Jacobian at ``x`` if it is not at hand (lazy mode); why it failed, else None."""
+        if self.J is not None:
+            return None
+        F, J, err = self.evaluate(self.x, jacobian=True)
+        if err is None:
+            self.F, self.J = F, J
+        return err
 
     # -- results ---------------------------------------------------------
     def failure(self, message: str, F=None, J=None, singular: bool = False) -> NewtonResult:
@@ -163,10 +201,19 @@ class _Iteration:
             residual_history=tuple(self.history),
             singular=singular,
             factorizations=self.n_lu,
+            jacobians=self.jacobians,
+            chord_steps=self.chord_steps,
         )
 
     def success(self, factor_final: bool, equilibrate: bool) -> NewtonResult:
-        """The converged result (with the factorisation at the solution when ``factor_final``)."""
+        """The converged result (with the factorisation at the solution when ``factor_final``).
+
+        A lazy iteration evaluates the Jacobian at the solution here (the
+        result carries it, and the caller reads the linearisation there).
+        """
+        err = self.ensure_jacobian()
+        if err is not None:
+            return self.failure(f"evaluation of the Jacobian failed at the solution ({err})", self.F)
         message = f"converged: residual {self.r:.1e} after {self.k} iterations"
         lu_final = None
         if factor_final:
@@ -187,6 +234,8 @@ class _Iteration:
             rcond=lu_final.rcond if lu_final is not None else self.last_rcond(),
             residual_history=tuple(self.history),
             factorizations=self.n_lu,
+            jacobians=self.jacobians,
+            chord_steps=self.chord_steps,
         )
 
     def last_rcond(self) -> float:
@@ -195,8 +244,12 @@ class _Iteration:
 
     # -- the pieces of an iteration -----------------------------------------
     def start(self) -> NewtonResult | None:
-        """Evaluate at the initial guess; the failure if the iteration cannot start, else None."""
-        self.F, self.J, self.err = _evaluate(self.fun_and_jac, self.x)
+        """Evaluate at the initial guess; the failure if the iteration cannot start, else None.
+
+        A lazy iteration without a factorisation of its own needs the
+        Jacobian at the guess for its first update anyway: evaluated at once.
+        """
+        self.F, self.J, self.err = self.evaluate(self.x, jacobian=self.given is None)
         if self.err is not None:
             return self.failure(f"evaluation failed at the initial guess ({self.err})")
         if not np.all(np.isfinite(self.F)):
@@ -222,6 +275,8 @@ class _Iteration:
         history, k = self.history, self.k
         q = history[-1] / history[-2] if k >= 1 and history[-2] > 0 else math.inf
         trial = self.given is not None and k == 0
+        if self.lazy:
+            return trial or self.lazy_chord(q, tol), trial
         if k == 1 and self.given is not None:
             # measured on the rotor: after a chord step with a factorisation from elsewhere, the
             # contraction of that step says nothing about the next one (it made the residual grow)
@@ -230,8 +285,22 @@ class _Iteration:
                           and q * self.r <= CHORD_MARGIN * tol)
         return chord, trial
 
+    def lazy_chord(self, q: float, tol: float) -> bool:
+        """With a lazy Jacobian: a chord step while the last update contracted the residual by ``q <=
+        LAZY_CONTRACTION`` and the iterations left would finish at that rate (a step after a fresh
+        factorisation contracts faster still), at most ``LAZY_MAX_CHORDS`` in a row."""
+        if self.step_lu is None or self.chords >= LAZY_MAX_CHORDS or not q <= LAZY_CONTRACTION:
+            return False
+        if self.r <= tol:
+            return True
+        needed = math.log(tol / self.r) / math.log(q) if q > 0 else 1.0
+        return needed <= self.max_iter - self.k
+
     def refactorize(self, equilibrate: bool, rcond_min: float) -> NewtonResult | None:
         """Factorise ``J`` here for a full Newton update; the failure if it is singular, else None."""
+        err = self.ensure_jacobian()
+        if err is not None:
+            return self.failure(f"evaluation failed at iteration {self.k} ({err})", self.F)
         try:
             lu = factorize(self.J, equilibrate=equilibrate)
         except SingularMatrixError as exc:
@@ -258,7 +327,7 @@ class _Iteration:
         x += dx
         self.k += 1
         self.step_norm = _inf_norm(dx / self.scale)
-        self.F, self.J, self.err = _evaluate(self.fun_and_jac, x)
+        self.F, self.J, self.err = self.evaluate(x)
         return x_old, r_old
 
     def trial_failed(self) -> bool:
@@ -275,7 +344,7 @@ class _Iteration:
         self.k -= 1
         self.step_norm = None
         self.drop_given()
-        self.F, self.J, self.err = _evaluate(self.fun_and_jac, self.x)
+        self.F, self.J, self.err = self.evaluate(self.x, jacobian=True)
         if self.err is not None:  # pragma: no cover - evaluated fine a moment ago
             return self.failure(f"evaluation failed at the initial guess ({self.err})")
         return None
@@ -293,14 +362,14 @@ class _Iteration:
             halvings += 1
             dx *= 0.5
             np.add(x_old, dx, out=x)
-            F2, J2, err2 = _evaluate(self.fun_and_jac, x)
+            F2, J2, err2 = self.evaluate(x)
             if err2 is None and np.all(np.isfinite(F2)) and _inf_norm(F2) < r_old:
                 self.F, self.J, self.err = F2, J2, None
                 self.step_norm = _inf_norm(dx / self.scale)
                 break
             if halvings == backtrack:  # nothing better: the full update, as plain Newton would
                 x[:] = x_old + 2.0 ** backtrack * dx
-                self.F, self.J, self.err = _evaluate(self.fun_and_jac, x)
+                self.F, self.J, self.err = self.evaluate(x)
 
     def record(self, tol: float, stall: int | None, divergence_factor: float) -> NewtonResult | None:
         """Take the new residual into the history and the best iterate; the failure if the iteration
@@ -341,6 +410,7 @@ def newton(
     lu0: LUFactor | None = None,
     backtrack: int = 0,
     stall: int | None = None,
+    residual: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> NewtonResult:
     """Newton's method for ``F(x) = 0``.
 
@@ -425,13 +495,22 @@ def newton(
         whenever a sample crosses the clearance) can make full Newton cycle
         between two pieces; halving the update breaks the cycle. An update
         that no halving improves is taken in full, as in plain Newton.
+    residual : callable, optional
+        ``residual(x) -> F`` alone, for a problem whose Jacobian costs many
+        residuals (shooting: a variational integration against a plain one).
+        The Jacobian is then lazy: iterates are evaluated by ``residual``, the
+        Jacobian only where an update factorises it (and at the solution,
+        which the result carries), and chord steps go on while each reduces
+        the residual by ``LAZY_CONTRACTION`` and the iterations left suffice
+        (with ``lu0``, from the first update). Needs ``reuse_lu``.
 
     Returns
     -------
     NewtonResult
     """
     it = _Iteration(fun_and_jac, np.array(x0, dtype=float, copy=True).reshape(-1),
-                    1.0 if x_scale is None else np.asarray(x_scale, dtype=float), reuse_lu, lu0)
+                    1.0 if x_scale is None else np.asarray(x_scale, dtype=float), reuse_lu, lu0, max_iter,
+                    residual if reuse_lu else None)
     failed = it.start()
     if failed is not None:
         return failed
@@ -441,6 +520,7 @@ def newton(
         chord, trial = it.chord_step(tol)
         if chord:
             it.chords += 1
+            it.chord_steps += 1
         else:
             failed = it.refactorize(equilibrate, rcond_min)
             if failed is not None:

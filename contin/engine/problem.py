@@ -22,7 +22,7 @@ import numpy as np
 from contin.engine.events import Event, PointInfo
 from contin.engine.newton import LUFactor
 
-__all__ = ["LazyData", "Monitor", "Problem", "ScaledProblem", "bordered_matrix", "checked_start", "evaluate_monitors",
+__all__ = ["LAZY_COST", "LazyData", "Monitor", "Problem", "ScaledProblem", "bordered_matrix", "checked_start", "evaluate_monitors",
            "point_info", "scaled_jacobian"]
 
 
@@ -51,6 +51,12 @@ class Problem(Protocol):
         harmonic coefficients): with ``AUTO`` scaling and no explicit scale,
         groups whose magnitudes at the start are more than
         :data:`contin.engine.stepsize.GROUP_SPREAD` apart are scaled separately.
+    jacobian_cost : float attribute
+        What a linearisation costs in evaluations of ``residual`` (default 1).
+        From :data:`LAZY_COST` on, the engine's Newton solves evaluate the
+        iterates by ``residual`` and the Jacobian only where they factorise it
+        and at the solution, taking chord steps with the Jacobian of a nearby
+        point in between (a lazy Jacobian: :func:`contin.engine.newton.newton`).
 
     Numerical failures inside these methods should show up as non-finite
     values or as ``ArithmeticError`` / ``numpy.linalg.LinAlgError``; the
@@ -62,6 +68,9 @@ class Problem(Protocol):
 
     def linearize(self, u: np.ndarray, lam: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
 
+
+#: A problem whose linearisation costs this many residuals or more is solved with a lazy Jacobian.
+LAZY_COST = 3.0
 
 #: ``monitor(u, lam, Ju, Jlam) -> {name: float or ndarray}``, evaluated at every
 #: stored and located point; values go to ``Branch.point_data`` and ``PointInfo.data``.
@@ -85,6 +94,11 @@ class ScaledProblem:
     ----------
     calls : int
         Linearisations so far.
+    residuals : int
+        Evaluations of the residual alone so far (a lazy Jacobian's iterates).
+    lazy : bool
+        The problem's ``jacobian_cost`` reaches :data:`LAZY_COST`: the
+        corrector evaluates iterates by :meth:`residual_at`.
     last : tuple or None
         ``(u, lam, R, Ju, Jlam)`` of the latest evaluation: a corrector's
         converged point is read from it.
@@ -96,8 +110,18 @@ class ScaledProblem:
         self.su = su
         self.sl = sl
         self.calls = 0
+        self.residuals = 0
+        self.lazy = float(getattr(problem, "jacobian_cost", 1.0)) >= LAZY_COST
         self.last = None  # (u, lam, R, Ju, Jlam) of the latest evaluation
         self._Jh = np.empty((m, m + 1))
+
+    def residual_at(self, u: np.ndarray, lam: float) -> np.ndarray:
+        """``R(u, lam)`` alone, shape (m,), with a shape check (``last`` is not changed)."""
+        self.residuals += 1
+        R = np.asarray(self.problem.residual(u, lam), dtype=float).reshape(-1)
+        if R.shape != (self.m,):
+            raise ValueError(f"problem.residual returned shape {R.shape}; expected ({self.m},)")
+        return R
 
     def evaluate(self, u: np.ndarray, lam: float):
         """Raw linearisation ``(R, Ju, Jlam)``, shapes (m,), (m, m), (m,), with shape checks; recorded as ``last``."""

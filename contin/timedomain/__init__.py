@@ -8,7 +8,8 @@ from contin.util.lazy import lazy_exports
 _FACE = {
     "simulation": "simulate compile_model RK4_STABILITY SimulationError",
     "shooting": "ShootingOptions periodic_orbit period_doubling_scan",
-    "multiple_shooting": "ShootingProblem ShootingStability period_doubling_start",
+    "multiple_shooting": "ShootingProblem",
+    "shooting_bifurcations": "ShootingStability period_doubling_start",
     "variational": "VariationalFlow",
     "poincare": "spectrum steady_state",
     "torus_check": "check_torus",

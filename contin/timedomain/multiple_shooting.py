@@ -42,7 +42,9 @@ its steps. Its eigenvalues come from the factors by a periodic Schur
 decomposition, never from the multiplied-out product, so that the small
 multipliers of a strongly unstable orbit keep their relative accuracy. The
 factors of the last linearisations are cached by ``(u, lam)``: the stability
-monitor at a point the engine has just linearised costs no integration.
+monitor at a point the engine has just linearised costs no integration
+(:mod:`contin.timedomain.shooting_bifurcations`: the stability monitor and the
+start of the doubled branch at a period doubling).
 """
 
 from __future__ import annotations
@@ -55,22 +57,26 @@ from typing import Mapping
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from contin.stability.options import StabilityOptions
 from contin.stability.periodic_schur import periodic_eigenvalues
 from contin.stability.saltation import orbit_state
-from contin.stability.verdict import FloquetResult, monodromy_result
 from contin.timedomain.integrator import RK4_STABILITY, SimulationError, compile_model
 from contin.timedomain.shooting_events import graze_data, grid_graze, nearest_zero, start_graze
 from contin.timedomain.variational import VariationalFlow
 from contin.util.options import from_mapping
 
-__all__ = ["ShootingOptions", "ShootingProblem", "ShootingStability", "period_doubling_start", "flip_test"]
+__all__ = ["ShootingOptions", "ShootingProblem", "flip_test"]
 
 JACOBIANS = ("variational", "differences")
 #: factors asked of the flow per period (at least), so that the small multipliers survive the product
 MIN_FACTORS = 8
 #: linearisations kept (by (u, lam)) for the monitors and the stability verdict
 CACHE_SIZE = 8
+#: a linearisation's cost in plain flows of the same segments: the variational flow (about 7, measured by
+#: scripts/bench/bench_shooting.py) and the two flows of dR/dlam; the engine's Newton solves then evaluate
+#: the iterates by the plain flows alone (a lazy Jacobian, contin.engine.problem.LAZY_COST)
+VARIATIONAL_COST = 9.0
+#: parameter values whose integration setup is kept
+SETUP_CACHE = 4
 
 
 @dataclasses.dataclass(frozen=True)
@@ -226,6 +232,7 @@ class ShootingProblem:
         self._factors = _factor_count(self._seg_steps, -(-MIN_FACTORS // self.segments))
         self._flow = None
         self._cache: OrderedDict = OrderedDict()
+        self._setups: OrderedDict = OrderedDict()
         #: the Jacobian in use, and why it is not the one asked for
         self.jacobian, self.notes = options.jacobian, []
         if self.jacobian == "variational":
@@ -236,6 +243,11 @@ class ShootingProblem:
                 self.notes.append(f"central differences of the flow map instead of the variational equations: {exc}")
 
     # ------------------------------------------------------------ the protocol's members
+    @property
+    def jacobian_cost(self) -> float:
+        """A linearisation's cost in residuals (:data:`VARIATIONAL_COST`; by differences ``4 n + 2`` flows)."""
+        return VARIATIONAL_COST if self.jacobian == "variational" else 4.0 * self.n + 2.0
+
     @property
     def full(self) -> "ShootingProblem":
         """The problem itself: shooting holds every dof."""
@@ -264,20 +276,39 @@ class ShootingProblem:
         return {**self.base, self.parameter: float(lam)}
 
     # ------------------------------------------------------------ integration
-    def _setup(self, lam: float):
-        """``(p, h, arguments)`` at ``lam``; a step beyond RK4's stability raises ArithmeticError."""
+    def _setup(self, lam: float, checked: bool = True):
+        """``(p, h, arguments)`` at ``lam``; with ``checked``, a step beyond RK4's stability raises
+        ArithmeticError.
+
+        The last few are kept: a lazy Newton solve evaluates many iterates at one ``lam``. The residual
+        alone skips the check (an eigenvalue problem, a fifth of a plain flow's cost): every converged
+        point is linearised, checked there, and a step beyond stability blows the flow up before.
+        """
+        lam = float(lam)
+        hit = self._setups.get(lam)
+        if hit is None:
+            hit = self._setups[lam] = [self._make_setup(lam), False]
+            if len(self._setups) > SETUP_CACHE:
+                self._setups.popitem(last=False)
+        setup = hit[0]
+        if checked and not hit[1]:
+            p, h = setup[0], setup[1]
+            if self._cm.fastest_rate(p) * h > RK4_STABILITY:
+                raise ArithmeticError(f"the step T/{self.options.steps_per_period} at {self.parameter} = "
+                                      f"{lam:.10g} is beyond RK4's stability for the stiffest mode of "
+                                      f"'{self.model.name}': raise steps_per_period")
+            hit[1] = True
+        return setup
+
+    def _make_setup(self, lam: float):
         params = self.params_at(lam)
         p = self.model.parameter_vector(params)
         w = float(p[self._kw])
-        S = self.options.steps_per_period
-        h = 2.0 * math.pi / w / S
+        h = 2.0 * math.pi / w / self.options.steps_per_period
         try:
             args = self._cm.arguments(p)
         except SimulationError as exc:
             raise ArithmeticError(str(exc)) from None
-        if self._cm.fastest_rate(p) * h > RK4_STABILITY:
-            raise ArithmeticError(f"the step T/{S} at {self.parameter} = {lam:.10g} is beyond RK4's stability for "
-                                  f"the stiffest mode of '{self.model.name}': raise steps_per_period")
         return p, h, args
 
     def _mode(self, y, p, cst):
@@ -363,16 +394,16 @@ class ShootingProblem:
                              f"(x, x') of model '{self.model.name}', got {u.shape}")
         return u.reshape(self.segments, 2 * self.n)
 
-    def flows(self, u: np.ndarray, lam: float) -> np.ndarray:
-        """The segment end states ``phi_k(z_k)``, shape (M, 2n)."""
+    def flows(self, u: np.ndarray, lam: float, checked: bool = True) -> np.ndarray:
+        """The segment end states ``phi_k(z_k)``, shape (M, 2n) (``checked``: see :meth:`_setup`)."""
         Z = self._blocks(u)
-        setup = self._setup(lam)
+        setup = self._setup(lam, checked)
         return np.array([self._run(Z[k], setup, k)[0] for k in range(self.segments)])
 
     def residual(self, u: np.ndarray, lam: float) -> np.ndarray:
         """``r_k = phi_k(z_k) - z_{k+1 mod M}``, shape (2 n M,)."""
         Z = self._blocks(u)
-        return (self.flows(u, lam) - np.roll(Z, -1, axis=0)).reshape(-1)
+        return (self.flows(u, lam, checked=False) - np.roll(Z, -1, axis=0)).reshape(-1)
 
     def linearize(self, u: np.ndarray, lam: float):
         """Residual (2nM,), ``dR/du`` (2nM, 2nM, dense) and ``dR/dlam`` (2nM,) (module docstring)."""
@@ -482,118 +513,3 @@ class ShootingProblem:
             Y[-1] = Y[0]
         y = CubicSpline(grid, Y, axis=0, bc_type="periodic" if closes else "not-a-knot")(np.clip(t, 0.0, T))
         return y[:, :self.n].T.copy(), y[:, self.n:].T.copy()
-
-
-class ShootingStability:
-    """Stability monitor of a :class:`ShootingProblem` branch: the multipliers of the integrated flow.
-
-    The multipliers come from the factors of the linearisation the engine has
-    just made at the point (cached by the problem), so the verdict costs no
-    integration. The returned data are those of
-    :class:`contin.stability.StabilityMonitor` (``stable``, ``n_unstable``,
-    ``n_plus``, ``n_minus``, ``n_complex``, ``max_multiplier``,
-    ``multipliers``, ...) plus ``flip_test`` and, for a model with contacts,
-    ``graze`` (the signed extremum of a switching function nearest to zero),
-    so the classified events of :func:`contin.stability.stability_events`
-    locate the period doublings, Neimark-Sacker points and branch points of
-    the flow. Pass the same object in ``monitors`` and to ``stability_events``.
-
-    Parameters
-    ----------
-    problem : ShootingProblem
-    options : StabilityOptions, optional
-        Its ``tolerance`` and ``real_angle_tol`` decide the verdict.
-    """
-
-    #: no harmonic-balance problem: located points carry no Hill eigenvector
-    hb = None
-
-    def __init__(self, problem: ShootingProblem, options: StabilityOptions | None = None):
-        self.problem = problem
-        self.options = StabilityOptions(method="floquet") if options is None else options
-
-    def analyze(self, u: np.ndarray, lam: float, Ju: np.ndarray | None = None) -> FloquetResult:
-        """The verdict at ``(u, lam)`` (``Ju`` is accepted for the monitor signature; the factors are cached)."""
-        return monodromy_result(self.problem.multipliers(u, lam), self.problem.period_at(lam), self.options)
-
-    def __call__(self, u, lam, Ju=None, Jlam=None) -> dict:
-        res = self.analyze(u, lam, Ju)
-        return {**res.monitor_data(), "flip_test": flip_test(res.multipliers), **graze_data(self.problem, u, lam)}
-
-
-def period_doubling_start(problem: ShootingProblem, u, lam: float, eps: float = 1e-3, segments: int | None = None):
-    """The first point of the branch of period ``2 nu`` born at a period doubling of ``problem``'s branch.
-
-    At a period doubling the monodromy ``Phi`` at ``z_0`` has a multiplier
-    ``-1`` with real eigenvector ``v``; seen over twice the period the orbit
-    has the double multiplier ``+1`` and the new branch leaves it tangent to
-    ``v`` at ``t = 0`` and to ``-v`` one period later (a pitchfork in the
-    parameter; Kuznetsov, *Elements of Applied Bifurcation Theory*, 3rd ed.,
-    2004, sec. 7.4). Pass the returned point and tangent to
-    :func:`contin.engine.continuation.continuation` with ``solve_start=False``:
-    the engine corrects the point on the hyperplane through it normal to the
-    tangent, which cuts the new branch and not the old one.
-
-    Parameters
-    ----------
-    problem : ShootingProblem
-        The problem of the period-``nu`` branch (``M`` segments).
-    u : array_like, shape (problem.size,)
-        The located period-doubling orbit (a located ``pd`` special point, or
-        for ``M = 1`` a point of :func:`contin.timedomain.shooting.period_doubling_scan`).
-    lam : float
-    eps : float
-        Offset along ``v``, relative to ``max(1, max |z_0|)``.
-    segments : int, optional
-        Segments of the doubled problem (default ``2 M``: the same segment length).
-
-    Returns
-    -------
-    doubled : ShootingProblem
-        Period ``2 nu``; its segment starts of the second lap by integrating the first.
-    u0 : ndarray, shape (doubled.size,)
-        The segment starts of the orbit from ``z_0 + eps v``.
-    tangent : ndarray, shape (doubled.size + 1,)
-        The segment starts' derivative along ``v``, and 0 in the parameter; unit length.
-
-    Raises
-    ------
-    ValueError
-        If no multiplier lies within 1e-3 of ``-1`` (not a period doubling).
-    """
-    Z = problem._blocks(u)
-    factors = problem.factors(np.asarray(u, dtype=float), lam)
-    per_seg = factors.shape[0] // problem.segments
-    Phis = []
-    for k in range(problem.segments):
-        P = factors[k * per_seg]
-        for F in factors[k * per_seg + 1:(k + 1) * per_seg]:
-            P = F @ P
-        Phis.append(P)
-    mono = np.eye(Z.shape[1])
-    for P in Phis:
-        mono = P @ mono
-    mu, V = np.linalg.eig(mono)
-    j = int(np.argmin(np.abs(mu + 1.0)))
-    if abs(mu[j] + 1.0) > 1e-3:
-        raise ValueError(f"no multiplier near -1 at {problem.parameter} = {lam:.10g} (closest {complex(mu[j]):.6g}): "
-                         "not a period doubling")
-    v = np.real(V[:, j]) if np.linalg.norm(np.real(V[:, j])) >= np.linalg.norm(np.imag(V[:, j])) else np.imag(V[:, j])
-    v = v / np.linalg.norm(v)
-    M2 = 2 * problem.segments if segments is None else int(segments)
-    opts = dataclasses.replace(problem.options, subharmonic=2 * problem.nu, segments=M2)
-    doubled = ShootingProblem(problem.model, problem.parameter, problem.base, opts)
-    z0 = Z[0] + eps * max(1.0, float(np.max(np.abs(Z[0])))) * v
-    u0 = doubled.start_unknowns(z0, lam)
-    # the tangent: v carried along the first lap by the segment Jacobians, -v along the second
-    lap = [v]
-    for P in Phis[:-1]:
-        lap.append(P @ lap[-1])
-    if M2 == 2 * problem.segments:
-        vs = np.concatenate(lap + [-x for x in lap])  # at the doubled orbit's starts k T / M (2M of them)
-    else:
-        # other segment counts: the starts lie at other times, the tangent by differences of the start
-        d = 1e-6 * max(1.0, float(np.max(np.abs(Z[0]))))
-        vs = (doubled.start_unknowns(Z[0] + d * v, lam) - doubled.start_unknowns(Z[0] - d * v, lam)) / (2 * d)
-    tangent = np.r_[vs, 0.0]
-    return doubled, u0, tangent / np.linalg.norm(tangent)

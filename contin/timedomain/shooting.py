@@ -29,11 +29,11 @@ changes sign (a complex pair contributes ``|mu + 1|^2 > 0``; Kuznetsov,
 *Elements of Applied Bifurcation Theory*, 3rd ed., 2004, sec. 7.4). It is
 located by Brent's method in the parameter, each evaluation a converged orbit.
 
-Branches: :class:`ShootingProblem`, :class:`ShootingStability`,
-:func:`period_doubling_start` and :class:`ShootingOptions` live in
+Branches: :class:`ShootingProblem` and :class:`ShootingOptions` live in
 :mod:`contin.timedomain.multiple_shooting` (multiple shooting with the
-variational equations, the production discretisation) and are re-exported
-here. This module keeps the single-shooting reference of central differences:
+variational equations, the production discretisation),
+:class:`ShootingStability` and :func:`period_doubling_start` in
+:mod:`contin.timedomain.shooting_bifurcations`; all are re-exported here. This module keeps the single-shooting reference of central differences:
 :func:`flow_map`, :func:`periodic_orbit` and :func:`period_doubling_scan`.
 Where an orbit starts or stops touching a contact (grazing) the flow map
 stays continuous but its derivative jumps, so the branch has a corner there,
@@ -50,8 +50,8 @@ from typing import Mapping
 import numpy as np
 from scipy.optimize import brentq, minimize_scalar
 
-from contin.timedomain.multiple_shooting import (ShootingOptions, ShootingProblem, ShootingStability, flip_test,
-                                                 period_doubling_start)
+from contin.timedomain.multiple_shooting import ShootingOptions, ShootingProblem, flip_test
+from contin.timedomain.shooting_bifurcations import ShootingStability, period_doubling_start
 from contin.timedomain.simulation import SimulationError, simulate
 
 __all__ = ["ShootingOptions", "ShootingOrbit", "PeriodDoublingScan", "ShootingProblem", "ShootingStability",

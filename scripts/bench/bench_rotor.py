@@ -20,9 +20,10 @@ Three measurements, side by side in one run, with one BLAS thread:
    if it stays there, both attractors coexist and the starts missed the
    diagram's. The ratio brute force / diagram is the point of the tool.
 3. **The floor** of the main job: its number of stored points times the cost
-   of one LU of its bordered corrector matrix plus one monodromy, both
-   measured here on a point of each branch; the ratio main job / floor says
-   what is left to gain.
+   of one LU of its bordered corrector matrix plus one monodromy (on the
+   branches handed to shooting, one linearisation: the variational flow,
+   whose factors give the multipliers, and ``dR/dlambda``), measured here on
+   a point of each branch; the ratio main job / floor says what is left to gain.
 
 ``--every k`` simulates only every k-th speed and extrapolates the
 brute-force time (the ratio is then marked so). ``--quick`` is a smoke run
@@ -151,7 +152,24 @@ def floor_per_point(outdir: Path, scene) -> dict:
         t_lu = min(_timed(lambda: factorize(A)) for _ in range(20))
         t_mono = min(_timed(lambda: floquet_multipliers(full, u_full, lam, opts)) for _ in range(3))
         out[nu] = (t_lu, t_mono, A.shape[0])
+        if nu > 1 and "shooting" not in out:
+            # the legs handed to shooting: one linearisation (variational flow, dR/dlambda) and one LU a point
+            from contin.analyses.shooting_rows import ShootingSettings, shooting_problem
+
+            sh = shooting_problem(hb, ShootingSettings(**dict(a.get("shooting") or {})), nu)
+            z = sh.start_unknowns(_first_state(full, u_full, lam), lam)
+            _, Js, Jl = sh.linearize(z, lam)  # the kernels loaded
+            B = np.zeros((Js.shape[0] + 1, Js.shape[0] + 1))
+            B[:-1, :-1], B[:-1, -1], B[-1] = Js, Jl, 1.0
+            t_lin = min(_timed(lambda: sh.linearize(z, lam + 1e-9 * _)) for _ in range(1, 4))  # uncached
+            out["shooting"] = (min(_timed(lambda: factorize(B)) for _ in range(20)), t_lin, B.shape[0])
     return out
+
+
+def _first_state(full, u, lam) -> np.ndarray:
+    """The state ``(x, x')`` at ``t = 0`` of a harmonic-balance orbit."""
+    x, v = full.orbit(u, lam, np.zeros(1))
+    return np.concatenate([np.ravel(x), np.ravel(v)])
 
 
 def _timed(fun) -> float:
@@ -234,7 +252,12 @@ def main(argv=None) -> int:
     fl = floor_per_point(outdir, scene)
     floor, parts = 0.0, []
     for b in branches:
-        if b["nu"] in fl:
+        if b.get("handed_over_from") is not None and "shooting" in fl:
+            t_lu, t_lin, order = fl["shooting"]  # the multipliers come with the linearisation's factors
+            floor += b["points"] * (t_lu + t_lin)
+            parts.append(f"nu={b['nu']} (shooting): {b['points']} x ({1e3 * t_lu:.2f} ms LU of order {order} + "
+                         f"{1e3 * t_lin:.1f} ms linearisation)")
+        elif b["nu"] in fl:
             t_lu, t_mono, order = fl[b["nu"]]
             floor += b["points"] * (t_lu + t_mono)
             parts.append(f"nu={b['nu']}: {b['points']} x ({1e3 * t_lu:.2f} ms LU of order {order} + "

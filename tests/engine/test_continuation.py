@@ -679,3 +679,48 @@ def test_a_restart_refuses_a_state_of_another_length():
     short = continuation(Circle(), [1.0], 0.0, (-2.0, 2.0), ContinuationOptions(max_points=n - 1))
     with pytest.raises(ValueError, match="the state belongs to"):
         continuation(Circle(), [1.0], 0.0, (-2.0, 2.0), restart=(short, state))
+
+
+class CostlySCurve:
+    """``x^3 - x = lam``, ``y = x^2``, ``z = sin x - y / 5``: the S-curve of :class:`Cubic` in three unknowns,
+    declared with a linearisation costing ten residuals (as shooting's variational flow); calls counted."""
+
+    jacobian_cost = 10.0
+
+    def __init__(self):
+        self.residuals = self.linearisations = 0
+
+    def _r(self, u, lam):
+        x, y, z = u
+        return np.array([x**3 - x - lam, y - x * x, z - math.sin(x) + 0.2 * y])
+
+    def residual(self, u, lam):
+        self.residuals += 1
+        return self._r(u, lam)
+
+    def linearize(self, u, lam):
+        self.linearisations += 1
+        x = u[0]
+        Ju = np.array([[3 * x * x - 1, 0, 0], [-2 * x, 1, 0], [-math.cos(x), 0.2, 1]])
+        return self._r(u, lam), Ju, np.array([-1.0, 0.0, 0.0])
+
+
+def test_a_costly_jacobian_is_evaluated_lazily_with_the_same_branch():
+    """Newton's iterates by the residual alone, the Jacobian where a factorisation needs it: the folds at
+    their closed form as with eager Jacobians, at fewer linearisations than residuals."""
+    u0 = [-PLASTIC, PLASTIC**2, math.sin(-PLASTIC) - 0.2 * PLASTIC**2]
+    lazy = CostlySCurve()
+    eager = CostlySCurve()
+    eager.jacobian_cost = 1.0
+    branches = [continuation(p, u0, 1.0, (-1.0, 1.0), ContinuationOptions(direction=-1)) for p in (lazy, eager)]
+    for br, prob in zip(branches, (lazy, eager)):
+        assert br.status is BranchStatus.RANGE_END, br.message
+        assert max(np.abs(prob._r(u, lam)).max() for u, lam in zip(br.unknowns, br.parameter)) <= 1e-10
+        folds = br.points_of_kind(SpecialKind.FOLD)
+        assert len(folds) == 2
+        for f in folds:
+            assert abs(abs(f.parameter) - FOLD_LAM) <= 1e-10
+            assert abs(f.unknowns[0]) == pytest.approx(1 / math.sqrt(3), abs=1e-8)
+    assert eager.residuals == 0
+    assert lazy.linearisations < 0.7 * eager.linearisations
+    assert lazy.residuals > lazy.linearisations

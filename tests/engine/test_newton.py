@@ -236,3 +236,71 @@ def test_a_given_factorisation_whose_update_is_not_finite_is_dropped():
     assert given.converged and given.iterations == plain.iterations
     assert given.factorizations == plain.factorizations
     np.testing.assert_array_equal(given.x, plain.x)
+
+
+class Counted:
+    """``A x + 0.05 x^3 = b`` with the evaluations of the residual alone and of residual and Jacobian counted."""
+
+    def __init__(self, rng, n=6):
+        self.A = rng.standard_normal((n, n)) + n * np.eye(n)
+        self.b = rng.standard_normal(n)
+        self.residuals = self.jacobians = 0
+
+    def residual(self, x):
+        self.residuals += 1
+        return self.A @ x + 0.05 * x**3 - self.b
+
+    def fun_and_jac(self, x):
+        self.jacobians += 1
+        return self.A @ x + 0.05 * x**3 - self.b, self.A + np.diag(0.15 * x**2)
+
+
+def test_a_lazy_jacobian_is_evaluated_at_the_solution_only_when_a_nearby_one_suffices(rng):
+    f = Counted(rng)
+    full = newton(f.fun_and_jac, np.zeros(6), tol=1e-12, factor_final=True, reuse_lu=False)
+    x_near = full.x + 1e-4 * rng.standard_normal(6)
+    near = factorize(f.fun_and_jac(full.x + 1e-3)[1])  # a neighbour's Jacobian, as the previous point gives
+    f.residuals = f.jacobians = 0
+    res = newton(f.fun_and_jac, x_near, tol=1e-12, factor_final=True, lu0=near, residual=f.residual)
+    assert res.converged and res.iterations >= 2
+    np.testing.assert_allclose(res.x, full.x, atol=1e-12)
+    # the chord steps used the residual alone; one Jacobian, at the solution, which the result carries
+    assert f.jacobians == res.jacobians == 1 and f.residuals == res.iterations + 1
+    assert res.chord_steps == res.iterations
+    np.testing.assert_allclose(res.jacobian, f.fun_and_jac(res.x)[1], rtol=1e-14)
+    rhs = rng.standard_normal(6)
+    np.testing.assert_allclose(res.jacobian @ res.lu.solve(rhs), rhs, atol=1e-12)
+
+
+def test_a_lazy_jacobian_without_a_factorisation_starts_with_one_and_refactorises_on_slow_contraction(rng):
+    f = Counted(rng)
+    res = newton(f.fun_and_jac, np.zeros(6), tol=1e-12, residual=f.residual)
+    assert res.converged and f.jacobians == res.jacobians >= 2  # at the guess and at the solution
+    eager = Counted(rng)
+    eager.A, eager.b = f.A, f.b
+    ref = newton(eager.fun_and_jac, np.zeros(6), tol=1e-12)
+    assert res.jacobians < ref.jacobians
+    np.testing.assert_allclose(res.x, ref.x, atol=1e-12)
+
+    # a double root: Newton's linear convergence (residual / 4 per update); the lazy iteration
+    # alternates chord steps and factorisations: more updates, fewer Jacobians, the same root
+    def g(x):
+        return np.array([(x[0] - 1.0) ** 2]), np.array([[2.0 * (x[0] - 1.0)]])
+
+    a = newton(g, [2.0], tol=1e-10, max_iter=60)
+    b = newton(g, [2.0], tol=1e-10, max_iter=60, residual=lambda x: g(x)[0])
+    assert a.converged and b.converged and b.jacobians < a.jacobians
+    assert b.x[0] == pytest.approx(1.0, abs=1e-5)
+
+
+def test_a_lazy_jacobian_that_fails_at_the_solution_is_a_failure_not_a_crash(rng):
+    f = Counted(rng)
+    full = newton(f.fun_and_jac, np.zeros(6), tol=1e-12)
+
+    def broken(x):
+        if np.abs(x - full.x).max() < 1e-9:
+            raise FloatingPointError("overflow in the variational equations")
+        return f.fun_and_jac(x)
+
+    res = newton(broken, full.x + 1e-5, tol=1e-12, lu0=factorize(f.fun_and_jac(full.x)[1]), residual=f.residual)
+    assert not res.converged and "Jacobian failed at the solution" in res.message

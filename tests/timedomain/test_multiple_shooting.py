@@ -23,8 +23,8 @@ from contin.model.elements import GapForce
 from contin.models.polynomial import polynomial_model
 from contin.stability import stability_events
 from contin.stability.monodromy_reference import monodromy_reference
-from contin.timedomain.multiple_shooting import ShootingOptions, ShootingProblem, ShootingStability, \
-    period_doubling_start
+from contin.timedomain.multiple_shooting import ShootingOptions, ShootingProblem
+from contin.timedomain.shooting_bifurcations import ShootingStability, period_doubling_start
 from contin.timedomain.shooting import periodic_orbit
 from contin.timedomain.shooting_events import ShootingGrazingEvent, shooting_events, start_graze
 from contin.timedomain.simulation import simulate

@@ -9,7 +9,7 @@ contact switches located, multipliers by periodic Schur of the variational facto
    stability events (folds, period doublings, Neimark-Sacker points); the turn test relaxed to 89
    degrees for the grazing corners, as in ``rotor_subharmonic_shooting.py``;
 3. at every period doubling the branch reports, the switch to ``nu = 2``
-   (:func:`contin.timedomain.multiple_shooting.period_doubling_start`), and Newton on the ``nu = 2``
+   (:func:`contin.timedomain.shooting_bifurcations.period_doubling_start`), and Newton on the ``nu = 2``
    problem from the orbit pushed along the eigenvector of its real multiplier below -1.
 
 It prints the branch's special points, the multipliers nearest -1 at the harmonic balance's period
@@ -41,7 +41,7 @@ from contin.scene.build import build_model
 from contin.scene.parse import load_scene
 from contin.stability import orbit_state, stability_events
 from contin.timedomain.integrator import RK4_STABILITY, compile_model
-from contin.timedomain.multiple_shooting import ShootingStability, period_doubling_start
+from contin.timedomain.shooting_bifurcations import ShootingStability, period_doubling_start
 from contin.timedomain.shooting import ShootingOptions, ShootingProblem
 from contin.timedomain.simulation import simulate
 from contin.util.blas import limit_blas_threads
