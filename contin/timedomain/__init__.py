@@ -11,6 +11,7 @@ _FACE = {
     "multiple_shooting": "ShootingProblem",
     "shooting_bifurcations": "ShootingStability period_doubling_start",
     "variational": "VariationalFlow",
+    "invariant_circle": "InvariantCircleProblem CircleOptions circle_start",
     "poincare": "spectrum steady_state",
     "torus_check": "check_torus",
 }

@@ -7,12 +7,11 @@ from contin.api.system import System
 from contin.hb import aft2d
 from contin.hb.qp_basis import QPBasis
 from contin.hb.torus import QuasiPeriodicBalance, TorusOptions, torus_measures
+from van_der_pol_model import vdp_model
 
 
 def vdp(F=0.15):
-    return System(dofs=["x"], parameters={"mu": 0.1, "F": F, "w": 0.9}, mass=[[1]], damping=[["-mu"]],
-                  stiffness=[[1]], forces=[{"dof": "x", "expr": "mu*x**2*x_dot"}],
-                  excitation=[{"dof": "x", "expr": "F*cos(tau)"}], frequency="w").model
+    return vdp_model(F, w=0.9)
 
 
 def test_basis_layout_and_pair_lookup():

@@ -11,22 +11,15 @@ import math
 import numpy as np
 import pytest
 
-from contin.api.system import System
 from contin.bifurcation.diagram import follow
 from contin.bifurcation.torus_branch import TorusSettings
 from contin.hb.problem import HarmonicBalance, HBOptions
 from contin.hb.torus import TorusOptions
 from contin.timedomain.spectral_lines import spectral_lines
 from contin.timedomain.torus_check import check_torus
+from van_der_pol_model import F, MU, vdp_model
 from vdp_reference import locking_boundaries, simulated_lines, slow_limit_cycle
 
-MU, F = 0.1, 0.15
-
-
-def vdp_model(F=F):
-    return System(dofs=["x"], parameters={"mu": MU, "F": F, "w": 0.8}, mass=[[1]], damping=[["-mu"]],
-                  stiffness=[[1]], forces=[{"dof": "x", "expr": "mu*x**2*x_dot"}],
-                  excitation=[{"dof": "x", "expr": "F*cos(tau)"}], frequency="w").model
 
 
 @pytest.fixture(scope="module")

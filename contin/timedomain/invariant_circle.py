@@ -1,0 +1,286 @@
+"""Tori of a forced system as invariant circles of its stroboscopic map, by shooting.
+
+A quasi-periodic response of a system forced at ``w`` lies on a torus; its
+section at the forcing phase zero is a closed curve ``u(theta)`` of states that
+the stroboscopic map ``P = phi_T`` (the flow over one forcing period
+``T = 2 pi / w``, the integrator's RK4 with the contact switches located in
+time) maps onto itself, turned by the rotation number ``rho``:
+
+    P(u(theta)) = u(theta + 2 pi rho).
+
+The circle is discretised by ``N`` (odd) points ``u_j = u(theta_j)``,
+``theta_j = 2 pi j / N``, and ``u(theta_j + 2 pi rho)`` is its trigonometric
+interpolant of degree ``K = (N - 1) / 2`` shifted by ``2 pi rho``: the rows of
+the real ``N x N`` matrix
+
+    S_rho[j, l] = (1 + 2 sum_{k=1..K} cos(k (theta_j - theta_l + 2 pi rho))) / N
+
+(the Dirichlet kernel) act on each state component. The unknowns are the
+points and ``rho``, ``(U, rho)`` of size ``2 n N + 1``, and the residual is
+
+    r_j = phi_T(u_j) - (S_rho U)_j,          j = 0 .. N - 1,
+    r_phase = sum_j (u_j - a_j) . a'_j,
+
+the last an anchor fixing the circle's parametrisation (any ``theta``-shift of
+a solution is one): ``a`` a reference circle, ``a'`` its derivative in
+``theta`` by the same interpolant. Only the time direction carries the
+contact's kinks, which the integrator resolves; the residual is as smooth as
+the flow map (Schilder, Osinga & Vogt, *SIAM J. Appl. Dyn. Syst.* 4 (2005)
+459, for the invariance equation and its Fourier shift; the map of a forced
+system as there sec. 2).
+
+Jacobian: ``dr_j/du_l = Phi(u_j) delta_jl - S_rho[j, l] I``, with ``Phi``
+the exact derivative of the discrete flow map by the variational equations
+(:class:`contin.timedomain.multiple_shooting.ShootingProblem`, one segment,
+``nu = 1``); ``dr/drho = -(dS_rho/drho) U`` in closed form; ``dr/dlam`` by the
+shooting problem's central difference of the flow in ``lam``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Mapping
+
+import numpy as np
+
+from contin.timedomain.multiple_shooting import VARIATIONAL_COST, ShootingOptions, ShootingProblem
+from contin.util.options import from_mapping
+
+__all__ = ["CircleOptions", "InvariantCircleProblem", "circle_start", "shift_matrix"]
+
+
+@dataclasses.dataclass(frozen=True)
+class CircleOptions:
+    """Options of :class:`InvariantCircleProblem`.
+
+    Attributes
+    ----------
+    points : int
+        ``N``, points of the circle (odd, >= 3): the interpolant's degree is ``(N - 1) / 2``.
+    steps_per_period : int
+        RK4 steps per forcing period of the stroboscopic map.
+    fd_step : float
+        Step of the central difference in the parameter, relative to ``max(1, |lam|)``.
+    """
+
+    points: int = 15
+    steps_per_period: int = 1024
+    fd_step: float = 1e-6
+
+    def __post_init__(self):
+        for name, lo in (("points", 3), ("steps_per_period", 16)):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
+                raise ValueError(f"CircleOptions.{name}: expected an integer >= {lo}, got {v!r}")
+        if self.points % 2 == 0:
+            raise ValueError(f"CircleOptions.points: expected an odd number (a real interpolant of degree "
+                             f"(N - 1) / 2), got {self.points}")
+        v = self.fd_step
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0.0 < v <= 1e-2:
+            raise ValueError(f"CircleOptions.fd_step: expected a number in (0, 0.01], got {v!r}")
+
+    @classmethod
+    def from_dict(cls, d: Mapping) -> "CircleOptions":
+        """From a mapping; an unknown key raises ``ValueError`` naming it and the valid ones."""
+        return from_mapping(cls, d)
+
+
+def shift_matrix(n_points: int, rho: float, derivative: bool = False) -> np.ndarray:
+    """``S_rho`` (module docstring), shape (N, N); with ``derivative`` its derivative in ``rho``.
+
+    ``S_0`` is the identity; ``S_rho`` maps the values of a trigonometric
+    polynomial of degree ``(N - 1) / 2`` at ``theta_j`` to its values at
+    ``theta_j + 2 pi rho``.
+    """
+    N = int(n_points)
+    K = (N - 1) // 2
+    theta = 2.0 * math.pi * np.arange(N) / N
+    d = theta[:, None] - theta[None, :] + 2.0 * math.pi * float(rho)  # (N, N)
+    k = np.arange(1, K + 1)[:, None, None]
+    if derivative:
+        return -(2.0 / N) * np.sum(2.0 * math.pi * k * np.sin(k * d), axis=0)
+    return (1.0 + 2.0 * np.sum(np.cos(k * d), axis=0)) / N
+
+
+class InvariantCircleProblem:
+    """``R(u, lam)`` of the invariant circle of the stroboscopic map, for the continuation engine (module docstring).
+
+    Parameters
+    ----------
+    model : Model
+        A forced model (its excitation's frequency parameter sets ``T``).
+    parameter : str
+        The continuation parameter.
+    params : dict, optional
+        The other parameter overrides.
+    options : CircleOptions
+    anchor : array_like, shape (N, 2n), optional
+        The reference circle of the phase condition (default: set by
+        :meth:`set_anchor`, for example from the start).
+
+    Attributes
+    ----------
+    n : int
+        Dofs of the model.
+    points : int
+        ``N``.
+    size : int
+        Unknowns ``2 n N + 1``: the points (row-major, point by point) and ``rho``.
+    """
+
+    #: a linearisation costs one variational flow per point against one plain flow per point
+    jacobian_cost = VARIATIONAL_COST
+
+    def __init__(self, model, parameter: str, params: Mapping[str, float] | None = None,
+                 options: CircleOptions = CircleOptions(), anchor=None):
+        self.options = options
+        self.map = ShootingProblem(model, parameter, params,
+                                   ShootingOptions(steps_per_period=options.steps_per_period, fd_step=options.fd_step))
+        self.model, self.parameter = model, parameter
+        self.n = model.n_dof
+        self.points = options.points
+        self.size = 2 * self.n * self.points + 1
+        self._anchor = self._danchor = None
+        if anchor is not None:
+            self.set_anchor(anchor)
+
+    # ------------------------------------------------------------ the circle
+    def blocks(self, u) -> tuple[np.ndarray, float]:
+        """``(U, rho)``: the points (N, 2n) and the rotation number from the unknowns (size,)."""
+        u = np.asarray(u, dtype=float)
+        if u.shape != (self.size,):
+            raise ValueError(f"the unknowns must have shape ({self.size},) = {self.points} points of (x, x') of "
+                             f"model '{self.model.name}' and the rotation number, got {u.shape}")
+        return u[:-1].reshape(self.points, 2 * self.n), float(u[-1])
+
+    def unknowns(self, U, rho: float) -> np.ndarray:
+        """The unknowns from the points ``U`` (N, 2n) and ``rho``."""
+        U = np.asarray(U, dtype=float)
+        if U.shape != (self.points, 2 * self.n):
+            raise ValueError(f"U must have shape ({self.points}, {2 * self.n}), got {U.shape}")
+        return np.r_[U.ravel(), float(rho)]
+
+    def set_anchor(self, U) -> None:
+        """Take the points ``U`` (N, 2n) (or unknowns of size ``size``) as the phase condition's reference circle."""
+        U = np.asarray(U, dtype=float)
+        if U.shape == (self.size,):
+            U = self.blocks(U)[0]
+        if U.shape != (self.points, 2 * self.n):
+            raise ValueError(f"the anchor must have shape ({self.points}, {2 * self.n}), got {U.shape}")
+        self._anchor = U.copy()
+        # d/dtheta of the interpolant at theta_j: d S_rho / d rho at 0 over 2 pi
+        self._danchor = shift_matrix(self.points, 0.0, derivative=True) @ U / (2.0 * math.pi)
+
+    def _phase(self, U) -> float:
+        if self._anchor is None:
+            raise ValueError("InvariantCircleProblem: no anchor for the phase condition; call set_anchor(U) first")
+        return float(np.sum((U - self._anchor) * self._danchor))
+
+    # ------------------------------------------------------------ the engine's protocol
+    def residual(self, u, lam: float) -> np.ndarray:
+        """``(r_0, ..., r_{N-1}, r_phase)``, shape (size,)."""
+        U, rho = self.blocks(u)
+        images = np.array([self.map.residual(z, lam) + z for z in U])
+        return np.r_[(images - shift_matrix(self.points, rho) @ U).ravel(), self._phase(U)]
+
+    def linearize(self, u, lam: float):
+        """Residual (size,), ``dR/du`` (size, size, dense) and ``dR/dlam`` (size,) (module docstring)."""
+        U, rho = self.blocks(u)
+        N, m = self.points, 2 * self.n
+        S = shift_matrix(N, rho)
+        Ju = np.zeros((self.size, self.size))
+        Jlam = np.zeros(self.size)
+        images = np.empty((N, m))
+        for j in range(N):
+            r, Phi, dlam = self.map.linearize(U[j], lam)  # phi(z) - z, Phi - I, dphi/dlam
+            images[j] = r + U[j]
+            Ju[j * m:(j + 1) * m, j * m:(j + 1) * m] = Phi + np.eye(m)
+            Jlam[j * m:(j + 1) * m] = dlam
+        Ju[:-1, :-1] -= np.kron(S, np.eye(m))
+        Ju[:-1, -1] = -(shift_matrix(N, rho, derivative=True) @ U).ravel()
+        R = np.r_[(images - S @ U).ravel(), self._phase(U)]
+        Ju[-1, :-1] = self._danchor.ravel()
+        return R, Ju, Jlam
+
+    # ------------------------------------------------------------ what a point says
+    def frequency_at(self, lam: float) -> float:
+        """The forcing frequency ``w`` at ``lam``."""
+        return self.map.frequency_at(lam)
+
+    def second_frequency(self, u, lam: float) -> float:
+        """The torus' second frequency ``w2 = rho w`` (``rho`` taken in ``[0, 1)``; ``w2`` and ``w - w2`` are the
+        same torus seen from the two sides)."""
+        return (self.blocks(u)[1] % 1.0) * self.frequency_at(lam)
+
+    def points_on_circle(self, u, theta) -> np.ndarray:
+        """The interpolated circle at the angles ``theta`` (shape (K,)): states, shape (K, 2n)."""
+        U, _ = self.blocks(u)
+        N = self.points
+        th = np.atleast_1d(np.asarray(theta, dtype=float))
+        rows = np.stack([shift_matrix(N, t / (2.0 * math.pi))[0] for t in th])  # row 0 of S_t: the value at t
+        return rows @ U
+
+
+def circle_start(model, parameter: str, z, lam: float, params: Mapping[str, float] | None = None,
+                 options: CircleOptions = CircleOptions(), eps: float = 1e-2):
+    """The first point of the torus branch born at a Neimark-Sacker point of a periodic orbit.
+
+    At a Neimark-Sacker point the monodromy ``Phi`` of the orbit through
+    ``z`` has a pair of multipliers ``exp(+-2 pi i rho0)`` on the unit circle;
+    the invariant circle that grows out of it is, to first order, the ellipse
+    ``z + eps Re(v exp(i theta))`` of the eigenvector ``v`` of
+    ``exp(2 pi i rho0)``, turned by ``rho0`` per period (Kuznetsov,
+    *Elements of Applied Bifurcation Theory*, 3rd ed., 2004, sec. 4.6). Pass
+    the returned point and tangent to
+    :func:`contin.engine.continuation.continuation` with ``solve_start=False``:
+    the engine corrects the point on the hyperplane through it normal to the
+    tangent (the circle's amplitude), with ``lam`` free, so the side of the
+    point the torus lies on need not be known.
+
+    Parameters
+    ----------
+    model : Model
+    parameter : str
+    z : array_like, shape (2n,)
+        The state at ``t = 0`` of the periodic orbit at the Neimark-Sacker point (forcing period).
+    lam : float
+    params : dict, optional
+    options : CircleOptions
+    eps : float
+        The ellipse's size, relative to ``max(1, max |z|)``.
+
+    Returns
+    -------
+    problem : InvariantCircleProblem
+        Its anchor the ellipse.
+    u0 : ndarray, shape (problem.size,)
+    tangent : ndarray, shape (problem.size + 1,)
+        Along the ellipse's amplitude, 0 in ``rho`` and ``lam``; unit length.
+
+    Raises
+    ------
+    ValueError
+        If no complex pair of multipliers lies within 1e-2 of the unit circle.
+    """
+    problem = InvariantCircleProblem(model, parameter, params, options)
+    z = np.asarray(z, dtype=float)
+    _, Ju, _ = problem.map.linearize(z, lam)
+    mu, V = np.linalg.eig(Ju + np.eye(z.size))
+    pair = np.flatnonzero(mu.imag > 1e-12 * np.abs(mu))
+    if not pair.size:
+        raise ValueError(f"no complex multiplier at {parameter} = {lam:.10g}: not a Neimark-Sacker point")
+    j = int(pair[np.argmin(np.abs(np.abs(mu[pair]) - 1.0))])
+    if abs(abs(mu[j]) - 1.0) > 1e-2:
+        raise ValueError(f"no complex multiplier within 1e-2 of the unit circle at {parameter} = {lam:.10g} "
+                         f"(closest {complex(mu[j]):.6g}): not a Neimark-Sacker point")
+    v = V[:, j] / np.linalg.norm(V[:, j])
+    theta = 2.0 * math.pi * np.arange(problem.points) / problem.points
+    ellipse = np.real(v[None, :] * np.exp(1j * theta)[:, None])  # (N, 2n)
+    scale = eps * max(1.0, float(np.max(np.abs(z))))
+    U = z[None, :] + scale * ellipse
+    problem.set_anchor(U)
+    rho0 = float(np.angle(mu[j])) / (2.0 * math.pi)
+    u0 = problem.unknowns(U, rho0)
+    tangent = np.r_[ellipse.ravel(), 0.0, 0.0]
+    return problem, u0, tangent / np.linalg.norm(tangent)

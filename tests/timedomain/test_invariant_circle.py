@@ -1,0 +1,129 @@
+"""Invariant circles of the stroboscopic map (contin.timedomain.invariant_circle) on the forced van der Pol
+oscillator, against its quasi-periodic harmonic balance and an independent scipy integration."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from contin.bifurcation.diagram import follow
+from contin.bifurcation.torus_branch import TorusSettings
+from contin.engine.continuation import ContinuationOptions, continuation
+from contin.engine.newton import solve_at_parameter
+from contin.hb.problem import HarmonicBalance, HBOptions
+from contin.hb.torus import TorusOptions
+from contin.timedomain.invariant_circle import CircleOptions, InvariantCircleProblem, circle_start, shift_matrix
+from contin.timedomain.shooting import ShootingOptions, periodic_orbit
+from van_der_pol_model import F, MU, vdp_model
+
+
+
+@pytest.fixture(scope="module")
+def qp_branch():
+    """The quasi-periodic harmonic balance's torus branch (H1 = H2 = 12) from the Neimark-Sacker point down to 0.9."""
+    hb = HarmonicBalance(vdp_model(), "w", HBOptions(5))
+    d = follow(hb, hb.linear_solution(0.9), 0.9, (0.9, 0.97), {"ds": 0.02}, stability={"method": "hill"},
+               switch=("ns",), torus=TorusSettings(TorusOptions(12, 12), stability="none"))
+    return hb, d
+
+
+def circle_of(qp, u, w, N):
+    """The section at forcing phase 0 of a quasi-periodic harmonic-balance point: its states at theta2 = 2 pi j / N."""
+    return np.array([np.concatenate([a.ravel() for a in qp.state_at(u, w, np.zeros(1), phase2=t)])
+                     for t in 2 * np.pi * np.arange(N) / N])
+
+
+def test_the_shift_matrix_moves_a_trigonometric_polynomial_exactly():
+    N, rho = 9, 0.137
+    theta = 2 * np.pi * np.arange(N) / N
+    f = lambda t: 0.3 + np.cos(t) - 0.7 * np.sin(2 * t) + 0.2 * np.cos(4 * t)  # degree (N - 1) / 2 = 4
+    np.testing.assert_allclose(shift_matrix(N, 0.0), np.eye(N), atol=1e-14)
+    np.testing.assert_allclose(shift_matrix(N, rho) @ f(theta), f(theta + 2 * np.pi * rho), atol=1e-13)
+    d = (shift_matrix(N, rho + 1e-6) - shift_matrix(N, rho - 1e-6)) / 2e-6
+    np.testing.assert_allclose(shift_matrix(N, rho, derivative=True), d, atol=1e-7)
+
+
+def test_the_jacobian_against_central_differences(qp_branch):
+    _, d = qp_branch
+    br, qp = d.branches[1], d.problems[1]
+    u_qp, w = br.unknowns[5], float(br.parameter[5])
+    prob = InvariantCircleProblem(vdp_model(), "w", options=CircleOptions(points=7, steps_per_period=256))
+    U = circle_of(qp, u_qp, w, 7)
+    prob.set_anchor(1.01 * U)  # a residual away from zero in every row
+    u = prob.unknowns(U, u_qp[-1] / w + 0.01)
+    R, Ju, Jlam = prob.linearize(u, w)
+    np.testing.assert_allclose(R, prob.residual(u, w), atol=1e-14)
+    Jfd = np.empty_like(Ju)
+    for k in range(u.size):
+        e = np.zeros(u.size)
+        e[k] = 1e-6
+        Jfd[:, k] = (prob.residual(u + e, w) - prob.residual(u - e, w)) / 2e-6
+    jl = (prob.residual(u, w + 1e-6) - prob.residual(u, w - 1e-6)) / 2e-6
+    assert np.abs(Ju - Jfd).max() < 1e-8 * np.abs(Ju).max()
+    assert np.abs(Jlam - jl).max() < 1e-8 * np.abs(Jlam).max()
+
+
+def test_the_circle_is_the_quasi_periodic_balance_section_and_invariant_under_scipy(qp_branch):
+    """At w = 0.92: the rotation number equals w2 / w of the harmonic balance mod 1, the points its section,
+    and a DOP853 integration of each point over one forcing period lands on the circle turned by rho."""
+    _, d = qp_branch
+    br, qp = d.branches[1], d.problems[1]
+    i = int(np.argmin(np.abs(br.parameter - 0.92)))
+    u_qp, w = br.unknowns[i], float(br.parameter[i])
+    N = 31
+    prob = InvariantCircleProblem(vdp_model(), "w", options=CircleOptions(points=N, steps_per_period=2048))
+    U0 = circle_of(qp, u_qp, w, N)
+    prob.set_anchor(U0)
+    res = solve_at_parameter(prob, prob.unknowns(U0, (u_qp[-1] / w) % 1.0), w)
+    assert res.converged, res.message
+    U, rho = prob.blocks(res.x)
+    assert rho == pytest.approx((u_qp[-1] / w) % 1.0, abs=1e-10)  # measured 1.3e-12
+    assert np.abs(U - U0).max() < 2e-7  # the balance's truncation at H2 = 12 (measured 8e-8)
+    assert prob.second_frequency(res.x, w) == pytest.approx(u_qp[-1] - w, abs=1e-10)
+
+    def rhs(t, y):
+        x, v = y
+        return [v, MU * (1 - x * x) * v - x + F * math.cos(w * t)]
+
+    T = 2 * math.pi / w
+    for j in (0, 7, 19):
+        end = solve_ivp(rhs, (0, T), U[j], method="DOP853", rtol=1e-12, atol=1e-13).y[:, -1]
+        target = prob.points_on_circle(res.x, 2 * np.pi * j / N + 2 * np.pi * rho)[0]
+        assert np.abs(end - target).max() < 1e-8
+
+
+def test_a_torus_branch_from_the_flows_neimark_sacker_point_meets_the_quasi_periodic_balance(qp_branch):
+    hb, d = qp_branch
+    (ns,) = [sp for sp in d.branches[0].special_points if sp.kind.value == "ns"]
+    x, v = hb.orbit(ns.unknowns, ns.parameter, np.zeros(1))
+    orbit = periodic_orbit(vdp_model(), {"w": ns.parameter}, np.r_[x.ravel(), v.ravel()],
+                           ShootingOptions(steps_per_period=1024))
+    assert orbit.converged
+    prob, u0, tangent = circle_start(vdp_model(), "w", orbit.state, ns.parameter,
+                                     options=CircleOptions(points=21, steps_per_period=1024), eps=0.02)
+    br = continuation(prob, u0, ns.parameter, (0.9, 0.96), ContinuationOptions(ds=0.05), tangent=tangent,
+                      solve_start=False, parameter_name="w")
+    assert br.status.value == "range_end" and br.parameter[-1] == pytest.approx(0.9)
+    for u, lam in zip(br.unknowns, br.parameter):
+        assert np.abs(prob.residual(u, lam)).max() < 1e-9
+    qb = d.branches[1]
+    assert qb.parameter[-1] == pytest.approx(0.9)
+    # the same torus at w = 0.9: the rotation number to 1e-8 (measured 2e-10)
+    assert br.unknowns[-1, -1] == pytest.approx((qb.unknowns[-1, -1] / 0.9) % 1.0, abs=1e-8)
+
+
+def test_options_and_shapes_are_checked():
+    with pytest.raises(ValueError, match="points: expected an odd number"):
+        CircleOptions(points=10)
+    with pytest.raises(ValueError, match="steps_per_period: expected an integer >= 16"):
+        CircleOptions(steps_per_period=8)
+    with pytest.raises(ValueError, match="unknown"):
+        CircleOptions.from_dict({"pointz": 11})
+    prob = InvariantCircleProblem(vdp_model(), "w", options=CircleOptions(points=5, steps_per_period=64))
+    with pytest.raises(ValueError, match="no anchor"):
+        prob.residual(np.zeros(prob.size), 0.95)
+    with pytest.raises(ValueError, match=r"shape \(11,\)"):
+        prob.blocks(np.zeros(3))
+    with pytest.raises(ValueError, match="not a Neimark-Sacker point"):
+        circle_start(vdp_model(), "w", np.zeros(2), 2.0, options=CircleOptions(points=5, steps_per_period=256))
