@@ -47,7 +47,7 @@ import numpy as np
 from contin.timedomain.multiple_shooting import VARIATIONAL_COST, ShootingOptions, ShootingProblem
 from contin.util.options import from_mapping
 
-__all__ = ["CircleOptions", "InvariantCircleProblem", "circle_start", "shift_matrix"]
+__all__ = ["CircleLyapunov", "CircleOptions", "InvariantCircleProblem", "circle_lyapunov", "circle_start", "shift_matrix"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -284,3 +284,76 @@ def circle_start(model, parameter: str, z, lam: float, params: Mapping[str, floa
     u0 = problem.unknowns(U, rho0)
     tangent = np.r_[ellipse.ravel(), 0.0, 0.0]
     return problem, u0, tangent / np.linalg.norm(tangent)
+
+
+#: a normal exponent within this (per forcing period) of zero gives no verdict, nor one within twice the
+#: tangential exponent's distance to zero or within 1 / iterations (the averages' own error)
+EXPONENT_TOL = 1e-3
+
+
+@dataclasses.dataclass(frozen=True)
+class CircleLyapunov:
+    """Lyapunov exponents of the map along an invariant circle (:func:`circle_lyapunov`).
+
+    Attributes
+    ----------
+    exponents : ndarray, shape (2n,)
+        Per forcing period, in decreasing order.
+    tangent : int
+        Index of the tangential exponent (the one nearest zero: the circle's own direction).
+    largest_normal : float
+        The largest of the others.
+    stable : bool or None
+        ``largest_normal < -tol`` (True), ``> tol`` (False), else None (undecided), with ``tol`` the
+        largest of ``EXPONENT_TOL``, twice the tangential exponent's modulus and ``1 / iterations``.
+    iterations : int
+    """
+
+    exponents: np.ndarray
+    tangent: int
+    largest_normal: float
+    stable: bool | None
+    iterations: int
+
+
+def circle_lyapunov(problem: InvariantCircleProblem, u, lam: float, iterations: int = 200) -> CircleLyapunov:
+    """The torus' stability from the Lyapunov exponents of the map restricted to its circle.
+
+    A perturbation ``v`` of the circle at ``theta`` is carried by ``DP(u(theta))`` to
+    ``theta + 2 pi rho``; along the points ``u(2 pi k rho)`` of the circle (its
+    interpolant, so that an unstable circle is not left) the products
+    ``DP_k ... DP_1`` are orthonormalised at every step (QR; Benettin et al.,
+    *Meccanica* 15 (1980) 9) and the logarithms of ``|R_ii|`` averaged. One
+    exponent is the circle's own direction (zero up to ``O(1 / iterations)``);
+    the torus is stable when the others, the normal exponents, are negative.
+
+    Parameters
+    ----------
+    problem : InvariantCircleProblem
+    u : array_like, shape (problem.size,)
+        A converged circle.
+    lam : float
+    iterations : int
+        Periods of the map averaged.
+
+    Returns
+    -------
+    CircleLyapunov
+    """
+    if isinstance(iterations, bool) or not isinstance(iterations, (int, np.integer)) or iterations < 1:
+        raise ValueError(f"iterations: expected a positive integer, got {iterations!r}")
+    _, rho = problem.blocks(u)
+    m = 2 * problem.n
+    Q = np.eye(m)
+    sums = np.zeros(m)
+    for k in range(iterations):
+        z = problem.points_on_circle(u, 2.0 * math.pi * ((k * rho) % 1.0))[0]
+        _, Phi = problem.map.flow_jacobian(z, lam)
+        Q, R = np.linalg.qr(Phi @ Q)
+        sums += np.log(np.abs(np.diag(R)))
+    exps = np.sort(sums / iterations)[::-1]
+    tangent = int(np.argmin(np.abs(exps)))
+    largest = float(np.max(np.delete(exps, tangent))) if m > 1 else -math.inf
+    tol = max(EXPONENT_TOL, 2.0 * abs(float(exps[tangent])), 1.0 / iterations)
+    stable = True if largest < -tol else (False if largest > tol else None)
+    return CircleLyapunov(exps, tangent, largest, stable, int(iterations))

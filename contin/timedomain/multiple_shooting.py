@@ -439,6 +439,17 @@ class ShootingProblem:
             self._cache.popitem(last=False)
         return R.copy(), Ju.copy(), Jlam.copy()
 
+    def flow_jacobian(self, z: np.ndarray, lam: float) -> tuple[np.ndarray, np.ndarray]:
+        """The first segment's end state from ``z`` (2n,) and its Jacobian ``Phi`` (2n, 2n): the variational flow
+        alone, without ``dR/dlam`` (for iterating the map; with one segment, over the whole period)."""
+        end, factors, _ = self._segment(np.asarray(z, dtype=float), self._setup(lam), 0)
+        Phi = factors[0]
+        for F in factors[1:]:
+            Phi = F @ Phi
+        if not (np.all(np.isfinite(end)) and np.all(np.isfinite(Phi))):
+            raise ArithmeticError(f"non-finite flow map at {self.parameter} = {lam:.10g}")
+        return end, Phi
+
     def _linearisation(self, u, lam) -> _Linearisation:
         key = (np.asarray(u, dtype=float).tobytes(), float(lam))
         if key not in self._cache:

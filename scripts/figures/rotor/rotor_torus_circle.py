@@ -5,8 +5,9 @@ a Neimark-Sacker point near w = 1.8508. The script finds the flow's harmonic orb
 simulation from rest at w - 0.002, where it is stable, then Newton on the flow map), starts the
 invariant circle of the stroboscopic map from the critical multiplier's eigenvector
 (:func:`contin.timedomain.invariant_circle.circle_start`) and follows it with the continuation
-engine, printing the rotation number and the circle's spread in the disc's x against w, and how the
-branch ended.
+engine, printing the rotation number and the circle's spread in the disc's x against w, how the
+branch ended, and the torus' stability at three of its points
+(:func:`contin.timedomain.invariant_circle.circle_lyapunov`).
 
     python scripts/figures/rotor/rotor_torus_circle.py                      # N = 15, 4096 steps, ~2 min
     python scripts/figures/rotor/rotor_torus_circle.py --points 25          # stalls at rho = 2/5
@@ -22,7 +23,7 @@ import numpy as np
 
 from contin.engine.continuation import ContinuationOptions, continuation
 from contin.model.catalog import build_model
-from contin.timedomain.invariant_circle import CircleOptions, circle_start
+from contin.timedomain.invariant_circle import CircleOptions, circle_lyapunov, circle_start
 from contin.timedomain.shooting import ShootingOptions, periodic_orbit
 from contin.timedomain.simulation import simulate
 
@@ -60,6 +61,12 @@ def main(argv=None) -> int:
     for k in sorted(set(range(0, len(br), max(1, len(br) // 12))) | {len(br) - 1}):
         U, rho = problem.blocks(br.unknowns[k])
         print(f"  {br.parameter[k]:.6f}  {rho:.5f}  {np.ptp(U[:, 0]):.4f}")
+    print("stability (Lyapunov exponents of the map along the circle, per forcing period):")
+    for k in sorted({min(len(br) - 1, 3), len(br) // 2, len(br) - 1}):
+        ly = circle_lyapunov(problem, br.unknowns[k], br.parameter[k], iterations=20 if args.quick else 150)
+        verdict = {True: "stable", False: "unstable", None: "undecided"}[ly.stable]
+        print(f"  w = {br.parameter[k]:.6f}: largest normal {ly.largest_normal:+.4f}, tangential "
+              f"{ly.exponents[ly.tangent]:+.4f}: {verdict}")
     folds = [sp.parameter for sp in br.special_points if sp.kind.value == "fold"]
     if folds:
         distinct = sorted({round(w, 6) for w in folds})
