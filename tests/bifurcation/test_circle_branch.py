@@ -1,0 +1,70 @@
+"""The ends of a branch of invariant circles (contin.bifurcation.circle_branch): collapse at the Neimark-Sacker
+point of the forced van der Pol oscillator, and locking told from the rotation number."""
+
+import numpy as np
+import pytest
+
+from contin.bifurcation.circle_branch import classify_circle_end, follow_circle
+from contin.engine.branch import BranchBuilder, BranchStatus, SpecialKind
+from contin.engine.continuation import ContinuationOptions
+from contin.timedomain.invariant_circle import CircleOptions, InvariantCircleProblem, circle_start
+from contin.timedomain.shooting import ShootingOptions, periodic_orbit
+from contin.timedomain.simulation import simulate
+from van_der_pol_model import vdp_model
+
+#: the flow's Neimark-Sacker point (1024 RK4 steps a period), where |mu| = 1 +- 1e-6
+W_NS = 0.9512494581
+
+
+@pytest.fixture(scope="module")
+def down():
+    """The circle branch from the Neimark-Sacker point down to w = 0.9."""
+    run = simulate(vdp_model(), {"w": 0.96}, np.zeros(1), np.zeros(1), periods=300, steps_per_period=1024,
+                   record_every=1024)
+    orbit = periodic_orbit(vdp_model(), {"w": 0.96}, run.section[-1], ShootingOptions(steps_per_period=1024))
+    orbit = periodic_orbit(vdp_model(), {"w": W_NS}, orbit.state, ShootingOptions(steps_per_period=1024))
+    prob, u0, tangent = circle_start(vdp_model(), "w", orbit.state, W_NS,
+                                     options=CircleOptions(points=21, steps_per_period=1024), eps=0.02)
+    br = follow_circle(prob, u0, W_NS, (0.9, 0.96), ContinuationOptions(ds=0.05), tangent=tangent)
+    return prob, br
+
+
+def test_the_branch_from_the_neimark_sacker_point_reaches_its_range_end(down):
+    prob, br = down
+    assert br.status is BranchStatus.RANGE_END and br.parameter[-1] == pytest.approx(0.9)
+    spread = np.asarray(br.point_data["circle_spread"])
+    assert spread[0] < 0.1 < spread[-1]  # grows from the ellipse of the start (measured 0.13 -> 3.5)
+
+
+def test_a_circle_followed_back_up_collapses_at_the_neimark_sacker_point(down):
+    prob, br = down
+    u, w = br.unknowns[-1], float(br.parameter[-1])
+    prob.set_anchor(u)
+    up = follow_circle(prob, u, w, (0.9, 0.96), ContinuationOptions(ds=0.05, direction=1))
+    assert up.status is BranchStatus.BOUNDARY and "shrinks onto the periodic orbit" in up.message
+    (end,) = [sp for sp in up.special_points if sp.event == "circle end"]
+    assert end.kind is SpecialKind.NS and end.parameter == pytest.approx(W_NS, abs=1e-4)
+    spread = np.asarray(up.point_data["circle_spread"])
+    assert min(spread[-2:]) < 0.05 * spread.max()  # the last two points straddle the collapse
+    # stopped at the flip: not retracing the tori down to the range's end
+    assert up.parameter.min() == pytest.approx(0.9) and np.all(up.parameter[1:] > 0.9)
+
+
+def test_a_stalled_branch_at_a_small_rational_rotation_number_is_locking():
+    prob = InvariantCircleProblem(vdp_model(), "w", options=CircleOptions(points=5, steps_per_period=64))
+    b = BranchBuilder("w", prob.size)
+    for k, rho in enumerate((0.3991, 0.39995)):
+        u = prob.unknowns(np.full((5, 2), 1.0 + k) + np.arange(5)[:, None], rho)
+        b.append_point(u, 1.1 + 1e-3 * k, np.r_[np.zeros(prob.size), 1.0], k * 1e-3, 3, 1e-3, 1e-12,
+                       {"circle_spread": 4.0})
+    br = b.finish(BranchStatus.STEP_TOO_SMALL, "step size fell below ds_min")
+    classify_circle_end(br, prob)
+    assert br.status is BranchStatus.BOUNDARY and "locks" in br.message and "2/5" in br.message
+    assert br.special_points[-1].kind is SpecialKind.LOCKING
+    # the same stall away from a rational of small denominator keeps the engine's status
+    b = BranchBuilder("w", prob.size)
+    b.append_point(prob.unknowns(np.ones((5, 2)) + np.arange(5)[:, None], 0.4321), 1.1,
+                   np.r_[np.zeros(prob.size), 1.0], 0.0, 3, 1e-3, 1e-12, {"circle_spread": 4.0})
+    br = b.finish(BranchStatus.STEP_TOO_SMALL, "step size fell below ds_min")
+    classify_circle_end(br, prob)
+    assert br.status is BranchStatus.STEP_TOO_SMALL
