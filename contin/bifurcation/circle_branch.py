@@ -28,7 +28,8 @@ from fractions import Fraction
 
 import numpy as np
 
-from contin.engine.branch import Branch, BranchStatus, SpecialKind, SpecialPoint
+from contin.bifurcation.torus_branch import end_as_boundary
+from contin.engine.branch import Branch, BranchStatus, SpecialKind
 from contin.engine.continuation import ContinuationOptions, continuation
 
 __all__ = ["LOCKING_TOL", "MAX_DENOMINATOR", "classify_circle_end", "follow_circle"]
@@ -107,6 +108,7 @@ def classify_circle_end(branch: Branch, problem, max_denominator: int = MAX_DENO
     spread = np.asarray(branch.point_data["circle_spread"], dtype=float)
     rho = float(problem.blocks(u)[1]) % 1.0
     f = Fraction(rho).limit_denominator(max_denominator)
+    i = len(branch) - 1
     if collapsed and branch.status is BranchStatus.INTERRUPTED:
         far = branch.parameter[np.argmax(np.abs(branch.parameter - branch.parameter[0]))]
         i = int(np.argmin(spread[-2:])) + len(branch) - 2
@@ -121,10 +123,4 @@ def classify_circle_end(branch: Branch, problem, max_denominator: int = MAX_DENO
                f"orbits of {f.denominator} forcing periods on it)")
     else:
         return
-    prev = float(branch.parameter[-2]) if len(branch) > 1 else lam
-    branch.special_points.append(SpecialPoint(
-        kind=kind, parameter=lam, unknowns=np.array(u), interval=(prev, lam), index=len(branch) - 1,
-        s=float(branch.arclength[-1]), located=False, data={"rotation_number": rho, "rational": str(f)},
-        message=why, event="circle end"))
-    branch.message = f"{why}; the engine stopped there: {branch.message}"
-    branch.status = BranchStatus.BOUNDARY
+    end_as_boundary(branch, kind, lam, u, i, {"rotation_number": rho, "rational": str(f)}, why, "circle end")

@@ -38,7 +38,7 @@ from contin.timedomain.integrator import SimulationError
 from contin.timedomain.torus_check import check_torus
 from contin.util.options import check_keys, field_names, from_mapping
 
-__all__ = ["TorusSettings", "TorusStabilityMonitor", "run_torus", "classify_end"]
+__all__ = ["TorusSettings", "TorusStabilityMonitor", "run_torus", "classify_end", "end_as_boundary"]
 
 #: a branch ending with the self-excited line below this fraction of its largest size has collapsed
 COLLAPSED = 1e-2
@@ -152,7 +152,6 @@ def classify_end(branch: Branch, problem, settings: TorusSettings) -> None:
     f = _nearest_rational(r, settings.max_denominator)
     j, i = problem.pin
     amp = np.array([abs(v[problem.n * (2 * j - 1) + i]) for v in branch.unknowns])
-    prev = float(branch.parameter[-2]) if len(branch) > 1 else lam
     kind = None
     if f.numerator > 0 and abs(r - float(f)) < settings.locking_tol:
         kind = SpecialKind.LOCKING
@@ -164,11 +163,19 @@ def classify_end(branch: Branch, problem, settings: TorusSettings) -> None:
                f"(self-excited line {amp[-1]:.3g}, {amp.max():.3g} at most)")
     if kind is None:
         return
-    if not any(sp.event == "torus end" for sp in branch.special_points):  # a resumed branch holds it already
+    end_as_boundary(branch, kind, lam, u, len(branch) - 1, {"ratio": r, "rational": str(f)}, why, "torus end")
+
+
+def end_as_boundary(branch: Branch, kind: SpecialKind, lam: float, u, index: int, data: dict, why: str,
+                    event: str) -> None:
+    """End ``branch`` as ``boundary`` with the unlocated special point ``kind`` at ``lam`` (stored point ``index``,
+    unknowns ``u``), its ``event`` name and ``why`` before the engine's message; a resumed branch that holds the
+    point already keeps it."""
+    if not any(sp.event == event for sp in branch.special_points):
+        prev = float(branch.parameter[index - 1]) if index > 0 else lam
         branch.special_points.append(SpecialPoint(
-            kind=kind, parameter=lam, unknowns=np.array(u), interval=(prev, lam), index=len(branch) - 1,
-            s=float(branch.arclength[-1]), located=False, data={"ratio": r, "rational": str(f)},
-            message=why, event="torus end"))
+            kind=kind, parameter=lam, unknowns=np.array(u), interval=(prev, lam), index=index,
+            s=float(branch.arclength[index]), located=False, data=data, message=why, event=event))
     branch.message = f"{why}; the engine stopped there: {branch.message}"
     branch.status = BranchStatus.BOUNDARY
 
