@@ -4,13 +4,13 @@ The bearing rotor at f0 = 0.5 (scenes/rotor_f0_05.yaml) loses the stability of i
 a Neimark-Sacker point near w = 1.8508. The script finds the flow's harmonic orbit there (a
 simulation from rest at w - 0.002, where it is stable, then Newton on the flow map), starts the
 invariant circle of the stroboscopic map from the critical multiplier's eigenvector
-(:func:`contin.timedomain.invariant_circle.circle_start`) and follows it with the continuation
-engine, printing the rotation number and the circle's spread in the disc's x against w, how the
+(:func:`contin.timedomain.invariant_circle.circle_start`) and follows it
+(:func:`contin.bifurcation.circle_branch.follow_circle`, its ends told), printing the rotation number and the circle's spread in the disc's x against w, how the
 branch ended, and the torus' stability at three of its points
 (:func:`contin.timedomain.invariant_circle.circle_lyapunov`).
 
     python scripts/figures/rotor/rotor_torus_circle.py                      # N = 15, 4096 steps, ~2 min
-    python scripts/figures/rotor/rotor_torus_circle.py --points 25          # stalls at rho = 2/5
+    python scripts/figures/rotor/rotor_torus_circle.py --points 33          # locks at rho = 2/5
     python scripts/figures/rotor/rotor_torus_circle.py --quick              # a smoke run
 """
 
@@ -21,7 +21,8 @@ import time
 
 import numpy as np
 
-from contin.engine.continuation import ContinuationOptions, continuation
+from contin.bifurcation.circle_branch import follow_circle
+from contin.engine.continuation import ContinuationOptions
 from contin.model.catalog import build_model
 from contin.timedomain.invariant_circle import CircleOptions, circle_lyapunov, circle_start
 from contin.timedomain.shooting import ShootingOptions, periodic_orbit
@@ -53,8 +54,8 @@ def main(argv=None) -> int:
     problem, u0, tangent = circle_start(model, "w", orbit.state, W_NS,
                                         options=CircleOptions(points=args.points, steps_per_period=args.steps),
                                         eps=0.01)
-    br = continuation(problem, u0, W_NS, (1.6, 2.1), ContinuationOptions(ds=0.01, max_points=args.max_points),
-                      tangent=tangent, solve_start=False, parameter_name="w")
+    br = follow_circle(problem, u0, W_NS, (1.6, 2.1), ContinuationOptions(ds=0.01, max_points=args.max_points),
+                       tangent=tangent)
     print(f"torus branch (N = {args.points}, {args.steps} steps): {len(br)} points in "
           f"{time.perf_counter() - t0:.1f} s, {br.status.value}: {br.message}")
     print("       w      rho   spread of the disc's x over the circle")
