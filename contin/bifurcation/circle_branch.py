@@ -11,7 +11,8 @@ map:
   grow again with their angle turned by half a turn (the same tori,
   retraced), so the branch is stopped at the first stored circle whose
   points, centred, correlate negatively with those of the circle before
-  (the flip); status ``boundary`` and an ``ns`` special point at the
+  (the flip) while one of the two is smaller than ``FLIP_SPREAD`` of the
+  largest so far; status ``boundary`` and an ``ns`` special point at the
   furthest parameter value reached.
 - **locking**: the steps fail with the rotation number at a rational ``p/q``
   of small ``q``: the torus carries periodic orbits of ``q`` forcing periods
@@ -32,8 +33,11 @@ from contin.bifurcation.torus_branch import end_as_boundary
 from contin.engine.branch import Branch, BranchStatus, SpecialKind
 from contin.engine.continuation import ContinuationOptions, continuation
 
-__all__ = ["LOCKING_TOL", "MAX_DENOMINATOR", "classify_circle_end", "follow_circle"]
+__all__ = ["FLIP_SPREAD", "LOCKING_TOL", "MAX_DENOMINATOR", "classify_circle_end", "follow_circle"]
 
+#: a flip counts as the collapse where the circle is this small against its largest (elsewhere it would be the
+#: parametrisation turning, not the circle shrinking)
+FLIP_SPREAD = 0.25
 #: a failing branch whose rotation number lies this close to ``p/q`` (``q <= MAX_DENOMINATOR``) has locked
 LOCKING_TOL = 2e-3
 MAX_DENOMINATOR = 6
@@ -80,8 +84,10 @@ def follow_circle(problem, u0, lam0: float, lam_range, options: ContinuationOpti
 
     def watch(branch: Branch, index: int):
         if index > 0:
+            spread = branch.point_data["circle_spread"]
+            small = min(spread[index], spread[index - 1]) < FLIP_SPREAD * max(spread[:index + 1])
             now, before = (_centred(problem, branch.unknowns[i]) for i in (index, index - 1))
-            if float(np.sum(now * before)) < 0.0:
+            if small and float(np.sum(now * before)) < 0.0:
                 flipped.append(index)
                 return False
         return True
