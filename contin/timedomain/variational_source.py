@@ -16,6 +16,13 @@ __all__ = ["NO_JACOBIAN", "VARIATIONAL", "jacobian_functions"]
 VARIATIONAL = '''
 
 @njit(cache=True, error_model="numpy", inline="always")
+def _scratch(n2):
+    # the model functions' work arrays: X, V, TAU, F, DUM, DX, DXD, R and B (N x 2N)
+    return (np.zeros((1, N)), np.zeros((1, N)), np.zeros(1), np.zeros((1, N)), np.zeros((1, N, N)),
+            np.zeros((1, N, N)), np.zeros((1, N, N)), np.zeros(N), np.zeros((N, n2)))
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def _apply(B, P, Q):
     # Q = A P with A = [[0, I], [B]]
     n2 = P.shape[0]
@@ -52,15 +59,7 @@ def step_times(y, tau0, dtau, hs, om, p, Minv, C, K, cst, mode, ta, tb):
     + c_i om ft_i and, at fixed hs, d k_i / d t0 = J_i c_i hs d k_{i-1} / d t0 + om ft_i.
     """
     n2 = y.shape[0]
-    X = np.zeros((1, N))
-    V = np.zeros((1, N))
-    TAU = np.zeros(1)
-    F = np.zeros((1, N))
-    DUM = np.zeros((1, N, N))
-    DX = np.zeros((1, N, N))
-    DXD = np.zeros((1, N, N))
-    R = np.zeros(N)
-    B = np.zeros((N, n2))
+    X, V, TAU, F, DUM, DX, DXD, R, B = _scratch(n2)
     kp = np.zeros(n2)
     kc = np.zeros(n2)
     yt = np.empty(n2)
@@ -115,15 +114,7 @@ def flow(y, mode, P, k0, k1, S, h, p, Minv, C, K, cst, max_events, want, L, fact
     Returns 0 = done, 1 = non-finite state or derivative.
     """
     n2 = y.shape[0]
-    X = np.zeros((1, N))
-    V = np.zeros((1, N))
-    TAU = np.zeros(1)
-    F = np.zeros((1, N))
-    DUM = np.zeros((1, N, N))
-    DX = np.zeros((1, N, N))
-    DXD = np.zeros((1, N, N))
-    R = np.zeros(N)
-    B = np.zeros((N, n2))
+    X, V, TAU, F, DUM, DX, DXD, R, B = _scratch(n2)
     q1 = np.empty(n2)
     q2 = np.empty(n2)
     q3 = np.empty(n2)

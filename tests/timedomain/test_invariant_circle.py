@@ -35,6 +35,28 @@ def circle_of(qp, u, w, N):
                      for t in 2 * np.pi * np.arange(N) / N])
 
 
+def circle_at_092(qp_branch, N, steps):
+    """The circle of N points and ``steps`` RK4 steps a period at the balance's point nearest w = 0.92, by Newton
+    from the balance's section: ``(qp, u_qp, w, problem, section, NewtonResult)``."""
+    _, d = qp_branch
+    br, qp = d.branches[1], d.problems[1]
+    i = int(np.argmin(np.abs(br.parameter - 0.92)))
+    u_qp, w = br.unknowns[i], float(br.parameter[i])
+    prob = InvariantCircleProblem(vdp_model(), "w", options=CircleOptions(points=N, steps_per_period=steps))
+    U0 = circle_of(qp, u_qp, w, N)
+    prob.set_anchor(U0)
+    res = solve_at_parameter(prob, prob.unknowns(U0, (u_qp[-1] / w) % 1.0), w)
+    assert res.converged, res.message
+    return qp, u_qp, w, prob, U0, res
+
+
+def vdp_rhs(w):
+    """The oscillator's right-hand side for scipy, written here."""
+    def rhs(t, y):
+        return [y[1], MU * (1 - y[0] ** 2) * y[1] - y[0] + F * math.cos(w * t)]
+    return rhs
+
+
 def test_the_shift_matrix_moves_a_trigonometric_polynomial_exactly():
     N, rho = 9, 0.137
     theta = 2 * np.pi * np.arange(N) / N
@@ -68,25 +90,14 @@ def test_the_jacobian_against_central_differences(qp_branch):
 def test_the_circle_is_the_quasi_periodic_balance_section_and_invariant_under_scipy(qp_branch):
     """At w = 0.92: the rotation number equals w2 / w of the harmonic balance mod 1, the points its section,
     and a DOP853 integration of each point over one forcing period lands on the circle turned by rho."""
-    _, d = qp_branch
-    br, qp = d.branches[1], d.problems[1]
-    i = int(np.argmin(np.abs(br.parameter - 0.92)))
-    u_qp, w = br.unknowns[i], float(br.parameter[i])
     N = 31
-    prob = InvariantCircleProblem(vdp_model(), "w", options=CircleOptions(points=N, steps_per_period=2048))
-    U0 = circle_of(qp, u_qp, w, N)
-    prob.set_anchor(U0)
-    res = solve_at_parameter(prob, prob.unknowns(U0, (u_qp[-1] / w) % 1.0), w)
-    assert res.converged, res.message
+    qp, u_qp, w, prob, U0, res = circle_at_092(qp_branch, N, 2048)
     U, rho = prob.blocks(res.x)
     assert rho == pytest.approx((u_qp[-1] / w) % 1.0, abs=1e-10)  # measured 1.3e-12
     assert np.abs(U - U0).max() < 2e-7  # the balance's truncation at H2 = 12 (measured 8e-8)
     assert prob.second_frequency(res.x, w) == pytest.approx(u_qp[-1] - w, abs=1e-10)
 
-    def rhs(t, y):
-        x, v = y
-        return [v, MU * (1 - x * x) * v - x + F * math.cos(w * t)]
-
+    rhs = vdp_rhs(w)
     T = 2 * math.pi / w
     for j in (0, 7, 19):
         end = solve_ivp(rhs, (0, T), U[j], method="DOP853", rtol=1e-12, atol=1e-13).y[:, -1]
@@ -135,15 +146,8 @@ def test_the_van_der_pol_torus_is_stable_by_its_lyapunov_exponents(qp_branch):
     Liouville the exponents add up to the mean divergence mu T (1 - <x^2>), <x^2> averaged over the torus of
     the two-frequency balance, so the normal one is that sum; a scipy integration started off the circle
     comes back to it."""
-    _, d = qp_branch
-    br, qp = d.branches[1], d.problems[1]
-    i = int(np.argmin(np.abs(br.parameter - 0.92)))
-    u_qp, w = br.unknowns[i], float(br.parameter[i])
     N = 21
-    prob = InvariantCircleProblem(vdp_model(), "w", options=CircleOptions(points=N, steps_per_period=1024))
-    U0 = circle_of(qp, u_qp, w, N)
-    prob.set_anchor(U0)
-    res = solve_at_parameter(prob, prob.unknowns(U0, (u_qp[-1] / w) % 1.0), w)
+    qp, u_qp, w, prob, _, res = circle_at_092(qp_branch, N, 1024)
     ly = circle_lyapunov(prob, res.x, w, iterations=400)
     assert ly.stable is True and abs(ly.exponents[ly.tangent]) < 2.0 / ly.iterations
     x, _ = qp.samples_of(u_qp, w)[:2]
@@ -152,9 +156,7 @@ def test_the_van_der_pol_torus_is_stable_by_its_lyapunov_exponents(qp_branch):
     assert float(np.sum(ly.exponents)) == pytest.approx(divergence, abs=2.0 / ly.iterations)
     assert ly.largest_normal == pytest.approx(divergence, abs=4.0 / ly.iterations)
 
-    def rhs(t, y):
-        return [y[1], MU * (1 - y[0] ** 2) * y[1] - y[0] + F * math.cos(w * t)]
-
+    rhs = vdp_rhs(w)
     # the circle's trigonometric interpolant, by numpy's FFT, on 200000 angles
     U = prob.blocks(res.x)[0]
     k = np.fft.fftfreq(N, 1.0 / N)

@@ -13,7 +13,6 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 from scipy.linalg import expm
-from scipy.optimize import brentq
 from scipy.special import mathieu_a, mathieu_b
 
 from contin.bifurcation.curve_system import FlipTestEvent
@@ -30,6 +29,7 @@ from contin.timedomain.shooting import (
     periodic_orbit,
 )
 from contin.stability import orbit_state, stability_events
+from mathieu_reference import damped_mathieu_pd
 
 
 def test_linear_oscillator_orbit_and_monodromy_are_the_closed_forms():
@@ -121,21 +121,6 @@ def test_shooting_branch_passes_the_duffing_folds_of_the_converged_harmonic_bala
         assert np.abs(prob.residual(sb.unknowns[k], sb.parameter[k])).max() < 1e-8
 
 
-def _damped_mathieu_pd(lo, hi, c=0.1, eps=0.4):
-    """delta where x'' + c x' + (delta + eps cos t) x = 0 has the multiplier -1, by scipy alone.
-
-    1 + tr Phi + det Phi = 0 with det Phi = exp(-2 pi c) (Liouville) and Phi by DOP853.
-    """
-    def trace(delta):
-        def rhs(t, y):
-            return np.concatenate([y[2:], -(delta + eps * np.cos(t)) * y[:2] - c * y[2:]])
-
-        y = solve_ivp(rhs, (0, 2 * np.pi), [1.0, 0.0, 0.0, 1.0], method="DOP853", rtol=1e-13, atol=1e-14).y[:, -1]
-        return y[0] + y[3]
-
-    return brentq(lambda d: 1 + trace(d) + math.exp(-2 * math.pi * c), lo, hi, xtol=1e-13)
-
-
 @pytest.fixture(scope="module")
 def mathieu_duffing_shooting():
     """x'' + 0.1 x' + (delta + 0.4 cos t) x + x^3 = 0: the trivial orbit by shooting, continued in delta."""
@@ -152,7 +137,7 @@ def test_shooting_stability_locates_the_damped_mathieu_period_doublings(mathieu_
     _, br = mathieu_duffing_shooting
     assert br.status.value == "range_end"
     pds = br.points_of_kind("pd")
-    want = [_damped_mathieu_pd(0.0, 0.2), _damped_mathieu_pd(0.3, 0.6)]
+    want = [damped_mathieu_pd(0.0, 0.2), damped_mathieu_pd(0.3, 0.6)]
     np.testing.assert_allclose([p.parameter for p in pds], want, atol=1e-7)
     for p in pds:
         assert p.data["classification"] == "pd" and abs(p.data["multiplier"] + 1.0) < 1e-4

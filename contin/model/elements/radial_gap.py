@@ -211,19 +211,27 @@ class RadialGapForce(ContactForce):
 
 
 # ---------------------------------------------------------------- time simulation
+@njit(cache=True, inline="always")
+def _radial_frame(X, V, ix, iy):
+    """``(r, ex, ey, vn)``: the radius, the radial unit vector and the radial velocity (``r = 0``: zeros)."""
+    x = X[0, ix]
+    y = X[0, iy]
+    r = np.sqrt(x * x + y * y)
+    if r == 0.0:
+        return 0.0, 0.0, 0.0, 0.0
+    ex_ = x / r
+    ey_ = y / r
+    return r, ex_, ey_, V[0, ix] * ex_ + V[0, iy] * ey_
+
+
 @njit(cache=True)
 def _radial_force(X, V, ix, iy, delta, k, c, active, F):
     """Radial contact force of the frozen mode (law of :class:`RadialGapForce`, paper eq. 3)."""
     if active == 0:
         return
-    x = X[0, ix]
-    y = X[0, iy]
-    r = np.sqrt(x * x + y * y)
+    r, ex_, ey_, vn = _radial_frame(X, V, ix, iy)
     if r == 0.0:
         return
-    ex_ = x / r
-    ey_ = y / r
-    vn = V[0, ix] * ex_ + V[0, iy] * ey_
     Fn = k * (r - delta) + c * vn
     F[0, ix] += Fn * ex_
     F[0, iy] += Fn * ey_
@@ -248,16 +256,11 @@ def _radial_force_jac(X, V, ix, iy, delta, k, c, active, DX, DXD):
     """Jacobian of :func:`_radial_force` (as in :func:`_radial_kernel`, without its test of the side)."""
     if active == 0:
         return
-    x = X[0, ix]
-    y = X[0, iy]
-    r = np.sqrt(x * x + y * y)
+    r, ex_, ey_, vn = _radial_frame(X, V, ix, iy)
     if r == 0.0:
         return
-    ex_ = x / r
-    ey_ = y / r
     vx = V[0, ix]
     vy = V[0, iy]
-    vn = vx * ex_ + vy * ey_
     Fn = k * (r - delta) + c * vn
     # the radial direction turns with the position
     dexdx = ey_ * ey_ / r
