@@ -42,10 +42,20 @@ rest of the step is integrated from there (further events are located the
 same way). The step grid is kept, so recorded samples and Poincare sections
 stay on ``t = k h``. The global error is then ``O(h^4)`` again (the tests
 measure both orders against an independent event-driven DOP853 integration).
-Limitations: a grazing contact that starts and ends within one step is not
-seen (its effect is of the order of the penetration, ``O(h^2)`` at most);
-switching inside expression forces (``abs``, ``sign``, ``min``, ``max``) is
-not located.
+
+A switching function can also leave its side and come back within one step
+(a contact arc, or a flight arc, born at a grazing and still shorter than a
+step); the signs at the step ends do not show it. Where a function is near
+zero (within twice its second difference over the last steps, or at the start
+of a run or after an event), the cubic through its values and its slopes
+``s' = grad s . y'`` at both ends of the step (Hermite) gives its turn; a turn
+past the surface is tried by an RK4 step to it, and if the function has
+crossed there, the first crossing is located in ``[0, turn]`` as above (the
+second by the sign change at the end). The flow map then stays continuous at
+a grazing up to dips of depth ``O(h^4)`` the cubic cannot see (Leine &
+Nijmeijer, *Dynamics and Bifurcations of Non-Smooth Mechanical Systems*, 2004,
+ch. 7, on why the flow map itself is continuous there). Switching inside
+expression forces (``abs``, ``sign``, ``min``, ``max``) is not located.
 """
 
 from __future__ import annotations
@@ -59,12 +69,13 @@ import numpy as np
 from contin.model import codegen
 from contin.model.base import Model
 from contin.model.elements.registry import CompiledForm, kinds_with_compiled_form
+from contin.timedomain.integrator_source import INTEGRATOR
 from contin.timedomain.variational_source import jacobian_functions
 
 __all__ = ["SimulationError", "CompiledModel", "compile_model", "RK4_STABILITY", "SIMULATION_TEMPLATE_VERSION"]
 
 #: bumped when the integrator template changes meaning
-SIMULATION_TEMPLATE_VERSION = "1"
+SIMULATION_TEMPLATE_VERSION = "2"
 #: largest h*|lambda| accepted (classical RK4 is stable up to 2 sqrt 2 on the imaginary axis)
 RK4_STABILITY = 2.8
 
@@ -84,189 +95,6 @@ def _form_of(el) -> CompiledForm:
     return form
 
 
-# ---------------------------------------------------------------- generated module
-_INTEGRATOR = '''
-
-@njit(cache=True, error_model="numpy", inline="always")
-def _step(y, tau0, dtau, hs, p, Minv, C, K, cst, mode, X, V, TAU, F, DUM, R, k1, k2, k3, k4, yt, out):
-    # one classical RK4 step of length hs (phase advance dtau) in the frozen mode
-    n2 = y.shape[0]
-    rhs(y, tau0, p, Minv, C, K, cst, mode, X, V, TAU, F, DUM, R, k1)
-    for i in range(n2):
-        yt[i] = y[i] + 0.5 * hs * k1[i]
-    rhs(yt, tau0 + 0.5 * dtau, p, Minv, C, K, cst, mode, X, V, TAU, F, DUM, R, k2)
-    for i in range(n2):
-        yt[i] = y[i] + 0.5 * hs * k2[i]
-    rhs(yt, tau0 + 0.5 * dtau, p, Minv, C, K, cst, mode, X, V, TAU, F, DUM, R, k3)
-    for i in range(n2):
-        yt[i] = y[i] + hs * k3[i]
-    rhs(yt, tau0 + dtau, p, Minv, C, K, cst, mode, X, V, TAU, F, DUM, R, k4)
-    for i in range(n2):
-        out[i] = y[i] + hs / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
-
-
-@njit(cache=True)
-def _gfun(s, mode, crossed):
-    # > 0 once any crossed switching function is past its surface
-    g = -np.inf
-    for j in range(NS):
-        if crossed[j]:
-            d = -s[j] if mode[j] != 0 else s[j]
-            if d > g:
-                g = d
-    return g
-
-
-@njit(cache=True, error_model="numpy")
-def integrate(y, mode, k0, k1, S, h, p, Minv, C, K, cst, locate, max_events, rec_start, rec_every,
-              out_y, sec_y, stats):
-    """Steps k0..k1-1 in place on y (2n,) and mode (NS,); 0 = done, 1 = non-finite state."""
-    n2 = y.shape[0]
-    X = np.zeros((1, N))
-    V = np.zeros((1, N))
-    TAU = np.zeros(1)
-    F = np.zeros((1, N))
-    DUM = np.zeros((1, N, N))
-    R = np.zeros(N)
-    q1 = np.empty(n2)
-    q2 = np.empty(n2)
-    q3 = np.empty(n2)
-    q4 = np.empty(n2)
-    yt = np.empty(n2)
-    ym = np.empty(n2)
-    yb = np.empty(n2)
-    ns = max(NS, 1)
-    s0 = np.zeros(ns)
-    sm = np.zeros(ns)
-    sb = np.zeros(ns)
-    crossed = np.zeros(ns, dtype=np.bool_)
-    dphi = 2.0 * np.pi / S
-    if NS > 0:
-        switch(y, p, cst, X, V, s0)
-    for k in range(k0, k1):
-        kk = k % S
-        theta = 0.0  # fraction of the step done
-        nev = 0
-        searching = False
-        a = 0.0
-        b = 1.0
-        ga = 0.0
-        gb = 0.0
-        side = 0
-        it = 0
-        while True:
-            frac = 1.0 - theta
-            tau0 = (kk + theta) * dphi
-            # one trial per pass: the rest of the step, or a point of the Illinois iteration on a crossing
-            mth = 1.0
-            if searching:
-                mth = b - gb * (b - a) / (gb - ga)
-                if not (mth > a and mth < b):
-                    mth = 0.5 * (a + b)
-            # the only call site of _step: it is inlined, and every copy costs compile time
-            _step(y, tau0, mth * frac * dphi, mth * frac * h, p, Minv, C, K, cst, mode, X, V, TAU, F, DUM, R,
-                  q1, q2, q3, q4, yt, ym)
-            if NS == 0:
-                for i in range(n2):
-                    y[i] = ym[i]
-                stats[3] += 1
-                break
-            switch(ym, p, cst, X, V, sm)
-            if searching:
-                stats[4] += 1
-                it += 1
-                gm = _gfun(sm, mode, crossed)
-                if gm >= 0.0:
-                    b = mth
-                    gb = gm
-                    for i in range(n2):
-                        yb[i] = ym[i]
-                    for j in range(NS):
-                        sb[j] = sm[j]
-                    if side == 1:
-                        ga *= 0.5
-                    side = 1
-                else:
-                    a = mth
-                    ga = gm
-                    if side == -1:
-                        gb *= 0.5
-                    side = -1
-                if b - a > 1e-13 and it < 200:
-                    continue
-                # accept the state just past the surface and switch the crossing laws
-                searching = False
-                for j in range(NS):
-                    if crossed[j]:
-                        d = -sb[j] if mode[j] != 0 else sb[j]
-                        if d >= 0.0:
-                            mode[j] = 1 - mode[j]
-                for i in range(n2):
-                    y[i] = yb[i]
-                for j in range(NS):
-                    s0[j] = sb[j]
-                theta = theta + b * frac
-                nev += 1
-                stats[0] += 1
-                if theta >= 1.0 - 1e-12:
-                    break
-                continue
-            stats[3] += 1
-            ncross = 0
-            for j in range(NS):
-                crossed[j] = (sm[j] > 0.0) != (mode[j] != 0)
-                if crossed[j]:
-                    ncross += 1
-            if ncross == 0:
-                for i in range(n2):
-                    y[i] = ym[i]
-                for j in range(NS):
-                    s0[j] = sm[j]
-                break
-            if (not locate) or nev >= max_events:
-                # take the step as it is and follow the state's own contact state
-                for i in range(n2):
-                    y[i] = ym[i]
-                for j in range(NS):
-                    s0[j] = sm[j]
-                    mode[j] = 1 if sm[j] > 0.0 else 0
-                if locate:
-                    stats[1] += 1
-                break
-            ga = _gfun(s0, mode, crossed)
-            gb = _gfun(sm, mode, crossed)
-            if ga > 0.0:
-                # the start is already past a surface (round-off at an earlier event): resynchronise
-                for j in range(NS):
-                    if crossed[j]:
-                        mode[j] = 1 if s0[j] > 0.0 else 0
-                nev += 1
-                stats[1] += 1
-                continue
-            # bracket [0, 1] of the remaining step: locate the first crossing in the frozen mode
-            a = 0.0
-            b = 1.0
-            side = 0
-            it = 0
-            for i in range(n2):
-                yb[i] = ym[i]
-            for j in range(NS):
-                sb[j] = sm[j]
-            searching = True
-        for i in range(n2):
-            if not np.isfinite(y[i]):
-                stats[2] = k + 1
-                return 1
-        kn = k + 1
-        if kn % S == 0:
-            for i in range(n2):
-                sec_y[kn // S, i] = y[i]
-        if kn >= rec_start and (kn - rec_start) % rec_every == 0:
-            r = (kn - rec_start) // rec_every
-            for i in range(n2):
-                out_y[r, i] = y[i]
-    return 0
-'''
 
 
 @functools.lru_cache(maxsize=None)
@@ -319,7 +147,8 @@ class CompiledModel:
     def _source(self) -> str:
         p0 = self.model.parameter_vector()
         n = self.n
-        imports, globals_, force, switch, excite = set(), [], [], [], []
+        imports, globals_, force, switch, excite, grad = set(), [], [], [], [], []
+        no_grad = False
         kernels = []
         c = m = 0
         for i, f in enumerate(self.forces):
@@ -331,6 +160,11 @@ class CompiledModel:
             sw = f.switch_lines(tag, c, m)
             if sw:
                 switch += ["    " + s for s in sw]
+            gl = f.switch_gradient_lines(tag, c, m)
+            if gl is None:
+                no_grad = True
+            else:
+                grad += ["    " + s for s in gl]
             c += len(f.constants(p0))
             m += f.n_switch
         self.n_switch = m
@@ -350,7 +184,9 @@ class CompiledModel:
             f"# {n} dofs, {len(self.forces)} force elements, {len(self.excitations)} excitation elements",
             "import numpy as np",
             "from contin.util.jit import njit",  # cached only in the private cache directory
-        ] + sorted(imports) + ["", f"N = {n}", f"NS = {m}"] + globals_
+        ] + sorted(imports) + ["", f"N = {n}", f"NS = {m}",
+                               # dips through a surface inside a step are found where every surface has a gradient
+                               f"DIP = {0 if no_grad or not m else 1}"] + globals_
         rhs = [
             "",
             "",
@@ -384,8 +220,20 @@ class CompiledModel:
             "    for i in range(N):",
             "        X[0, i] = y[i]",
             "        V[0, i] = y[N + i]",
-        ] + (switch or ["    return"])
-        src = "\n".join(head + rhs) + "\n" + _INTEGRATOR
+        ] + (switch or ["    return"]) + [
+            "",
+            "",
+            '@njit(cache=True, error_model="numpy")',
+            "def switch_grad(y, p, cst, X, V, G):",
+            "    # the switching functions' gradients in y, shape (NS, 2N)",
+            "    for i in range(N):",
+            "        X[0, i] = y[i]",
+            "        V[0, i] = y[N + i]",
+            "    for i in range(G.shape[0]):",
+            "        for j in range(G.shape[1]):",
+            "            G[i, j] = 0.0",
+        ] + ([] if no_grad else grad)
+        src = "\n".join(head + rhs) + "\n" + INTEGRATOR
         _check_syntax(src)
         return src
 
@@ -395,8 +243,6 @@ class CompiledModel:
         ``jac(y, tau, p, Minv, C, K, cst, mode, X, V, TAU, F, DX, DXD, B)``
         writes ``B = -M^-1 [K + df/dx, C + df/dx']`` (shape (n, 2n)), the lower
         block rows of the state matrix in the frozen ``mode``;
-        ``switch_grad(y, p, cst, X, V, G)`` the gradients of the switching
-        functions (shape (NS, 2n));
         ``rhs_tau(y, tau, p, Minv, C, K, cst, mode, X, V, TAU, F, R, out)``
         the right-hand side's derivative in the phase ``tau`` (for the
         derivative of a step in its start and end times at a located switch).
@@ -409,7 +255,7 @@ class CompiledModel:
             (a Jacobian is never taken as zero silently).
         """
         p0 = self.model.parameter_vector()
-        jac, grad, missing = [], [], []
+        jac, missing = [], []
         ftau, etau, untimed = [], [], []
         c = m = 0
 
@@ -426,7 +272,6 @@ class CompiledModel:
                 missing.append(name(f))
             else:
                 jac += [f"    # force {i}: {type(f.element).__name__}"] + ["    " + s for s in lines]
-                grad += ["    " + s for s in glines]
             if tlines is None:
                 untimed.append(name(f))
             else:
@@ -452,7 +297,7 @@ class CompiledModel:
                 f"have no tau-derivative lines in their compiled form (force_dtau_lines() or "
                 f"excitation_dtau_lines()), so the variational equations cannot be integrated; use central "
                 f"differences")
-        return jacobian_functions(jac, grad, ftau, etau)
+        return jacobian_functions(jac, ftau, etau)
 
     @property
     def module(self):

@@ -176,6 +176,7 @@ class _Linearisation:
     Jlam: np.ndarray
     factors: np.ndarray  # (K_total, 2n, 2n), in time order from t = 0
     graze: np.ndarray  # (n_switch,)
+    switches: int  # located switches along the orbit
 
 
 class ShootingProblem:
@@ -319,8 +320,8 @@ class ShootingProblem:
         return (s > 0.0).astype(np.int64)
 
     def _run(self, z, setup, k, record=False, steps=None):
-        """The plain flow over segment ``k`` from ``z`` (or its first ``steps`` steps): the end state, and the
-        states at every step if ``record``."""
+        """The plain flow over segment ``k`` from ``z`` (or its first ``steps`` steps): the end state, the
+        states at every step if ``record`` and the number of located switches."""
         p, h, (Minv, C, K, cst) = setup
         y = np.array(z, dtype=float)
         mode = self._mode(y, p, cst)
@@ -335,7 +336,7 @@ class ShootingProblem:
         if status != 0 or not np.all(np.isfinite(y)):
             raise ArithmeticError(f"the flow of '{self.model.name}' blew up on segment {k} at "
                                   f"{self.parameter} = {float(p[self.model.parameter_index(self.parameter)]):.10g}")
-        return y, out
+        return y, out, int(stats[0])
 
     def _switching(self, states, p, cst) -> np.ndarray:
         """Switching-function values at the states (K, 2n): shape (K, n_switch)."""
@@ -355,7 +356,8 @@ class ShootingProblem:
         return self._flow
 
     def _segment(self, z, setup, k):
-        """Segment ``k`` from ``z``: end state, its factors (K, 2n, 2n) and the graze per switching function."""
+        """Segment ``k`` from ``z``: end state, its factors (K, 2n, 2n), the graze per switching function and
+        the number of located switches."""
         flow = self._variational()
         if flow is None:
             return self._segment_differences(z, setup, k)
@@ -364,16 +366,11 @@ class ShootingProblem:
                            factors=self._factors)
         except SimulationError as exc:
             raise ArithmeticError(str(exc)) from None
-        graze = np.asarray(run.graze, dtype=float).reshape(-1)
-        if self.n_switch:
-            # a run cannot see an extremum at its first step: two plain steps from z give it
-            start = np.vstack([z[None], self._run(z, setup, k, record=True, steps=2)[1]])
-            graze = nearest_zero([graze, start_graze(self._switching(start, setup[0], setup[2][3]))])
-        return run.state, np.asarray(run.factors), graze
+        return run.state, np.asarray(run.factors), np.asarray(run.graze, dtype=float).reshape(-1), run.switches
 
     def _segment_differences(self, z, setup, k):
         """:meth:`_segment` by central differences of the flow map (the reference): one factor per segment."""
-        end, states = self._run(z, setup, k, record=self.n_switch > 0)
+        end, states, switches = self._run(z, setup, k, record=self.n_switch > 0)
         m = z.size
         step = self.options.fd_step * max(1.0, float(np.max(np.abs(z))))
         Phi = np.empty((m, m))
@@ -385,7 +382,7 @@ class ShootingProblem:
         if self.n_switch:
             s = self._switching(np.vstack([z[None], states]), setup[0], setup[2][3])
             graze = nearest_zero([grid_graze(s, periodic=False), start_graze(s[:3])])
-        return end, Phi[None], graze
+        return end, Phi[None], graze, switches
 
     def _blocks(self, u):
         u = np.asarray(u, dtype=float)
@@ -415,10 +412,11 @@ class ShootingProblem:
         Z = self._blocks(u)
         M, m = self.segments, 2 * self.n
         setup = self._setup(lam)
-        ends, factors, graze = np.empty((M, m)), [], []
+        ends, factors, graze, switches = np.empty((M, m)), [], [], 0
         Ju = np.zeros((M * m, M * m))
         for k in range(M):
-            ends[k], f, g = self._segment(Z[k], setup, k)
+            ends[k], f, g, n_sw = self._segment(Z[k], setup, k)
+            switches += n_sw
             Phi = f[0]
             for F in f[1:]:
                 Phi = F @ Phi
@@ -433,7 +431,7 @@ class ShootingProblem:
         step = self.options.fd_step * max(1.0, abs(float(lam)))
         Jlam = ((self.flows(u, lam + step) - self.flows(u, lam - step)) / (2.0 * step)).reshape(-1)
         R = (ends - np.roll(Z, -1, axis=0)).reshape(-1)
-        lin = _Linearisation(R, Ju, Jlam, np.concatenate(factors, axis=0), nearest_zero(graze))
+        lin = _Linearisation(R, Ju, Jlam, np.concatenate(factors, axis=0), nearest_zero(graze), switches)
         self._cache[key] = lin
         if len(self._cache) > CACHE_SIZE:
             self._cache.popitem(last=False)
@@ -442,7 +440,7 @@ class ShootingProblem:
     def flow_jacobian(self, z: np.ndarray, lam: float) -> tuple[np.ndarray, np.ndarray]:
         """The first segment's end state from ``z`` (2n,) and its Jacobian ``Phi`` (2n, 2n): the variational flow
         alone, without ``dR/dlam`` (for iterating the map; with one segment, over the whole period)."""
-        end, factors, _ = self._segment(np.asarray(z, dtype=float), self._setup(lam), 0)
+        end, factors, _, _ = self._segment(np.asarray(z, dtype=float), self._setup(lam), 0)
         Phi = factors[0]
         for F in factors[1:]:
             Phi = F @ Phi
@@ -468,6 +466,10 @@ class ShootingProblem:
     def graze(self, u: np.ndarray, lam: float) -> np.ndarray:
         """Per switching function, the signed extremum nearest to zero along the orbit (+inf: none), shape (n_switch,)."""
         return self._linearisation(u, lam).graze.copy()
+
+    def switches(self, u: np.ndarray, lam: float) -> int:
+        """The number of switches located along the orbit (a grazing changes it by two)."""
+        return self._linearisation(u, lam).switches
 
     def monitor(self, u, lam, Ju=None, Jlam=None) -> dict:
         """Engine monitor: the largest multiplier, the flip test and, with contacts, the graze (no integration)."""

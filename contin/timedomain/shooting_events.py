@@ -13,8 +13,18 @@ grazing point is located and stored as a ``grazing`` special point.
 
 The test of :class:`ShootingGrazingEvent` is, for each switching function,
 the signed value of its local extremum nearest to zero along the orbit (the
-problem's ``graze``); it changes sign exactly at a grazing and is smooth in
-the unknowns away from it.
+problem's ``graze``, the turn of the cubic through the function's values and
+slopes at the ends of each step); it changes sign at a grazing and is
+continuous in the unknowns. It also changes sign where two extrema of
+opposite signs trade the place nearest to zero (a contact that chatters
+across its surface, each bounce a minimum below it and a maximum above):
+that is no grazing, and the number of switches along the orbit tells them
+apart, for a grazing adds or removes two. So a change is reported where the
+sign and the count change together, and it is located by the count, the
+turn's value giving the next point (it has a corner at the grazing: the
+turn belongs to the contact law on one side and to the free flight on the
+other, so the location extrapolates from one side,
+:func:`contin.engine.events.narrow` with ``kink``).
 """
 
 from __future__ import annotations
@@ -24,7 +34,7 @@ import math
 import numpy as np
 
 from contin.engine.branch import SpecialKind
-from contin.engine.events import Event, PointInfo
+from contin.engine.events import Event, Location, PointInfo, narrow
 
 __all__ = ["NO_GRAZE", "ShootingGrazingEvent", "graze_data", "grid_graze", "nearest_zero", "shooting_events",
            "start_graze"]
@@ -141,6 +151,25 @@ class ShootingGrazingEvent(Event):
 
     def test(self, point: PointInfo) -> np.ndarray:
         return self.problem.graze(point.u, point.lam)
+
+    def _count(self, point: PointInfo) -> int:
+        return self.problem.switches(point.u, point.lam)
+
+    def triggered(self, ga, gb, a, b):
+        # a turn's sign changed and the switches along the orbit with it (module docstring)
+        return super().triggered(ga, gb, a, b) & (self._count(a) != self._count(b))
+
+    def locate(self, component, point_at, h, a, b, ga, gb, *, tol=1e-10, max_iter=60) -> list[Location]:
+        n_a = self._count(a)
+
+        def value(info):
+            return float(self.test(info)[component])
+
+        def side(info, v):
+            return self._count(info) == n_a
+
+        return [narrow(point_at, 0.0, h, a, b, float(ga), float(gb), h, side=side, value=value, tol=tol,
+                       max_iter=max_iter, kink=True)]
 
     def distance(self, point: PointInfo) -> float:
         g = self.problem.graze(point.u, point.lam)

@@ -89,19 +89,17 @@ under- or overflows where its factors do not.
 
 Grazing measure
 ---------------
-For each switching function ``s`` the loop keeps the step-end samples
-``s_{k-1}, s_k, s_{k+1}``; where the middle one is a local extremum
-(``(s_k - s_{k-1}) (s_{k+1} - s_k) <= 0``) the parabola through the three is
-taken and its vertex value ``s_k - (s_{k+1} - s_{k-1})^2 / (8 (s_{k+1} - 2 s_k + s_{k-1}))``
-kept when it is the nearest to zero so far (``run.graze``, ``+inf`` where no
-extremum was seen). Its sign changes where a contact arc appears or
-vanishes. Accuracy: for a smooth ``s`` the parabola's error is that of
-quadratic interpolation, at most ``|s'''| h^3 / (9 sqrt 3)`` (about
-``0.064 |s'''| h^3``) at the vertex, plus the vertex shift's second-order
-contribution; where the law switches at the extremum (a contact arc shorter
-than a step) ``s''`` jumps and the error is ``O(h^2 [s''])``. An extremum in
-the first or last step of a run, or one nearer the ends than one step, is
-not seen.
+For each switching function ``s`` and every (sub-)step the loop takes the
+cubic through ``s`` and its slope ``s' = grad s . y'`` at both ends of the
+step (Hermite; the simulation module's ``_turns``); where the slopes differ
+in sign it has one turn inside the step, and the turn's value is kept when it
+is the nearest to zero so far (``run.graze``, ``+inf`` where no turn was
+seen). Its sign changes where a contact arc appears or vanishes. The
+interpolant's error is ``O(h^4)`` (the fourth derivative of ``s``), and the
+measure is continuous in the initial state: when a turn passes a step end,
+``s'`` is zero there and the cubics on both sides give the value of ``s``
+itself. Sub-steps ending at a located switch are taken in their own contact
+mode, so the turn of a short arc between two switches is seen.
 """
 
 from __future__ import annotations

@@ -4,8 +4,9 @@
 ``g = d t_start / dz`` of the current sub-step's start time; the algebra is in
 the docstring of :mod:`contin.timedomain.variational`. The code is appended to
 the model's simulation module and its Jacobian functions
-(:func:`jacobian_functions`, from the elements' compiled forms: ``jac``, ``switch_grad``
-and ``rhs_tau``, the right-hand side's derivatives in the state and the phase).
+(:func:`jacobian_functions`, from the elements' compiled forms: ``jac`` and
+``rhs_tau``, the right-hand side's derivatives in the state and the phase; the
+switching functions' gradients ``switch_grad`` are in the simulation module).
 """
 
 from __future__ import annotations
@@ -20,6 +21,14 @@ def _scratch(n2):
     # the model functions' work arrays: X, V, TAU, F, DUM, DX, DXD, R and B (N x 2N)
     return (np.zeros((1, N)), np.zeros((1, N)), np.zeros(1), np.zeros((1, N)), np.zeros((1, N, N)),
             np.zeros((1, N, N)), np.zeros((1, N, N)), np.zeros(N), np.zeros((N, n2)))
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _graze(tx, tv, graze):
+    # keep, per switching function, the turn nearest to zero
+    for j in range(NS):
+        if tx[j] >= 0.0 and abs(tv[j]) < abs(graze[j]):
+            graze[j] = tv[j]
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -138,15 +147,17 @@ def flow(y, mode, P, k0, k1, S, h, p, Minv, C, K, cst, max_events, want, L, fact
     s0 = np.zeros(ns)
     sm = np.zeros(ns)
     sb = np.zeros(ns)
-    h1 = np.zeros(ns)
-    h2 = np.zeros(ns)
     crossed = np.zeros(ns, dtype=np.bool_)
+    # dips inside a step and the switching functions' turns, as in the simulation module's integrate
+    sp = np.zeros(ns)
+    tx = np.zeros(ns)
+    tv = np.zeros(ns)
+    kb = np.empty(n2)
+    nh = 0
     dphi = 2.0 * np.pi / S
     om = dphi / h  # the phase rate: tau = om t
     if NS > 0:
         switch(y, p, cst, X, V, s0)
-    for j in range(NS):
-        h1[j] = s0[j]
     nf = 0
     for k in range(k0, k1):
         kk = k % S
@@ -210,6 +221,11 @@ def flow(y, mode, P, k0, k1, S, h, p, Minv, C, K, cst, max_events, want, L, fact
                 # accept the state just past the surface (yb; the sub-step's own state is the same arithmetic),
                 # differentiate the event time and switch the crossing laws
                 finishing = False
+                if DIP:
+                    # the turns of the arc ending here, in its own mode
+                    _turns(y, yb, q1, tau0 + b * frac * dphi, b * frac * h, p, Minv, C, K, cst, mode, X, V, TAU, F,
+                           DUM, R, kb, G, s0, sb, tx, tv)
+                    _graze(tx, tv, graze)
                 jev = -1
                 dmin = np.inf
                 for j in range(NS):
@@ -297,7 +313,24 @@ def flow(y, mode, P, k0, k1, S, h, p, Minv, C, K, cst, max_events, want, L, fact
                 crossed[j] = (sm[j] > 0.0) != (mode[j] != 0)
                 if crossed[j]:
                     ncross += 1
+            if ncross == 0 and DIP:
+                _turns(y, ym, q1, tau0 + frac * dphi, frac * h, p, Minv, C, K, cst, mode, X, V, TAU, F, DUM, R, kb,
+                       G, s0, sm, tx, tv)
+                if nev < max_events and _near(s0, sm, sp, nh, theta):
+                    # as the simulation module's integrate, bit for bit (the same trials from the same state)
+                    b = _probe(y, tau0, frac * dphi, frac * h, p, Minv, C, K, cst, mode, X, V, TAU, F, DUM, R, q1,
+                               s0, ym, sm, tx, tv, crossed, yb, sb, stats)
+                    if b > 0.0:
+                        a = 0.0
+                        ga = _gfun(s0, mode, crossed)
+                        gb = _gfun(sb, mode, crossed)
+                        side = 0
+                        it = 0
+                        searching = True
+                        continue
+                _graze(tx, tv, graze)
             if ncross == 0 or nev >= max_events:
+                nh = nh + 1 if ncross == 0 and nev == 0 else 0
                 for i in range(n2):
                     y[i] = ym[i]
                 if want:
@@ -306,6 +339,7 @@ def flow(y, mode, P, k0, k1, S, h, p, Minv, C, K, cst, max_events, want, L, fact
                         for c in range(n2):
                             P[i, c] = Pm[i, c] + (ta[i] * gz[c] if hasg else 0.0)
                 for j in range(NS):
+                    sp[j] = s0[j]
                     s0[j] = sm[j]
                 if ncross != 0:
                     # too many events in one step: take it as it is, follow the state's own mode
@@ -363,20 +397,6 @@ def flow(y, mode, P, k0, k1, S, h, p, Minv, C, K, cst, max_events, want, L, fact
             if not np.isfinite(y[i]):
                 stats[2] = k + 1
                 return 1
-        # the switching functions' local extrema at the step ends, refined by a parabola
-        for j in range(NS):
-            if k > k0:
-                d1 = h1[j] - h2[j]
-                d2 = s0[j] - h1[j]
-                if d1 * d2 <= 0.0 and (d1 != 0.0 or d2 != 0.0):
-                    curv = d2 - d1
-                    v = h1[j]
-                    if curv != 0.0:
-                        v = h1[j] - (s0[j] - h2[j]) ** 2 / (8.0 * curv)
-                    if abs(v) < abs(graze[j]):
-                        graze[j] = v
-            h2[j] = h1[j]
-            h1[j] = s0[j]
         if want and (k + 1 - k0) % L == 0:
             for i in range(n2):
                 for c in range(n2):
@@ -399,27 +419,20 @@ def jac(y, tau, p, Minv, C, K, cst, mode, X, V, TAU, F, DX, DXD, B):
 
 
 @njit(cache=True)
-def switch_grad(y, p, cst, X, V, G):
-    return
-
-
-@njit(cache=True)
 def rhs_tau(y, tau, p, Minv, C, K, cst, mode, X, V, TAU, F, R, out):
     return
 '''
 
 
 
-def jacobian_functions(jac: list, grad: list, ftau: list, etau: list) -> str:
-    """The source of ``jac``, ``switch_grad`` and ``rhs_tau`` around the elements' lines.
+def jacobian_functions(jac: list, ftau: list, etau: list) -> str:
+    """The source of ``jac`` and ``rhs_tau`` around the elements' lines.
 
     Parameters
     ----------
     jac : list of str
         Lines accumulating ``d f_nl / dx`` into ``DX`` and ``d f_nl / dx'``
         into ``DXD`` (indented, as all of them).
-    grad : list of str
-        Lines writing the switching functions' gradients into ``G``.
     ftau : list of str
         Lines accumulating ``d f_nl / d tau`` into ``F``.
     etau : list of str
@@ -428,7 +441,7 @@ def jacobian_functions(jac: list, grad: list, ftau: list, etau: list) -> str:
     Returns
     -------
     str
-        The three functions
+        The two functions
         (:meth:`contin.timedomain.integrator.CompiledModel.jacobian_source`).
     """
     src = [
@@ -455,17 +468,7 @@ def jacobian_functions(jac: list, grad: list, ftau: list, etau: list) -> str:
         "                b -= Minv[i, q] * (C[q, j] + DXD[0, q, j])",
         "            B[i, j] = a",
         "            B[i, N + j] = b",
-        "",
-        "",
-        '@njit(cache=True, error_model="numpy")',
-        "def switch_grad(y, p, cst, X, V, G):",
-        "    for i in range(N):",
-        "        X[0, i] = y[i]",
-        "        V[0, i] = y[N + i]",
-        "    for i in range(G.shape[0]):",
-        "        for j in range(G.shape[1]):",
-        "            G[i, j] = 0.0",
-    ] + grad + [
+
         "",
         "",
         '@njit(cache=True, error_model="numpy", inline="always")',

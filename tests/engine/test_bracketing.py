@@ -1,0 +1,53 @@
+"""Bracket narrowing (contin.engine.bracketing): a test with a corner at its zero, located by one-sided secants."""
+
+import math
+import types
+
+import pytest
+
+from contin.engine.bracketing import narrow
+
+ROOT = 0.3141592653589793
+
+
+def _kinked(slope_lo, slope_hi):
+    # lam = sigma along the arc; the test is linear on each side of ROOT with different slopes (a grazing's turn)
+    def value(info):
+        d = info.lam - ROOT
+        return slope_lo * d if d < 0 else slope_hi * d
+
+    def point_at(s):
+        return types.SimpleNamespace(lam=s, s=s), ""
+
+    return value, point_at
+
+
+@pytest.mark.parametrize("slopes", [(1.0, 30.0), (30.0, 1.0), (-2.0, -0.05)])
+def test_a_corner_at_the_zero_is_located_by_one_sided_secants_in_a_few_points(slopes):
+    value, point_at = _kinked(*slopes)
+    a, b = point_at(0.0)[0], point_at(1.0)[0]
+    runs = {}
+    for kink in (False, True):
+        loc = narrow(point_at, 0.0, 1.0, a, b, value(a), value(b), 1.0, side=lambda info, v: (v < 0) == (value(a) < 0),
+                     value=value, tol=1e-12, kink=kink, value_decides=True)
+        assert loc.located
+        assert abs(loc.point.lam - ROOT) <= 2e-12
+        runs[kink] = loc.iterations
+    # regula falsi across the corner creeps (ITP's projection bounds it by bisection); the secant of one side is
+    # exact on a linear side
+    assert runs[True] <= 8 and runs[False] >= 40, runs
+
+
+def test_a_count_a_hair_behind_the_zero_still_gives_secant_steps():
+    """The side is a count that changes 1e-13 after the test's zero (as a switch resolved once its arc is long
+    enough); values of the wrong sign within KINK_FLOOR of the bracket's scale count on their side."""
+    value, point_at = _kinked(1.0, 10.0)
+    lag = 1e-13
+    a, b = point_at(0.0)[0], point_at(1.0)[0]
+    its = {}
+    for kink in (False, True):
+        loc = narrow(point_at, 0.0, 1.0, a, b, value(a), value(b), 1.0, side=lambda info, v: info.lam < ROOT + lag,
+                     value=value, tol=1e-12, kink=kink)
+        assert loc.located and abs(loc.point.lam - ROOT) <= 2e-13 and math.isfinite(loc.value)
+        its[kink] = loc.iterations
+    assert its[True] <= 14 and its[False] >= 40, its
