@@ -23,7 +23,7 @@ from contin.engine.events import Event, PointInfo
 from contin.engine.newton import LUFactor
 
 __all__ = ["LAZY_COST", "LazyData", "Monitor", "Problem", "ScaledProblem", "bordered_matrix", "checked_start", "evaluate_monitors",
-           "point_info", "scaled_jacobian"]
+           "point_info", "scaled_jacobian", "solve_at"]
 
 
 @runtime_checkable
@@ -276,3 +276,28 @@ def checked_start(u0, lam0: float, lam_range, tangent, events: Iterable[Event]):
         if not isinstance(ev, Event):
             raise TypeError(f"events must be Event instances, got {type(ev).__name__}")
     return u0, lam0, (lo, hi), tangent, events
+
+
+def solve_at(problem, u0, lam: float, *, tol: float = 1e-11, max_iter: int = 20, what: str = "the problem") -> np.ndarray:
+    """The solution near ``u0`` of ``R(u, lam) = 0`` at fixed ``lam``: Newton on a square ``Ju``.
+
+    Converged where ``max |R| <= tol max(1, max |u|)``; ``problem.residual`` tests each iterate and
+    ``problem.linearize`` gives the update where it is not converged.
+
+    Raises
+    ------
+    ArithmeticError
+        Naming ``what`` and the residual, if that is not reached in ``max_iter`` updates.
+    """
+    u = np.array(u0, dtype=float)
+    res = math.inf
+    for k in range(max_iter + 1):
+        R = problem.residual(u, lam)
+        res = float(np.max(np.abs(R)))
+        if res <= tol * max(1.0, float(np.max(np.abs(u)))):
+            return u
+        if k < max_iter:
+            R, Ju, _ = problem.linearize(u, lam)
+            u = u - np.linalg.solve(Ju, R)
+    raise ArithmeticError(f"{what}: Newton did not converge at lambda = {lam:.12g} (residual {res:.2e} after "
+                          f"{max_iter} updates)")

@@ -46,6 +46,7 @@ import numpy as np
 
 from contin.timedomain.multiple_shooting import VARIATIONAL_COST, ShootingOptions, ShootingProblem
 from contin.util.options import from_mapping
+from contin.engine.problem import solve_at
 
 __all__ = ["CircleLyapunov", "CircleOptions", "InvariantCircleProblem", "circle_lyapunov", "circle_start", "shift_matrix"]
 
@@ -207,6 +208,16 @@ class InvariantCircleProblem:
     def frequency_at(self, lam: float) -> float:
         """The forcing frequency ``w`` at ``lam``."""
         return self.map.frequency_at(lam)
+
+    def solve(self, u0, lam: float, tol: float = 1e-11, max_iter: int = 6) -> np.ndarray:
+        """The circle near ``u0`` at fixed ``lam`` by Newton (the phase condition closes the system).
+
+        Raises
+        ------
+        ArithmeticError
+            If ``max |R| <= tol max(1, max |u|)`` is not reached in ``max_iter`` steps.
+        """
+        return solve_at(self, u0, lam, tol=tol, max_iter=max_iter, what="invariant circle")
 
     def second_frequency(self, u, lam: float) -> float:
         """The torus' second frequency ``w2 = rho w`` (``rho`` taken in ``[0, 1)``; ``w2`` and ``w - w2`` are the
