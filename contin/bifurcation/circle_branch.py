@@ -18,13 +18,17 @@ map:
   of small ``q``: the torus carries periodic orbits of ``q`` forcing periods
   (an Arnold tongue), and a circle discretised by points of a grid no longer
   determines the rotation number; status ``boundary`` and a ``locking``
-  special point naming ``p/q``.
+  special point naming ``p/q``. :func:`locked_orbits` finds the periodic
+  orbits of ``q`` forcing periods there, by multiple shooting (one segment a
+  forcing period) started from the circle's points, and tells the rotation
+  ``p/q`` each one makes around the circle.
 
 Any other end keeps the engine's status and message.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from fractions import Fraction
 
 import numpy as np
@@ -32,8 +36,11 @@ import numpy as np
 from contin.bifurcation.torus_branch import end_as_boundary
 from contin.engine.branch import Branch, BranchStatus, SpecialKind
 from contin.engine.continuation import ContinuationOptions, continuation
+from contin.engine.problem import solve_at
+from contin.timedomain.multiple_shooting import ShootingOptions, ShootingProblem
 
-__all__ = ["FLIP_SPREAD", "LOCKING_TOL", "MAX_DENOMINATOR", "classify_circle_end", "follow_circle"]
+__all__ = ["FLIP_SPREAD", "LOCKING_TOL", "MAX_DENOMINATOR", "LockedOrbit", "classify_circle_end", "follow_circle",
+           "locked_orbits"]
 
 #: a flip counts as the collapse where the circle is this small against its largest (elsewhere it would be the
 #: parametrisation turning, not the circle shrinking)
@@ -130,3 +137,92 @@ def classify_circle_end(branch: Branch, problem, max_denominator: int = MAX_DENO
     else:
         return
     end_as_boundary(branch, kind, lam, u, i, {"rotation_number": rho, "rational": str(f)}, why, "circle end")
+
+
+@dataclasses.dataclass(frozen=True)
+class LockedOrbit:
+    """A periodic orbit of ``q`` forcing periods on a locked torus (:func:`locked_orbits`).
+
+    Attributes
+    ----------
+    problem : ShootingProblem
+        Its multiple shooting (``q`` segments, one a forcing period), to follow it with the engine.
+    unknowns : ndarray, shape (2 n q,)
+        The states at ``t = k T``, ``k = 0 .. q - 1``.
+    rotation : Fraction
+        ``p/q``: each forcing period advances the orbit by ``p/q`` of a turn around the circle.
+    distance : float
+        The largest distance of its states from the circle's points (the circle's resolution).
+    multipliers : ndarray, shape (2 n,)
+        Floquet multipliers over ``q`` periods, by decreasing modulus.
+    """
+
+    problem: ShootingProblem
+    unknowns: np.ndarray
+    rotation: Fraction
+    distance: float
+    multipliers: np.ndarray
+
+
+def _angles(U, Z) -> np.ndarray:
+    # the circle's angle nearest each state of Z (K, 2n): from the circle's points U (N, 2n), refined by the
+    # parabola through the nearest one and its neighbours
+    N = len(U)
+    out = np.empty(len(Z))
+    for k, z in enumerate(Z):
+        d = np.sum((U - z) ** 2, axis=1)
+        j = int(np.argmin(d))
+        a, b, c = d[j - 1], d[j], d[(j + 1) % N]
+        curv = a - 2.0 * b + c
+        out[k] = (j + (0.5 * (a - c) / curv if curv > 0 else 0.0)) / N
+    return out % 1.0
+
+
+def locked_orbits(problem, u, lam: float, q: int, *, tol: float = 1e-10, max_iter: int = 12,
+                  starts: int | None = None) -> list[LockedOrbit]:
+    """The periodic orbits of ``q`` forcing periods near a circle that locks (module docstring).
+
+    Parameters
+    ----------
+    problem : InvariantCircleProblem
+    u : ndarray, shape (problem.size,)
+        The circle, at or near its locking end.
+    lam : float
+    q : int
+        The denominator of the locking ratio.
+    tol, max_iter
+        Newton's tolerance (``max |R| <= tol max(1, max |u|)``) and updates.
+    starts : int, optional
+        How many of the circle's points start Newton (evenly spaced; default all).
+
+    Returns
+    -------
+    list of LockedOrbit
+        The distinct orbits found (a cyclic shift of the segment starts is the same orbit).
+    """
+    if isinstance(q, bool) or not isinstance(q, (int, np.integer)) or q < 1:
+        raise ValueError(f"locked_orbits: q must be a positive integer, got {q!r}")
+    U, _ = problem.blocks(u)
+    shoot = ShootingProblem(problem.model, problem.parameter, problem.map.base,
+                            ShootingOptions(steps_per_period=problem.options.steps_per_period, subharmonic=int(q),
+                                            segments=int(q)))
+    n2 = 2 * problem.n
+    pick = np.unique(np.linspace(0, len(U), starts or len(U), endpoint=False).astype(int))
+    found: list[LockedOrbit] = []
+    for j in pick:
+        try:
+            x = solve_at(shoot, shoot.start_unknowns(U[j], lam), lam, tol=tol, max_iter=max_iter,
+                         what=f"orbit of {q} periods")
+        except ArithmeticError:
+            continue
+        Z = x.reshape(q, n2)
+        scale = max(1.0, float(np.max(np.abs(Z))))
+        if any(min(np.max(np.abs(np.roll(Z, k, axis=0) - o.unknowns.reshape(q, n2))) for k in range(q)) < 1e-6 * scale
+               for o in found):
+            continue
+        theta = _angles(U, Z)
+        steps = (np.diff(np.r_[theta, theta[0]]) % 1.0)
+        rot = Fraction(float(np.mean(steps)) if q > 1 else 0.0).limit_denominator(q)
+        dist = float(max(np.min(np.max(np.abs(U - z), axis=1)) for z in Z))
+        found.append(LockedOrbit(shoot, x, rot, dist, shoot.multipliers(x, lam)))
+    return found

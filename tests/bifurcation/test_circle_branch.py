@@ -1,12 +1,17 @@
 """The ends of a branch of invariant circles (contin.bifurcation.circle_branch): collapse at the Neimark-Sacker
-point of the forced van der Pol oscillator, and locking told from the rotation number."""
+point of the forced van der Pol oscillator, locking told from the rotation number, and the periodic orbits of a
+locked circle."""
+
+from fractions import Fraction
 
 import numpy as np
 import pytest
+from scipy.integrate import solve_ivp
 
-from contin.bifurcation.circle_branch import classify_circle_end, follow_circle
+from contin.bifurcation.circle_branch import classify_circle_end, follow_circle, locked_orbits
 from contin.engine.branch import BranchBuilder, BranchStatus, SpecialKind
 from contin.engine.continuation import ContinuationOptions
+from contin.model.catalog import build_model
 from contin.timedomain.invariant_circle import CircleOptions, InvariantCircleProblem, circle_start
 from contin.timedomain.shooting import ShootingOptions, periodic_orbit
 from contin.timedomain.simulation import simulate
@@ -68,3 +73,33 @@ def test_a_stalled_branch_at_a_small_rational_rotation_number_is_locking():
     br = b.finish(BranchStatus.STEP_TOO_SMALL, "step size fell below ds_min")
     classify_circle_end(br, prob)
     assert br.status is BranchStatus.STEP_TOO_SMALL
+
+
+def test_locked_orbits_finds_the_period_two_orbit_of_a_ring_and_its_half_turn():
+    """The damped Mathieu-Duffing oscillator in its principal tongue (x'' + 0.05 x' + (1/4 + 0.2 cos t) x + x^3 = 0)
+    has a stable orbit of two forcing periods whose states at t = kT alternate z, -z (the equation is symmetric
+    under x -> -x with a shift of one period). From a ring through z and -z the multiple shooting of
+    locked_orbits finds it, with the rotation 1/2; scipy's DOP853 takes z to -z over one forcing period."""
+    P = {"delta": 0.25, "eps": 0.2, "c": 0.05, "g": 1.0, "w": 1.0}
+    model = build_model("mathieu", P)
+    z = simulate(model, {}, [0.05], [0.0], periods=300, steps_per_period=256, record_every=256).section[-1]
+    N = 11
+    th = 2 * np.pi * np.arange(N) / N
+    U = np.cos(th)[:, None] * z + np.sin(th)[:, None] * np.array([-z[1], z[0]])
+    prob = InvariantCircleProblem(model, "w", options=CircleOptions(points=N, steps_per_period=256))
+    orbits = locked_orbits(prob, prob.unknowns(U, 0.5), 1.0, 2)
+    moving = [o for o in orbits if np.max(np.abs(o.unknowns)) > 1e-6]
+    assert len(moving) == 1  # the trivial orbit may be found too (unstable: the tongue)
+    o = moving[0]
+    assert o.rotation == Fraction(1, 2) and np.max(np.abs(o.multipliers)) < 1.0  # measured 0.730
+    z0, z1 = o.unknowns.reshape(2, 2)
+    np.testing.assert_allclose(z1, -z0, atol=1e-10)
+
+    def rhs(t, y):
+        return [y[1], -P["c"] * y[1] - (P["delta"] + P["eps"] * np.cos(t)) * y[0] - P["g"] * y[0] ** 3]
+
+    end = solve_ivp(rhs, (0.0, 2 * np.pi), z0, method="DOP853", rtol=1e-12, atol=1e-14).y[:, -1]
+    np.testing.assert_allclose(end, -z0, atol=1e-7)
+    assert all(np.max(np.abs(t.multipliers)) > 1.0 for t in orbits if t is not o)
+    with pytest.raises(ValueError, match="q must be a positive integer"):
+        locked_orbits(prob, prob.unknowns(U, 0.5), 1.0, 0)

@@ -7,7 +7,10 @@ invariant circle of the stroboscopic map from the critical multiplier's eigenvec
 (:func:`contin.timedomain.invariant_circle.circle_start`) and follows it
 (:func:`contin.bifurcation.circle_branch.follow_circle`, its ends told), printing the rotation number and the circle's spread in the disc's x against w, how the
 branch ended, and the torus' stability at three of its points
-(:func:`contin.timedomain.invariant_circle.circle_lyapunov`).
+(:func:`contin.timedomain.invariant_circle.circle_lyapunov`). Where the torus locks at ``p/q``, the
+periodic orbits of ``q`` forcing periods are found a little further on inside the tongue
+(:func:`contin.bifurcation.circle_branch.locked_orbits`), and a simulation from the stable one, disturbed,
+is checked to return to it.
 
     python scripts/figures/rotor/rotor_torus_circle.py                      # N = 15, 4096 steps, ~2 min
     python scripts/figures/rotor/rotor_torus_circle.py --points 33          # locks at rho = 2/5
@@ -21,7 +24,7 @@ import time
 
 import numpy as np
 
-from contin.bifurcation.circle_branch import follow_circle
+from contin.bifurcation.circle_branch import follow_circle, locked_orbits
 from contin.engine.continuation import ContinuationOptions
 from contin.model.catalog import build_model
 from contin.timedomain.invariant_circle import CircleOptions, circle_lyapunov, circle_start
@@ -68,11 +71,44 @@ def main(argv=None) -> int:
         verdict = {True: "stable", False: "unstable", None: "undecided"}[ly.stable]
         print(f"  w = {br.parameter[k]:.6f}: largest normal {ly.largest_normal:+.4f}, tangential "
               f"{ly.exponents[ly.tangent]:+.4f}: {verdict}")
+    locks = [sp for sp in br.special_points if sp.kind.value == "locking"]
+    if locks:
+        report_locking(problem, br, model, locks[-1], args.steps)
     folds = [sp.parameter for sp in br.special_points if sp.kind.value == "fold"]
     if folds:
         distinct = sorted({round(w, 6) for w in folds})
         print(f"{len(folds)} folds, at w = " + ", ".join(f"{w:.6f}" for w in distinct))
     return 0
+
+
+def report_locking(problem, br, model, lock, steps) -> None:
+    """The orbits of ``q`` periods a little inside the tongue, and a simulation from the circle settling on one."""
+    q = int(str(lock.data["rational"]).split("/")[-1])
+    u, w_end = br.unknowns[-1], float(br.parameter[-1])
+    ahead = np.sign(br.parameter[-1] - br.parameter[-2]) or -1.0
+    for dw in (2e-4, 1e-3, 3e-3):
+        w = w_end + ahead * dw
+        t0 = time.perf_counter()
+        orbits = locked_orbits(problem, u, w, q, starts=11, max_iter=20)
+        print(f"orbits of {q} periods at w = {w:.6f}: {len(orbits)} found in {time.perf_counter() - t0:.1f} s")
+        for o in orbits:
+            mu = np.abs(o.multipliers)
+            print(f"  rotation {o.rotation}, largest |mu| {mu.max():.5f} ({'stable' if mu.max() < 1 else 'unstable'}), "
+                  f"{o.distance:.1e} from the circle's points")
+        stable = [o for o in orbits if np.abs(o.multipliers).max() < 1]
+        if stable:
+            break
+    else:
+        return
+    # a long simulation from the stable orbit disturbed by 1e-3, sampled once a period (the torus itself is
+    # unstable here: the Neimark-Sacker point is subcritical, the harmonic whirl below it stable)
+    n = model.n_dof
+    Z = stable[0].unknowns.reshape(q, -1)
+    z = Z[0] + 1e-3
+    run = simulate(model, {"w": w}, z[:n], z[n:], periods=1500, steps_per_period=steps, record_every=steps)
+    gap = max(float(np.min(np.max(np.abs(Z - y), axis=1))) for y in run.section[-q:])
+    print(f"a simulation from it disturbed by 1e-3 at w = {w:.6f}, 1500 periods: its last {q} sections lie "
+          f"{gap:.1e} from the orbit's states")
 
 
 if __name__ == "__main__":
