@@ -90,6 +90,12 @@ def _slope(G, j, f, hs):
 
 @njit(cache=True, error_model="numpy")
 def _turns(y, yb, ka, tau1, hs, p, Minv, C, K, cst, mode, X, V, TAU, F, DUM, R, kb, G, sa, sb, tx, tv):
+    # the call for the rare sites: a call with two dozen array arguments costs about as much as its work
+    _turns_in(y, yb, ka, tau1, hs, p, Minv, C, K, cst, mode, X, V, TAU, F, DUM, R, kb, G, sa, sb, tx, tv)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _turns_in(y, yb, ka, tau1, hs, p, Minv, C, K, cst, mode, X, V, TAU, F, DUM, R, kb, G, sa, sb, tx, tv):
     # per switching function, the extremum inside a (sub-)step of the cubic through s and s' = grad s . y' at
     # its ends (y with ka = y'(y), yb at phase tau1, both in the frozen mode): its fraction tx (-1: none), value tv
     switch_grad(y, p, cst, X, V, G)

@@ -314,7 +314,7 @@ def flow(y, mode, P, k0, k1, S, h, p, Minv, C, K, cst, max_events, want, L, fact
                 if crossed[j]:
                     ncross += 1
             if ncross == 0 and DIP:
-                _turns(y, ym, q1, tau0 + frac * dphi, frac * h, p, Minv, C, K, cst, mode, X, V, TAU, F, DUM, R, kb,
+                _turns_in(y, ym, q1, tau0 + frac * dphi, frac * h, p, Minv, C, K, cst, mode, X, V, TAU, F, DUM, R, kb,
                        G, s0, sm, tx, tv)
                 if nev < max_events and _near(s0, sm, sp, nh, theta):
                     # as the simulation module's integrate, bit for bit (the same trials from the same state)
