@@ -1,6 +1,7 @@
 import contextlib
 import os
 import signal
+from pathlib import Path
 
 import numpy as np
 from scipy.special import mathieu_a, mathieu_b
@@ -27,6 +28,37 @@ def pytest_configure(config):
         os.environ["CONTIN_FUZZ_DEPTH"] = "full"
 
 
+#: the slow tier's longest work units (pytest-xdist's scopes under ``--dist loadscope``: a module, or a class),
+#: longest first: sent to the workers before the others (which go by their number of tests), so that none of
+#: them starts last and keeps one worker busy alone at the end (docs/validation/testing.md)
+LONG_FIRST = ("tests/hard/test_invariants.py",  # the connection check on the rotor, belt and chain scenes
+              "tests/docs/test_snippets.py::TestTutorialsSlow",  # the rotor tutorial's runs
+              "tests/analyses/test_frequency_response_ends.py",  # the first to ask for the main job
+              "tests/test_install.py",
+              "tests/docs/test_snippets.py::TestValidationSlow")  # the accuracy studies
+
+
+def pytest_xdist_make_scheduler(config, log):
+    """In the slow tier (``-m slow``), loadscope with :data:`LONG_FIRST` sent first; elsewhere xdist's own."""
+    if config.getoption("dist", None) != "loadscope" or (config.getoption("markexpr", "") or "").strip() != "slow":
+        return None
+    from xdist.scheduler import LoadScopeScheduling
+
+    if not hasattr(LoadScopeScheduling, "_assign_work_unit"):  # another xdist: its own order
+        return None
+
+    class LongFirst(LoadScopeScheduling):
+        def _assign_work_unit(self, node):
+            queue = getattr(self, "workqueue", None)
+            if queue is not None:
+                for prefix in reversed(LONG_FIRST):
+                    for scope in [s for s in queue if s == prefix]:
+                        queue.move_to_end(scope, last=False)
+            super()._assign_work_unit(node)
+
+    return LongFirst(config, log)
+
+
 def fuzz_examples(n: int) -> int:
     """Examples a property test draws: all ``n`` in the slow tier, a quarter (at least 3) in the default one."""
     return n if os.environ.get("CONTIN_FUZZ_DEPTH") == "full" else max(3, n // 4)
@@ -46,36 +78,104 @@ FALLS_SHORT = {"rotor_c2_5.yaml": ("ended at a grazing point",),
                "rotor_fe_rig.yaml": ("ended at a grazing point", "stopped at a point it cannot pass")}
 
 
+class SceneRuns:
+    """``scene_runs(name)``: the result directory of ``contin run scenes/<name> -o DIR`` as shipped, run once per
+    test session whatever the number of test workers; ``scene_runs.printed(name)``: what the run printed.
+
+    Several test modules (and, in the slow tier, the documentation pages that show the main job) check the same
+    example scene's results against different truths; they read the directory and never write to it. With
+    pytest-xdist each worker has its own session fixtures, so the run is shared through the session's common
+    temporary directory under a file lock (the pattern of pytest-xdist's documentation): the first worker to ask
+    runs the scene, the others wait for it and read its directory.
+    """
+
+    def __init__(self, root: Path, shared: bool):
+        self.root, self.shared, self.done = root, shared, {}
+
+    def _run(self, name: str, out: Path) -> dict:
+        import io
+        import traceback
+
+        from contin.app.cli import main
+
+        scene = Path(__file__).resolve().parents[1] / "scenes" / name
+        buf = io.StringIO()
+        try:
+            # as a reader types it (progress goes to stderr and is not kept)
+            with contextlib.redirect_stdout(buf):
+                code = main(["run", str(scene), "-o", str(out)])
+        except BaseException:  # noqa: BLE001  (told to every worker that asks for this run)
+            return {"code": None, "printed": buf.getvalue(), "error": traceback.format_exc()}
+        return {"code": code, "printed": buf.getvalue(), "error": None}
+
+    def _record(self, name: str) -> dict:
+        import json
+
+        if name in self.done:
+            return self.done[name]
+        place = self.root / "scene_runs" / name.rsplit(".", 1)[0]
+        place.mkdir(parents=True, exist_ok=True)
+        status = place / "status.json"
+        with _locked(place / "lock"):
+            if status.is_file():  # run by another worker of this session
+                record = json.loads(status.read_text())
+            else:
+                record = self._run(name, place / "out")
+                status.write_text(json.dumps(record))
+        record["out"] = place / "out"
+        self.done[name] = record
+        return record
+
+    def __call__(self, name: str) -> Path:
+        import json
+
+        record = self._record(name)
+        assert record["error"] is None, f"contin run scenes/{name} raised:\n{record['error']}"
+        code, out = record["code"], record["out"]
+        if name in FALLS_SHORT:  # what they cover is checked all the same; their shortfall is the one known
+            summary = json.loads((out / "summary.json").read_text())
+            assert code == 1 and all(any(w in line for w in FALLS_SHORT[name]) for line in summary["shortfalls"]), \
+                summary
+        else:
+            assert code == 0, f"contin run scenes/{name} exited with {code}:\n{record['printed'][-2000:]}"
+        return out
+
+    def printed(self, name: str) -> str:
+        """What ``contin run scenes/<name> -o DIR`` printed on stdout, ``DIR`` being :meth:`__call__`'s directory."""
+        self(name)
+        return self.done[name]["printed"]
+
+
+@contextlib.contextmanager
+def _locked(path):
+    """An exclusive lock on ``path`` between the processes of one machine (POSIX ``flock``; none elsewhere)."""
+    try:
+        import fcntl
+    except ImportError:  # no flock: each worker runs its own copy (``SceneRuns.shared`` is then False)
+        yield
+        return
+    with open(path, "a") as f:
+        fcntl.flock(f, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(f, fcntl.LOCK_UN)
+
+
 @pytest.fixture(scope="session")
 def scene_run(tmp_path_factory):
-    """``scene_run(name)``: the result directory of ``contin run scenes/<name>`` as shipped, run once per session.
-
-    Several test modules check the same example scene's results against different truths; they read the
-    directory and never write to it.
-    """
-    from pathlib import Path
-
-    from contin.app.cli import main
-
-    import json
-
-    scenes = Path(__file__).resolve().parents[1] / "scenes"
-    done = {}
-
-    def run(name):
-        if name not in done:
-            out = tmp_path_factory.mktemp(Path(name).stem) / "out"
-            code = main(["run", str(scenes / name), "-o", str(out), "-q"])
-            if name in FALLS_SHORT:  # what they cover is checked all the same; their shortfall is the one known
-                summary = json.loads((out / "summary.json").read_text())
-                assert code == 1 and all(any(w in line for w in FALLS_SHORT[name]) for line in summary["shortfalls"]), \
-                    summary
-            else:
-                assert code == 0
-            done[name] = out
-        return done[name]
-
-    return run
+    """``scene_run(name)``: the result directory of ``contin run scenes/<name>`` as shipped, run once per session
+    (shared between the test workers: :class:`SceneRuns`); ``scene_run.printed(name)``: what it printed."""
+    try:
+        import fcntl  # noqa: F401
+        can_lock = True
+    except ImportError:
+        can_lock = False
+    base = tmp_path_factory.getbasetemp()
+    # under pytest-xdist every worker's base directory lies in the session's own one; without workers the
+    # parent is shared by every session, so the runs stay in this session's base directory
+    shared = can_lock and bool(os.environ.get("PYTEST_XDIST_WORKER"))
+    return SceneRuns(base.parent if shared else base, shared)
 
 
 def fd_jacobian(fun, x, eps=1e-7):

@@ -169,11 +169,14 @@ def test_the_chain_by_shooting_on_its_stop_equals_the_reference(tmp_path):
 
 
 @pytest.mark.slow
-def test_the_chain_covers_its_whole_range_with_the_default_method(tmp_path):
-    """The chain of the scene, nothing set: complete, [0.5, 2] covered, two shooting points against the reference."""
-    out = tmp_path / "chain"
-    code, summary, rows, _ = run(CHAIN, out)
-    assert code == 0 and summary["status"] == "complete" and summary["shortfalls"] == []
+def test_the_chain_covers_its_whole_range_with_the_default_method(scene_run):
+    """The chain of the scene, nothing set: complete, [0.5, 2] covered, two shooting points against the reference.
+    The run (exit status 0 asserted there) is the session's one of the shipped scene, shared with the connection
+    check of tests/hard/test_invariants.py."""
+    out = scene_run(CHAIN.name)
+    summary = json.loads((out / "summary.json").read_text())
+    rows = read_csv(out / "branches.csv")
+    assert summary["status"] == "complete" and summary["shortfalls"] == []
     # a branch that leaves part of the range uncovered only where another took it over
     assert all(not b.get("uncovered") or b.get("handed_over_to") is not None for b in summary["analysis"]["branches"])
     assert covered(rows, 0.5, 2.0)

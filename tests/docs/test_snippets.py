@@ -36,6 +36,11 @@ minutes), with the same checks; ``<!-- snippet: scene=PATH -->`` is the ``scene=
 of a ``yaml`` block; ``status=N`` the exit status a ``console`` block's
 ``contin`` commands end with when it is not 0 (a run that falls short, and
 says so). Keep ``slow`` and ``skip`` rare.
+
+In the slow tier a ``contin run scenes/<scene> -o DIR`` line with nothing more, for a scene of
+``SHARED_RUNS`` (the main job, shown on four pages), takes the session's one run of that command
+(``scene_run`` in ``tests/conftest.py``, which the result tests read too): its directory is copied
+to ``DIR`` and what it printed is compared as a run of the page's own would be.
 """
 
 from __future__ import annotations
@@ -44,6 +49,7 @@ import contextlib
 import io
 import re
 import shlex
+import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -113,11 +119,16 @@ def assert_output(expected: str, found: str, where: str) -> None:
     assert _pattern(expected).fullmatch(found), f"{where}: the output shown differs from\n{found}"
 
 
+#: scenes whose plain ``contin run scenes/<name> -o DIR`` a page takes from the session's shared run (the main job)
+SHARED_RUNS = ("rotor_f0_05.yaml",)
+
+
 @dataclass
 class Page:
-    """The state of one page's run: its namespace, the last python block's output."""
+    """The state of one page's run: its namespace, the last python block's output, the session's shared runs."""
 
     run_slow: bool
+    scene_run: object = None
     namespace: dict = field(default_factory=lambda: {"__name__": "__snippet__"})
     printed: str | None = None
 
@@ -182,6 +193,19 @@ def _contin(argv: list, where: str, expected: int = 0) -> str:
     return buf.getvalue()
 
 
+def _shared_run(args: list, page: Page, expected: int) -> str | None:
+    """What ``contin <args>`` printed, taken from the session's run of the same command (its directory copied to
+    the page's ``-o``), or None when the command is not one of ``SHARED_RUNS`` run plainly."""
+    if page.scene_run is None or expected != 0 or len(args) != 4 or args[0] != "run" or args[2] != "-o":
+        return None
+    scene, dest = Path(args[1]), Path(args[3])
+    if scene.parent.as_posix() != "scenes" or scene.name not in SHARED_RUNS or dest.exists():
+        return None
+    out = page.scene_run(scene.name)  # exit status 0, asserted there
+    shutil.copytree(out, dest)
+    return page.scene_run.printed(scene.name).replace(str(out), args[3])
+
+
 def _check_only(argv: list, where: str) -> None:
     """What can be checked of a command that is not run: the scene and its ``--set`` values."""
     if argv and argv[0] in ("run", "sweep"):
@@ -212,15 +236,18 @@ def _run_console(block: Block, page: Page) -> None:
                 assert "skip" in block.flags, f"{where}: a console block runs only contin, scripts and the set-up"
                 continue
             if run:
-                out = _contin(args, where, int(block.options.get("status", 0)))
+                expected = int(block.options.get("status", 0))
+                out = _shared_run(args, page, expected)
+                if out is None:
+                    out = _contin(args, where, expected)
                 if shown.strip():
                     assert_output(shown, out, where)
             else:
                 _check_only(args, where)
 
 
-def run_page(page_path: Path, run_slow: bool) -> None:
-    page = Page(run_slow)
+def run_page(page_path: Path, run_slow: bool, scene_run=None) -> None:
+    page = Page(run_slow, scene_run)
     for block in blocks_of(page_path):
         assert block.language in LANGUAGES, (
             f"{block.where}: a fenced block's info string starts with one of {LANGUAGES}, found {block.language!r}")
@@ -288,6 +315,9 @@ def pytest_generate_tests(metafunc):
     if metafunc.cls is not None and issubclass(metafunc.cls, _Section):
         pages = [p for p in WITH_SNIPPETS if _section(p) == metafunc.cls.section]
         metafunc.parametrize("page", pages, ids=_name)
+    if metafunc.cls is not None and issubclass(metafunc.cls, _SlowSection):
+        pages = [p for p in WITH_SLOW if _section(p) == metafunc.cls.section]
+        metafunc.parametrize("slow_page", pages, ids=_name)
 
 
 class TestFrontPages(_Section):
@@ -318,11 +348,34 @@ def test_every_page_with_snippets_has_its_class():
     assert {_section(p) for p in WITH_SNIPPETS} <= {c.section for c in _Section.__subclasses__()}
 
 
-# each page with slow blocks runs whole in the slow tier; its default run above checks those blocks' scenes
-@pytest.mark.slow
-@pytest.mark.parametrize("page", WITH_SLOW, ids=_name)
-def test_page_snippets_run_with_the_slow_blocks(page, workdir):
-    run_page(page, run_slow=True)
+# each page with slow blocks runs whole in the slow tier; its default run above checks those blocks' scenes;
+# one class per section here too, so that the test workers take the long pages apart
+class _SlowSection:
+    section = ""
+
+    @pytest.mark.slow
+    def test_page_snippets_run_with_the_slow_blocks(self, slow_page, workdir, scene_run):
+        run_page(slow_page, run_slow=True, scene_run=scene_run)
+
+
+class TestFrontPagesSlow(_SlowSection):
+    section = ""
+
+
+class TestTutorialsSlow(_SlowSection):
+    section = "docs/tutorials"
+
+
+class TestHowToSlow(_SlowSection):
+    section = "docs/howto"
+
+
+class TestValidationSlow(_SlowSection):
+    section = "docs/validation"
+
+
+def test_every_page_with_slow_blocks_has_its_slow_class():
+    assert {_section(p) for p in WITH_SLOW} <= {c.section for c in _SlowSection.__subclasses__()}
 
 
 def test_the_parser_reads_fences_flags_and_console_output(tmp_path):
@@ -335,3 +388,33 @@ def test_the_parser_reads_fences_flags_and_console_output(tmp_path):
     assert_output("a ... c\n", "a b c  \n", "here")
     with pytest.raises(AssertionError):
         assert_output("a ... c", "a b d", "here")
+
+
+def test_a_plain_run_of_the_main_job_takes_the_shared_run(tmp_path, monkeypatch):
+    # a stand-in for the session's runs: its directory and what it printed, naming that directory
+    shared = tmp_path / "shared" / "out"
+    shared.mkdir(parents=True)
+    (shared / "summary.json").write_text("{}")
+
+    asked = []
+
+    class Runs:
+        def __call__(self, name):
+            asked.append(name)
+            return shared
+
+        def printed(self, name):
+            return f"branch 0 (nu=1): 47 points\nresults in {shared} (1.00 s)\n"
+
+    monkeypatch.chdir(tmp_path)
+    page = Page(True, Runs())
+    assert _shared_run(["run", "scenes/rotor_f0_05.yaml", "-o", "results/rotor"], page, 0) == \
+        "branch 0 (nu=1): 47 points\nresults in results/rotor (1.00 s)\n"
+    assert (tmp_path / "results" / "rotor" / "summary.json").is_file() and asked == ["rotor_f0_05.yaml"]
+    # anything more than the plain command, another scene, another exit status, an existing directory: run itself
+    for args, status in ((["run", "scenes/rotor_f0_05.yaml", "-o", "x", "--set", "analysis.harmonics=5"], 0),
+                         (["run", "scenes/duffing.yaml", "-o", "x"], 0),
+                         (["run", "scenes/rotor_f0_05.yaml", "-o", "x"], 1),
+                         (["run", "scenes/rotor_f0_05.yaml", "-o", "results/rotor"], 0)):
+        assert _shared_run(args, page, status) is None
+    assert _shared_run(["run", "scenes/rotor_f0_05.yaml", "-o", "x"], Page(True), 0) is None
