@@ -364,6 +364,7 @@ class TestFrontPagesSlow(_SlowSection):
 
 class TestTutorialsSlow(_SlowSection):
     section = "docs/tutorials"
+    pytestmark = pytest.mark.longest  # the rotor tutorial's runs: left out of CI's slow run for its time
 
 
 class TestHowToSlow(_SlowSection):

@@ -100,7 +100,7 @@ def scene_branches(name, scene_run):
 STALLED = {"rotor_f0_02.yaml": "its nu = 2 shooting legs stall within 1e-5 of their grazing points"}
 
 
-@pytest.mark.parametrize("name", [pytest.param(n, marks=(() if n in QUICK else (pytest.mark.slow,)) + (
+@pytest.mark.parametrize("name", [pytest.param(n, marks=(() if n in QUICK else (pytest.mark.slow, pytest.mark.longest)) + (
     (pytest.mark.xfail(reason=STALLED[n], strict=False),) if n in STALLED else ())) for n in SCENES])
 def test_example_scene_branches_are_connected(name, scene_run):
     n = 0
