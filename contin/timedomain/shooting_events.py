@@ -24,7 +24,7 @@ sign and the count change together, and it is located by the count, the
 turn's value giving the next point (it has a corner at the grazing: the
 turn belongs to the contact law on one side and to the free flight on the
 other, so the location extrapolates from one side,
-:func:`contin.engine.events.narrow` with ``kink``).
+:func:`contin.engine.bracketing.narrow` with ``kink``).
 """
 
 from __future__ import annotations
