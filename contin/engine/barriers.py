@@ -158,7 +158,7 @@ class Barriers:
         failed. A barrier event whose distance, extrapolated from the last
         two stored points, reaches zero within that step and within
         ``BARRIER_AHEAD`` last steps is located by
-        :func:`contin.engine.events.narrow` on its distance, solving on the
+        :func:`contin.engine.bracketing.narrow` on its distance, solving on the
         hyperplanes normal to the current tangent; a solve that fails counts
         as beyond the barrier, and the point is taken on the near side.
         Tried once per stored point.
