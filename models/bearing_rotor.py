@@ -24,7 +24,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.integrate import quad
 
 from contin.model.catalog import ModelSpec, register_model
 from contin.model.elements import HarmonicExcitation, RadialGapForce
@@ -217,6 +216,8 @@ def hertz_cylinder_stiffness(P_m: float, E1: float, nu1: float, E2: float, nu2: 
         return 2 * P * kk / (math.pi * length) * (1.8864 + math.log(length / (2 * b)))
 
     d_m = approach(P_m)
+    from scipy.integrate import quad  # here: the model's other users never need scipy.integrate
+
     energy = d_m * P_m - quad(approach, 0.0, P_m, limit=200, epsabs=0.0, epsrel=1e-12)[0]
     return 2 * energy / d_m**2
 

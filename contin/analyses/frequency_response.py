@@ -48,8 +48,7 @@ from contin.output.dense import as_number, dense_branch, kept_indices, value_bet
 from contin.output.labels import model_symbols
 from contin.output.outcome import Outcome
 from contin.output.model_figures import model_figures
-from contin.output.panels import panel_diagram
-from contin.output.plotting import CHANGES, SPECIAL
+from contin.output.markers import CHANGES, SPECIAL
 from contin.output.results import truncate_to_valid_rows
 from contin.scene.budget import frequency_response_demands
 from contin.scene.parse import Scene, SceneError, check_parameter_values
@@ -512,6 +511,8 @@ def _plot(ctx, rec, hb):
     out = ctx.scene.output
     measure = out["measure"] or f"amp_{hb.model.dof_names[0]}"  # checked by check()
     drawn = [(m, *diagram_branches(rec, m)) for m in out.get("panels") or [measure]]  # output.panels: stacked
+    from contin.output.panels import panel_diagram  # deferred: matplotlib, loaded only to draw
+
     return panel_diagram(drawn, hb.parameter, ctx.outdir / "bifurcation_diagram", zoom=out.get("zoom"),
                          units=out["units"], labels=out["labels"], symbols=model_symbols(hb.model),
                          title=out["title"], formats=out["formats"], dpi=out["dpi"], style=out["style"])

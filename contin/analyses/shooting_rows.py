@@ -18,15 +18,19 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from contin.bifurcation.start import integrated_model
 from contin.hb.grazing import grazing_events
+from contin.model.periodic import is_shooting
 from contin.scene.schema import SceneError
-from contin.stability.saltation import orbit_state
-from contin.timedomain.shooting import ShootingOptions, ShootingProblem
-from contin.timedomain.simulation import simulate
+
+if TYPE_CHECKING:
+    from contin.timedomain.shooting import ShootingProblem
+
+# The time-domain modules (integrator, shooting, scipy.optimize and .interpolate) are imported where a shooting
+# branch is made or sampled: a run of harmonic-balance branches alone never loads them.
 
 __all__ = ["METHODS", "ShootingSettings", "analysis_method", "is_shooting", "order_of", "shooting_problem",
            "shooting_row", "shooting_start", "orbit_coefficients"]
@@ -92,11 +96,6 @@ def analysis_method(analysis: dict, hb) -> str:
     return how
 
 
-def is_shooting(problem) -> bool:
-    """Whether a branch's problem is a shooting problem (its unknowns are states, not coefficients)."""
-    return isinstance(problem, ShootingProblem)
-
-
 def order_of(problem) -> int:
     """``nu`` of a branch's problem: its period in forcing periods."""
     if is_shooting(problem):
@@ -106,6 +105,9 @@ def order_of(problem) -> int:
 
 def shooting_problem(hb, settings: ShootingSettings, nu: int | None = None) -> ShootingProblem:
     """The shooting problem of ``hb``'s model, parameter, frequency and parameter values, of order ``nu``."""
+    from contin.bifurcation.start import integrated_model  # deferred: the time domain, for shooting only
+    from contin.timedomain.shooting import ShootingOptions, ShootingProblem  # deferred: as above
+
     kw = {"steps_per_period": int(settings.steps_per_period), "subharmonic": int(hb.nu if nu is None else nu),
           "segments": int(settings.segments)}
     base = {k: v for k, v in hb.parameters().items() if k != hb.parameter}
@@ -124,6 +126,8 @@ def _samples(problem, u, lam: float) -> np.ndarray:
     if hasattr(problem, "orbit"):  # the segments integrated again: the step grid's own values
         x, _ = problem.orbit(u, lam, np.arange(S * nu) * problem.period_at(lam) / (S * nu))
         return np.ascontiguousarray(np.asarray(x, dtype=float).T)
+    from contin.timedomain.simulation import simulate  # deferred: the time domain, for shooting only
+
     z = _state(problem, u)
     run = simulate(problem.model, problem.params_at(lam), z[:n], z[n:], periods=nu, steps_per_period=S,
                    record_every=1, check_step=False)
@@ -169,6 +173,9 @@ def shooting_start(problem, hb, analysis: dict, lam0: float, u_hb=None) -> np.nd
     periods so that the state is at forcing phase zero); otherwise the state at ``t = 0`` of the
     harmonic-balance start ``u_hb`` (full coefficients).
     """
+    from contin.stability.saltation import orbit_state  # deferred: the time domain, for shooting only
+    from contin.timedomain.simulation import simulate  # deferred: as above
+
     n = problem.model.n_dof
     if analysis.get("start_from") == "simulation" and analysis.get("guess") is None:
         sim = dict(analysis.get("start_simulation") or {})

@@ -36,7 +36,6 @@ import numpy as np
 
 from contin.analyses.base import Analysis, RunError
 from contin.output.exports import RunData
-from contin.output.figures import figure_style, new_figure, save_figure
 from contin.output.labels import axis_label, math as mathtext
 from contin.scene.budget import simulate_demands
 from contin.scene.parse import check_parameter_values
@@ -440,6 +439,8 @@ def _plot(ctx, param, obs, records) -> list:
     sym = getattr(model, "symbols", None)
     wsym = mathtext(model.frequency, sym).strip("$")
     units, labels = out["units"], out["labels"]
+    from contin.output.figures import figure_style, new_figure, save_figure  # deferred: matplotlib, to draw
+
     with figure_style(out["style"]):
         for r in records:
             fig = new_figure((13.0, 4.2))

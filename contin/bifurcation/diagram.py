@@ -13,22 +13,21 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import sys
 from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from contin.bifurcation.shooting_branch import (ReturnEvent, ShootingMonitor, finish_return, is_shooting,
-                                                return_events, shooting_pd_start, watch_return)
 from contin.bifurcation.switching import BranchStart, continuation_scales, switch_at
 from contin.bifurcation.torus_branch import TorusSettings, run_torus
 from contin.bifurcation.torus_start import torus_start
 from contin.engine.branch import Branch, BranchStatus, SpecialKind, SpecialPoint
 from contin.engine.continuation import ContinuationOptions, continuation
 from contin.hb.grazing import grazing_events
+from contin.model.periodic import is_shooting
 from contin.stability.events import stability_events
 from contin.stability.monitor import StabilityMonitor
 from contin.stability.options import StabilityMethod, StabilityOptions
-from contin.timedomain.shooting_events import shooting_events
 
 __all__ = ["BifurcationDiagram", "follow", "switch_branch"]
 
@@ -56,14 +55,18 @@ def _stability(problem, stability: StabilityOptions, options: ContinuationOption
     elements).
     """
     monitor, events, monitors = None, [], []
+    shooting = is_shooting(problem)
+    if shooting:
+        from contin.bifurcation.shooting_branch import ShootingMonitor, return_events  # deferred: time domain
+        from contin.timedomain.shooting_events import shooting_events  # deferred: as above
     if stability.method is not StabilityMethod.NONE:
         # a shooting branch's multipliers are the flow's (its monodromy), not Hill's
-        monitor = ShootingMonitor(problem, stability) if is_shooting(problem) else StabilityMonitor(problem, stability)
+        monitor = ShootingMonitor(problem, stability) if shooting else StabilityMonitor(problem, stability)
         events = stability_events(monitor, folds=not options.detect_folds)
         monitors = [monitor]
     # a shooting branch locates its grazing points and passes them (and its return to the branch of half its
     # period); a harmonic balance ends at them
-    if is_shooting(problem):
+    if shooting:
         return monitor, events + shooting_events(problem) + return_events(problem), monitors
     return monitor, events + grazing_events(problem), monitors
 
@@ -72,6 +75,11 @@ def _continue(problem, u0, lam0, lam_range, options, *, events=(), monitors=(), 
               **kw) -> Branch:
     """:func:`continuation`, a branch of twice the period ending where it returns to the branch it was born on
     (:func:`contin.bifurcation.shooting_branch.watch_return`)."""
+    if not is_shooting(problem):
+        return continuation(problem, u0, lam0, lam_range, options, events=events, monitors=monitors,
+                            callback=callback, checkpoint=checkpoint, **kw)
+    from contin.bifurcation.shooting_branch import finish_return, watch_return  # deferred: the time domain
+
     br = continuation(problem, u0, lam0, lam_range, options, events=events, monitors=monitors,
                       callback=watch_return(callback, events), checkpoint=checkpoint, **kw)
     finish_return(br, events, monitors, checkpoint)
@@ -241,9 +249,12 @@ def _switch_candidates(br: Branch, kinds: set, origin_lam: float | None, tol: fl
     (a converged solution; :func:`_origin` records that it was not located).
     """
     chosen: dict[tuple, SpecialPoint] = {}
+    # a shooting branch's return to its parent is no new branch (its module loaded: no such point otherwise)
+    module = sys.modules.get("contin.bifurcation.shooting_branch")
+    returned = module.ReturnEvent.name if module is not None else None
     for sp in br.special_points:
         kind = _kind(sp)
-        if kind.value not in kinds or sp.event == ReturnEvent.name:  # a return to the parent: no new branch
+        if kind.value not in kinds or sp.event == returned:
             continue
         scale = tol * max(1.0, abs(sp.parameter))
         if origin_lam is not None and abs(sp.parameter - origin_lam) <= 1e3 * scale and sp.index <= 1:
@@ -288,6 +299,8 @@ def _torus_child(prob, br: Branch, sp: SpecialPoint, torus: TorusSettings | None
 def _shooting_pd(prob, sp: SpecialPoint, failed: list) -> list:
     """The one first point of the doubled branch at a shooting branch's period doubling (its two sides are one
     orbit shifted by a forcing period), or none with the reason in ``failed``."""
+    from contin.bifurcation.shooting_branch import shooting_pd_start  # deferred: the time domain
+
     try:
         return [shooting_pd_start(prob, sp)]
     except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:

@@ -20,16 +20,12 @@ import numpy as np
 from contin.bifurcation.switching import BranchStart
 from contin.engine.branch import BranchStatus, SpecialKind, SpecialPoint
 from contin.engine.events import Event, PointInfo
+from contin.model.periodic import is_shooting
 from contin.stability.options import StabilityMethod, StabilityOptions
 from contin.timedomain.shooting import ShootingProblem, ShootingStability, period_doubling_start
 
 __all__ = ["ReturnEvent", "ShootingMonitor", "finish_return", "is_shooting", "return_events", "shooting_pd_start",
            "watch_return"]
-
-
-def is_shooting(problem) -> bool:
-    """Whether ``problem`` is a shooting problem (the flow's multipliers, the switch of this module)."""
-    return isinstance(problem, ShootingProblem)
 
 
 class ShootingMonitor(ShootingStability):

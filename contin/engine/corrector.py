@@ -218,14 +218,16 @@ class Corrector:
             return None
 
     def bordered_solve(self, guess: np.ndarray, x_ref: np.ndarray, normal: np.ndarray, offset: float, lu0=None,
-                       quick: bool = False, chord=None) -> NewtonResult:
+                       quick: bool = False, chord=None, light: bool = False) -> NewtonResult:
         """Newton on ``[R = 0; normal . (x - x_ref) = offset]`` from ``guess`` (all (m+1,), scaled).
 
         ``lu0``: see :func:`~contin.engine.newton.newton`; ``quick``: a solve
         expected to fail where there is no solution, given fewer updates and
         no retry; ``chord``: ``(Ju, Jlam)`` (unscaled) of a nearby point, whose
         bordered matrix a lazy Jacobian starts with (:data:`~contin.engine.problem.LAZY_COST`).
-        The result's ``lu`` factorises the bordered matrix at the solution.
+        The result's ``lu`` factorises the bordered matrix at the solution; with a lazy Jacobian and ``light``,
+        the solution is not linearised (``jacobian`` None, ``sp.last`` unchanged) and ``lu`` is the
+        factorisation the last updates used.
         """
         sp, m = self.sp, self.m
         F = np.empty(m + 1)
@@ -253,6 +255,8 @@ class Corrector:
                          factor_final=True, lu0=lu0, **lazy)
             self.n_newton += res.iterations
             return res
+        if light and sp.lazy:
+            lazy["jacobian_at_solution"] = False
         return self.newton(fun_and_jac, guess, factor_final=True, lu0=lu0, **lazy)
 
     def fixed_solve(self, lam: float, u_guess: np.ndarray, chord=None) -> NewtonResult:

@@ -115,6 +115,10 @@ class Event(abc.ABC):
     #: domain): when steps fail short of where :meth:`distance` predicts it, the engine locates
     #: it from the near side and ends the branch there if no step passes it
     barrier: bool = False
+    #: the test reads the point's linearisation (its tangent, ``Ju``, ``Jlam``, or multipliers the problem
+    #: computes from it). False: while the event is located, the points on the arc are solved without one
+    #: when the problem's Jacobian is lazy (:mod:`contin.engine.location`); the located point gets its own
+    needs_linearisation: bool = True
 
     @abc.abstractmethod
     def test(self, point: PointInfo) -> float | np.ndarray:

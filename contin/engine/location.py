@@ -31,9 +31,9 @@ from contin.engine.events import (
     changed_components,
     evaluate_test,
 )
-from contin.engine.newton import NUMERICAL_ERRORS
+from contin.engine.newton import NUMERICAL_ERRORS, SingularMatrixError, factorize
 from contin.engine.predictor import HermiteArc, unit_tangent
-from contin.engine.problem import LazyData, evaluate_monitors, point_info
+from contin.engine.problem import LazyData, bordered_matrix, evaluate_monitors, point_info
 
 __all__ = ["BP_DIP", "FOLD_NEAR", "EventLocation", "branch_point_artefact", "kernel_singular_values", "location_point", "test_values"]
 
@@ -150,6 +150,24 @@ def location_point(ev: Event, loc: Location, ga: float, gb: float, comp: int, ve
     )
 
 
+#: in a light location, the solved points next to ``sigma`` give the guess there once they lie within this
+#: fraction of the step (closer, the chord between them is nearer the curve than the cubic through the step's
+#: ends). Not in the others: a guess within Newton's tolerance is taken as it is, and a fold or a multiplier
+#: crossing located from it would carry that tolerance where Newton's last update polishes the point further.
+BETWEEN = 0.25
+
+
+def _between(solved: list, sigma: float, h: float) -> np.ndarray | None:
+    """The point at ``sigma`` on the chord between the nearest solved points either side, when they are within
+    ``BETWEEN * h`` of each other (on the hyperplane: ``sigma`` is linear along the chord); else None."""
+    lo = max((p for p in solved if p[0] <= sigma), key=lambda p: p[0], default=None)
+    hi = min((p for p in solved if p[0] >= sigma), key=lambda p: p[0], default=None)
+    if lo is None or hi is None or not 0.0 < hi[0] - lo[0] < BETWEEN * h:
+        return None
+    f = (sigma - lo[0]) / (hi[0] - lo[0])
+    return lo[1] + f * (hi[1] - lo[1])
+
+
 class EventLocation:
     """Detects and locates the events on each stored step.
 
@@ -215,18 +233,22 @@ class EventLocation:
                 cap = min(cap, limit)
         return cap
 
-    def _solve_on_arc(self, arc: HermiteArc, xa: np.ndarray, ta: np.ndarray, sigma: float, chord=None):
+    def _solve_on_arc(self, arc: HermiteArc, xa: np.ndarray, ta: np.ndarray, sigma: float, chord=None,
+                      light: bool = False, guess: np.ndarray | None = None):
         """The solution on the hyperplane ``ta . (x - xa) = sigma``: ``(NewtonResult, "")`` or ``(None, why)``.
 
         The cubic Hermite guess on the arc first (``O(h^4)`` off the curve,
         where the chord is ``O(h^2)`` off); where Newton's basin is smaller
         still (stiff contact), march from the earlier point in substeps
         along the family of hyperplanes normal to its tangent. ``chord``:
-        the linearisation of a point nearby (see ``Corrector.bordered_solve``).
+        the linearisation of a point nearby (see ``Corrector.bordered_solve``); ``light``: the first solve
+        without a linearisation at the solution (the substeps, where it fails, linearise); ``guess``: the
+        first solve's start, if not the arc's point.
         """
         corrector = self.corrector
         try:
-            res = corrector.bordered_solve(arc.at(sigma), xa, ta, sigma, chord=chord)
+            res = corrector.bordered_solve(arc.at(sigma) if guess is None else guess, xa, ta, sigma, chord=chord,
+                                           light=light)
             if res.converged and res.lu is not None:
                 return res, ""
             x, t, ok = xa, ta, True
@@ -251,6 +273,22 @@ class EventLocation:
             return None, "singular bordered Jacobian"
         return None, f"Newton did not converge ({res.message})"
 
+    def _linearised(self, info: PointInfo, normal: np.ndarray) -> PointInfo:
+        """The point ``info``, solved without a linearisation (a light solve), with its own: ``Ju``, ``Jlam``,
+        the bordered matrix with the arc's ``normal`` and the tangent from it (as the other points have)."""
+        sp, monitors = self.corrector.sp, self.monitors
+        try:
+            _, Ju, Jlam = sp.evaluate(info.u, info.lam)
+            lu = factorize(bordered_matrix(Ju, Jlam, sp.su, sp.sl, normal))
+        except NUMERICAL_ERRORS + (SingularMatrixError,):
+            return info  # it keeps the nearby point's linearisation; its location stands
+        t = unit_tangent(lu, self.corrector.e_last)
+        if t is None:
+            return info
+        u, lam = info.u, info.lam
+        data = LazyData(lambda: evaluate_monitors(monitors, u, lam, Ju, Jlam))
+        return point_info(u, lam, t, lu, Ju, Jlam, info.s, data)
+
     def _locate(self, ev: Event, comp: int, xa: np.ndarray, ta: np.ndarray, info_a: PointInfo, cand: Candidate,
                 info_b: PointInfo, ga: np.ndarray, gb: np.ndarray, index: int, ds_free: float) -> None:
         """Locate component ``comp`` of ``ev`` between stored points ``index`` and ``index + 1``; record it."""
@@ -259,25 +297,46 @@ class EventLocation:
         arc = HermiteArc(xa, ta, cand.x, cand.tangent, h)
         monitors = self.monitors
         near = [(info_a.Ju, info_a.Jlam)]  # the linearisation of the point solved last (a lazy Jacobian's chord)
+        # a test that reads no linearisation, on a problem whose Jacobian costs many residuals: the points
+        # on the arc are solved without one (their tangent from the chord's factorisation, Ju and Jlam the
+        # nearby point's), and the located point gets its own below
+        light = not ev.needs_linearisation and sp.lazy
+        unlinearised = []  # the points solved without a linearisation
+
+        ends = ((info_a.Ju, info_a.Jlam), (info_b.Ju, info_b.Jlam))
+        solved = [(0.0, xa), (float(ta @ (cand.x - xa)), cand.x)]  # (sigma, scaled point) of the solved points
 
         def point_at(sigma: float):
-            res, why = self._solve_on_arc(arc, xa, ta, sigma, near[0])
+            if light:  # the chord of the nearer end of the step (both linearised)
+                near[0] = ends[int(sigma > 0.5 * h)]
+            guess = _between(solved, sigma, h) if light else None
+            res, why = self._solve_on_arc(arc, xa, ta, sigma, near[0], light=light, guess=guess)
             if res is None:
                 return None, why
+            solved.append((float(ta @ (res.x - xa)), res.x.copy()))
             t = unit_tangent(res.lu, self.corrector.e_last)
             if t is None:
                 return None, "non-finite tangent"
-            u, lam, R, Ju, Jlam = sp.last
+            if res.jacobian is None:  # a light solve
+                u, lam = res.x[:-1] * sp.su, float(res.x[-1] * sp.sl)
+                Ju, Jlam = near[0]
+            else:
+                u, lam, R, Ju, Jlam = sp.last
             # the monitors run when an event's test first reads the point's data: a fold's test
             # (the tangent) needs none, a stability event's the multipliers
             data = LazyData(lambda u=u, lam=lam, Ju=Ju, Jlam=Jlam: evaluate_monitors(monitors, u, lam, Ju, Jlam))
             info = point_info(u, lam, t, res.lu, Ju, Jlam, info_a.s + sigma, data)
-            near[0] = (info.Ju, info.Jlam)
+            if res.jacobian is None:
+                unlinearised.append(info)
+            else:
+                near[0] = (info.Ju, info.Jlam)
             return info, ""
 
         locations = ev.locate(comp, point_at, h, info_a, info_b, float(ga[comp]), float(gb[comp]),
                               tol=self.opt.locate_tol, max_iter=self.opt.locate_max_iter)
         for loc in locations:
+            if any(loc.point is q for q in unlinearised):
+                loc.point = self._linearised(loc.point, ta)
             p = loc.point
             if isinstance(p.data, LazyData):
                 try:

@@ -205,23 +205,30 @@ class _Iteration:
             chord_steps=self.chord_steps,
         )
 
-    def success(self, factor_final: bool, equilibrate: bool) -> NewtonResult:
+    def success(self, factor_final: bool, equilibrate: bool, jacobian_at_solution: bool = True) -> NewtonResult:
         """The converged result (with the factorisation at the solution when ``factor_final``).
 
         A lazy iteration evaluates the Jacobian at the solution here (the
-        result carries it, and the caller reads the linearisation there).
+        result carries it, and the caller reads the linearisation there),
+        unless ``jacobian_at_solution`` is False and its updates used a
+        factorisation: the result then has no Jacobian and, as ``lu``, that
+        factorisation (of a nearby point's matrix).
         """
-        err = self.ensure_jacobian()
-        if err is not None:
-            return self.failure(f"evaluation of the Jacobian failed at the solution ({err})", self.F)
         message = f"converged: residual {self.r:.1e} after {self.k} iterations"
-        lu_final = None
-        if factor_final:
-            try:
-                lu_final = factorize(self.J, equilibrate=equilibrate)
-                self.n_lu += 1
-            except SingularMatrixError as exc:
-                message += f"; singular Jacobian at the solution ({exc})"
+        if self.lazy and not jacobian_at_solution and self.step_lu is not None:
+            lu_final, jacobian = self.step_lu, None
+            message += " (no Jacobian at the solution)"
+        else:
+            err = self.ensure_jacobian()
+            if err is not None:
+                return self.failure(f"evaluation of the Jacobian failed at the solution ({err})", self.F)
+            lu_final, jacobian = None, self.J
+            if factor_final:
+                try:
+                    lu_final = factorize(self.J, equilibrate=equilibrate)
+                    self.n_lu += 1
+                except SingularMatrixError as exc:
+                    message += f"; singular Jacobian at the solution ({exc})"
         return NewtonResult(
             x=self.x,
             converged=True,
@@ -229,7 +236,7 @@ class _Iteration:
             residual_norm=self.r,
             message=message,
             residual=self.F,
-            jacobian=self.J,
+            jacobian=jacobian,
             lu=lu_final,
             rcond=lu_final.rcond if lu_final is not None else self.last_rcond(),
             residual_history=tuple(self.history),
@@ -411,6 +418,7 @@ def newton(
     backtrack: int = 0,
     stall: int | None = None,
     residual: Callable[[np.ndarray], np.ndarray] | None = None,
+    jacobian_at_solution: bool = True,
 ) -> NewtonResult:
     """Newton's method for ``F(x) = 0``.
 
@@ -503,6 +511,11 @@ def newton(
         which the result carries), and chord steps go on while each reduces
         the residual by ``LAZY_CONTRACTION`` and the iterations left suffice
         (with ``lu0``, from the first update). Needs ``reuse_lu``.
+    jacobian_at_solution : bool
+        With a lazy Jacobian, False skips its evaluation at the solution: the
+        result has ``jacobian`` None and, as ``lu``, the factorisation of the
+        last updates (a point solved only for values that need no
+        linearisation, such as an event's test while it is located).
 
     Returns
     -------
@@ -543,7 +556,7 @@ def newton(
         failed = it.record(tol, stall, divergence_factor)
         if failed is not None:
             return failed
-    return it.success(factor_final, equilibrate)
+    return it.success(factor_final, equilibrate, jacobian_at_solution)
 
 
 def solve_at_parameter(problem, u0: np.ndarray, lam: float, options=None, **newton_kwargs) -> NewtonResult:

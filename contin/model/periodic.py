@@ -24,11 +24,12 @@ a periodic problem, so that each of them may name it.
 
 from __future__ import annotations
 
+import sys
 from typing import Protocol, Sequence, runtime_checkable
 
 import numpy as np
 
-__all__ = ["AllDofs", "PeriodicProblem"]
+__all__ = ["AllDofs", "PeriodicProblem", "SHOOTING_MODULE", "is_shooting"]
 
 
 @runtime_checkable
@@ -111,3 +112,17 @@ class AllDofs:
     def dof_names(self) -> list:
         """The model's dof names, in the order of the unknowns."""
         return list(self.model.dof_names)
+
+
+#: the module that defines shooting problems: until it is imported no problem can be one
+SHOOTING_MODULE = "contin.timedomain.multiple_shooting"
+
+
+def is_shooting(problem) -> bool:
+    """Whether ``problem`` is a shooting problem (its unknowns are states of the integrated flow, not coefficients).
+
+    Answered without importing the time-domain modules (the integrators, scipy.optimize and .interpolate), so
+    that a run of harmonic-balance branches never loads them.
+    """
+    module = sys.modules.get(SHOOTING_MODULE)
+    return module is not None and isinstance(problem, module.ShootingProblem)

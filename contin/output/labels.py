@@ -139,10 +139,12 @@ def mathtext_error(text) -> str | None:
     str or None
         The parser's own words (``Unknown symbol: \\foo``), on one line.
     """
+    if not isinstance(text, str) or "$" not in text:
+        return None  # no mathtext (and no need to load matplotlib to say so)
     from matplotlib import cbook
     from matplotlib.mathtext import MathTextParser
 
-    if not isinstance(text, str) or not cbook.is_math_text(text):
+    if not cbook.is_math_text(text):
         return None
     try:
         MathTextParser("path").parse(text)

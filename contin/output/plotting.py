@@ -27,15 +27,7 @@ from contin.output.labels import axis_label, math
 __all__ = ["bifurcation_diagram", "draw_bifurcation_diagram", "draw_curves", "branch_label", "axis_label", "kind_name",
            "point_marker", "SPECIAL", "CHANGES"]
 
-#: special points drawn: marker, name in the table, short name (narrow figures)
-SPECIAL = {"fold": ("o", "fold", "fold"), "pd": ("s", "period doubling", "PD"), "ns": ("D", "Neimark-Sacker", "NS"),
-           "bp": ("^", "branch point", "BP"), "kink": ("v", "kink", "kink"),
-           "stability": ("X", "stability change", "stab."), "grazing": ("*", "grazing", "grazing"),
-           "locking": ("P", "locking", "lock"), "frequency_min": ("<", "frequency minimum", "min."), "frequency_max": (">", "frequency maximum", "max.")}
-#: kinds at which the stability of a branch changes
-CHANGES = ("fold", "pd", "ns", "bp", "stability")
-#: said of a point whose location did not converge (its parameter is only bracketed)
-NOT_LOCATED = "(not located)"
+from contin.output.markers import CHANGES, NOT_LOCATED, SPECIAL  # noqa: E402  (re-exported)
 
 
 def kind_name(kind: str, located: bool = True, short: bool = False) -> str:

@@ -61,7 +61,7 @@ def check_scene(scene, model):
 
     First the memory and work the scene asks (:func:`contin.scene.budget.check_resources`:
     before the plan, which builds its problems and their arrays);
-    after it, the texts its figures draw and ``continuation.unknown_scale``
+    after it, the texts its figures draw (when it draws any) and ``continuation.unknown_scale``
     against the problems' unknowns (:mod:`contin.scene.preflight`).
     """
     from contin.scene.budget import check_resources  # deferred: hb, stability (0.8 s); ``import contin`` reads ANALYSES
@@ -70,7 +70,8 @@ def check_scene(scene, model):
     made = analysis(scene.analysis["type"])
     check_resources(scene, made.demands(scene, model))
     plan = made.plan(scene, model)
-    check_texts(scene, model)
+    if scene.output.get("plots", True):  # the texts are a figure's: without figures matplotlib is never loaded
+        check_texts(scene, model)
     check_unknown_scale(scene, made.scale_checks(plan))
     return plan
 

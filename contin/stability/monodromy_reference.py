@@ -22,7 +22,6 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from contin.stability.saltation import (
     check_switch_mode,
@@ -130,6 +129,8 @@ def _variational_ivp(pieces, events, linear, rtol, atol):
     just inside); ``events[s]`` follows piece ``s``; ``linear = (Minv, C, K, forces, n)``.
     Returns ``(Phi, number of right-hand side evaluations)``.
     """
+    from scipy.integrate import solve_ivp  # here: scipy.integrate is loaded only by a reference
+
     Minv, C, K, forces, n = linear
     d = 2 * n
     Phi, nfev = np.eye(d), 0
@@ -210,6 +211,8 @@ def monodromy_reference(hb, u: np.ndarray, lam: float, rtol: float = 1e-11, atol
         ``solve_ivp`` fails, more than ``max_switches`` switches (chatter), or
         a switch without a defined saltation matrix.
     """
+    from scipy.integrate import solve_ivp  # here: scipy.integrate is loaded only by a reference
+
     check_switch_mode(switches)
     n = hb.n
     p = hb.params_at(lam)
@@ -244,6 +247,8 @@ def monodromy_reference(hb, u: np.ndarray, lam: float, rtol: float = 1e-11, atol
 
 def _reference_with_switches(hb, p, T, z0, sw, rtol, atol, saltation, max_switches):
     """:func:`monodromy_reference` for a model with switching functions (see there)."""
+    from scipy.integrate import solve_ivp  # here: scipy.integrate is loaded only by a reference
+
     n = hb.n
     w = hb.excitation_frequency(p)
     _, C, K, Minv, forces, excitation = _pointwise(hb, p)

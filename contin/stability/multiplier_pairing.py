@@ -11,14 +11,38 @@ stability events.
 
 from __future__ import annotations
 
+import functools
+import itertools
 import math
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
 from contin.engine.events import OVERSHOOT, predicted_zero
 
 __all__ = ["multiplier_distance", "multiplier_step_limit", "pair_multipliers", "COLLISION_NEAR", "COLLISION_STEP"]
+
+
+#: up to this many multipliers the pairing of least total distance is found among all permutations (720 at
+#: most, one vectorised sum); beyond, by ``scipy.optimize.linear_sum_assignment``, whose package takes a
+#: seventh of a second to import, more than a small run's whole continuation
+ENUMERATED = 6
+
+
+@functools.lru_cache(maxsize=None)
+def _permutations(k: int) -> np.ndarray:
+    return np.array(list(itertools.permutations(range(k))), dtype=np.intp).reshape(-1, k)
+
+
+def _assignment(D: np.ndarray):
+    """Rows and columns of the assignment of least total cost in the square cost matrix ``D`` (k, k), as
+    ``scipy.optimize.linear_sum_assignment`` returns them."""
+    k = D.shape[0]
+    if k <= ENUMERATED:
+        perms = _permutations(k)
+        return np.arange(k), perms[int(np.argmin(D[np.arange(k), perms].sum(axis=1)))]
+    from scipy.optimize import linear_sum_assignment
+
+    return linear_sum_assignment(D)
 
 
 def pair_multipliers(mu_a: np.ndarray, mu_b: np.ndarray) -> np.ndarray:
@@ -26,7 +50,7 @@ def pair_multipliers(mu_a: np.ndarray, mu_b: np.ndarray) -> np.ndarray:
     if mu_a.shape != mu_b.shape:
         return np.full(mu_a.shape, -1)
     D = np.abs(mu_a[:, None] - mu_b[None, :])
-    r, c = linear_sum_assignment(D)
+    r, c = _assignment(D)
     out = np.empty(mu_a.size, dtype=int)
     out[r] = c
     return out
@@ -52,7 +76,7 @@ def multiplier_distance(a: np.ndarray, b: np.ndarray) -> float:
     if a.size == 0:
         return 0.0
     D = np.abs(a[:, None] - b[None, :])
-    r, c = linear_sum_assignment(D)
+    r, c = _assignment(D)
     return float(D[r, c].max())
 
 

@@ -48,7 +48,6 @@ import math
 from typing import Mapping
 
 import numpy as np
-from scipy.optimize import brentq, minimize_scalar
 
 from contin.timedomain.multiple_shooting import ShootingOptions, ShootingProblem, flip_test
 from contin.timedomain.shooting_bifurcations import ShootingStability, period_doubling_start
@@ -247,6 +246,8 @@ def period_doubling_scan(model, params: Mapping[str, float], parameter: str, val
     z0 : array_like, shape (2n,)
         A state near the orbit at ``values[0]``.
     """
+    from scipy.optimize import brentq, minimize_scalar  # here: most runs never scan by shooting
+
     if parameter not in model.parameters:
         raise ValueError(f"unknown parameter {parameter!r} of model '{model.name}'; valid: {list(model.parameters)}")
     values = np.asarray(values, float)

@@ -132,9 +132,10 @@ class ShootingGrazingEvent(Event):
     """Grazing on a branch of a :class:`contin.timedomain.multiple_shooting.ShootingProblem` (module docstring).
 
     One test component per switching function of the model: the signed
-    extremum nearest to zero (``problem.graze(u, lam)``, computed with the
-    linearisation the engine has just made, so it costs no integration). Not a
-    barrier: the branch passes the point.
+    extremum nearest to zero (``problem.graze(u, lam)``: at a stored point
+    from the linearisation the engine has just made, at the points solved
+    while the grazing is located from one plain integration, for they are
+    not linearised). Not a barrier: the branch passes the point.
 
     Parameters
     ----------
@@ -145,6 +146,9 @@ class ShootingGrazingEvent(Event):
     name = "grazing"
     integer_valued = False
     barrier = False
+    # the graze and the switch count come with the flow itself: the points solved while a grazing is
+    # located need no variational integration (ShootingProblem.graze)
+    needs_linearisation = False
 
     def __init__(self, problem):
         self.problem = problem

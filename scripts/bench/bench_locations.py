@@ -17,6 +17,7 @@ import time
 from pathlib import Path
 
 from contin.engine import location
+from contin.timedomain import multiple_shooting, variational
 
 
 def main(argv=None) -> int:
@@ -28,10 +29,12 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     if args.quick:
         args.scene = str(scenes / "gap_oscillator.yaml")
-    stats = collections.defaultdict(lambda: [0, 0, 0.0])
+    # per event: located, solves on the arc, seconds, variational flows (linearisations of shooting orbits),
+    # plain flows (residuals) and flows without the variational equations (graze and switches alone)
+    stats = collections.defaultdict(lambda: [0, 0, 0.0, 0, 0, 0])
     cls = location.EventLocation
     locate, solve = cls._locate, cls._solve_on_arc
-    current = [""]
+    current = ["(steps)"]
 
     def counted_locate(self, ev, comp, *a, **k):
         current[0] = ev.name
@@ -41,12 +44,27 @@ def main(argv=None) -> int:
             return locate(self, ev, comp, *a, **k)
         finally:
             stats[ev.name][2] += time.perf_counter() - t
+            current[0] = "(steps)"
 
     def counted_solve(self, *a, **k):
         stats[current[0]][1] += 1
         return solve(self, *a, **k)
 
     cls._locate, cls._solve_on_arc = counted_locate, counted_solve
+    shoot = multiple_shooting.ShootingProblem
+    for attr, col in (("_segment", 3), ("_run", 4)):
+        def counted(self, *a, _f=getattr(shoot, attr), _c=col, **k):
+            stats[current[0]][_c] += 1
+            return _f(self, *a, **k)
+        setattr(shoot, attr, counted)
+    runs = variational.VariationalFlow.run
+
+    def counted_run(self, *a, jacobian=True, **k):
+        if not jacobian:
+            stats[current[0]][5] += 1
+        return runs(self, *a, jacobian=jacobian, **k)
+
+    variational.VariationalFlow.run = counted_run
     from contin.app.cli import main as contin_main
 
     with tempfile.TemporaryDirectory() as tmp:
@@ -55,8 +73,10 @@ def main(argv=None) -> int:
         code = contin_main(["run", args.scene, "-o", out, "--quiet"])
         total = time.perf_counter() - t
     print(f"run: {total:.1f} s, exit status {code}")
-    for name, (n, solves, sec) in sorted(stats.items(), key=lambda kv: -kv[1][2]):
-        print(f"  {name:24s} {n:4d} located, {solves:5d} solves on the arc, {sec:6.1f} s")
+    print("  (shooting flows: variational = linearisations; plain = residuals; contacts = graze and switches alone)")
+    for name, (n, solves, sec, var, plain, passes) in sorted(stats.items(), key=lambda kv: -kv[1][2]):
+        where = "" if name == "(steps)" else f"{n:4d} located, {solves:5d} solves on the arc, {sec:6.1f} s, "
+        print(f"  {name:24s} {where}flows: {var} variational, {plain} plain, {passes} contacts")
     return 0
 
 

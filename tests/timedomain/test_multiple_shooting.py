@@ -206,10 +206,26 @@ def test_gap_branch_locates_grazing_and_goes_on(gap_branch):
     assert np.all(g[w < gz.parameter - 1e-6] < 0) and np.all(g[w > gz.parameter + 1e-6] > 0)
 
 
+def test_contacts_without_linearisation_are_the_linearisations(gap_branch):
+    """graze and switches of an orbit that is not linearised (the points solved while a grazing is located)
+    come from the flow without its variational equations: bit for bit those of the linearisation."""
+    prob, br = gap_branch
+    for i in (0, len(br) // 2, len(br) - 1):
+        u, lam = np.asarray(br.unknowns[i]) * (1 + 1e-9), float(br.parameter[i])  # an orbit not cached yet
+        g, n = prob.graze(u, lam), prob.switches(u, lam)
+        assert prob._cache.get((u.tobytes(), lam)) is None  # no variational integration was made
+        prob.linearize(u, lam)
+        lin = prob._cache[(u.tobytes(), lam)]
+        np.testing.assert_array_equal(g, lin.graze)
+        assert n == lin.switches
+    assert br.points_of_kind("grazing")[0].data["graze"] == pytest.approx(0.0, abs=1e-9)
+
+
 def test_grazing_event_is_a_plain_located_event():
     prob = ShootingProblem(gap_model(), "w")
     (ev,) = shooting_events(prob)
     assert isinstance(ev, ShootingGrazingEvent) and not ev.barrier and ev.kind.value == "grazing"
+    assert not ev.needs_linearisation  # its location solves no variational equations
     assert shooting_events(ShootingProblem(duffing_model(), "w")) == []
 
 
