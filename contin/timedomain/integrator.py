@@ -143,6 +143,7 @@ class CompiledModel:
         self.notes = [t for f in self.forces + self.excitations for t in f.notes()]
         self.source = self._source()
         self._module = None
+        self._minv = None  # (M's bytes, M^-1): the mass matrix rarely moves with the continuation parameter
 
     def _source(self) -> str:
         p0 = self.model.parameter_vector()
@@ -315,19 +316,25 @@ class CompiledModel:
             If the mass matrix is singular.
         """
         M, C, K = self.model.linear(p)
-        try:
-            Minv = np.linalg.inv(M)
-        except np.linalg.LinAlgError:
-            raise SimulationError(f"model '{self.model.name}': the mass matrix is singular, "
-                                  f"time simulation needs an invertible M") from None
-        if not np.all(np.isfinite(Minv)) or np.linalg.cond(M) > 1e14:
-            raise SimulationError(f"model '{self.model.name}': the mass matrix is singular "
-                                  f"(cond {np.linalg.cond(M):.3g})")
+        key = np.ascontiguousarray(M, dtype=float).tobytes()
+        if self._minv is not None and self._minv[0] == key:
+            Minv = self._minv[1]
+        else:
+            try:
+                Minv = np.linalg.inv(M)
+            except np.linalg.LinAlgError:
+                raise SimulationError(f"model '{self.model.name}': the mass matrix is singular, "
+                                      f"time simulation needs an invertible M") from None
+            if not np.all(np.isfinite(Minv)) or np.linalg.cond(M) > 1e14:
+                raise SimulationError(f"model '{self.model.name}': the mass matrix is singular "
+                                      f"(cond {np.linalg.cond(M):.3g})")
+            Minv = np.ascontiguousarray(Minv)  # shared by the calls with the same M (the kernels only read it)
+            self._minv = (key, Minv)
         cst = []
         for f in self.forces + self.excitations:
             cst += [float(v) for v in f.constants(p)]
         cst = np.array(cst if cst else [0.0], dtype=float)
-        return (np.ascontiguousarray(Minv), np.ascontiguousarray(C, dtype=float),
+        return (Minv, np.ascontiguousarray(C, dtype=float),
                 np.ascontiguousarray(K, dtype=float), cst)
 
     def fastest_rate(self, p: np.ndarray) -> float:
