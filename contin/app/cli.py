@@ -221,7 +221,10 @@ def _branch_line(b: dict) -> str:
     if b["status"] == "interrupted":  # the continuation stopped at the interrupt: say where, not how
         at = str(b.get("message", "")).partition(" at ")[2]
         return f"branch {b['branch']} (nu={b['nu']}): {b['points']} points, interrupted" + (f" at {at}" if at else "")
-    return f"branch {b['branch']} (nu={b['nu']}): {b['points']} points, {b['status']}: {b['message']}"
+    status = b["status"]
+    if b.get("handed_over_to") is not None:  # the end of one method, not of the branch: say who goes on
+        status += f", continued by shooting as branch {b['handed_over_to']}"
+    return f"branch {b['branch']} (nu={b['nu']}): {b['points']} points, {status}: {b['message']}"
 
 
 def cmd_run(args) -> int:

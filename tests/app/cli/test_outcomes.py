@@ -114,3 +114,15 @@ def test_points_without_a_stability_verdict_keep_the_branch_and_get_empty_cells(
     assert np.all(rows["w"][empty] < 1.6) and np.all(np.isnan(rows["max_multiplier"][empty]))
     assert set(rows["stable"][~empty]) <= {"true", "false"}
     assert (out / "bifurcation_diagram.png").stat().st_size > 10_000
+
+
+def test_a_branch_handed_over_to_shooting_says_which_branch_goes_on(tmp_path, capsys):
+    # the impact oscillator's harmonic branch grazes at w = 0.8439 and is handed to shooting (method auto)
+    out = tmp_path / "impact"
+    code = main(["run", str(ROOT / "scenes/impact_oscillator.yaml"), "-o", str(out), "--set", "output.plots=false"])
+    lines = capsys.readouterr().out.splitlines()
+    assert code == 0
+    (handed,) = [ln for ln in lines if ln.startswith("branch 0 ")]
+    assert ", boundary, continued by shooting as branch 1: the branch cannot pass the grazing point" in handed
+    (b0, b1) = json.loads((out / "summary.json").read_text())["analysis"]["branches"]
+    assert (b0["status"], b0["end"], b0["handed_over_to"], b1["handed_over_from"]) == ("boundary", "handover", 1, 0)
