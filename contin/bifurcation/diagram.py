@@ -254,7 +254,7 @@ def _switch_candidates(br: Branch, kinds: set, origin_lam: float | None, tol: fl
     returned = module.ReturnEvent.name if module is not None else None
     for sp in br.special_points:
         kind = _kind(sp)
-        if kind.value not in kinds or sp.event == returned:
+        if kind.value not in kinds or (returned is not None and sp.event == returned):
             continue
         scale = tol * max(1.0, abs(sp.parameter))
         if origin_lam is not None and abs(sp.parameter - origin_lam) <= 1e3 * scale and sp.index <= 1:

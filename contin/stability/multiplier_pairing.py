@@ -23,8 +23,8 @@ __all__ = ["multiplier_distance", "multiplier_step_limit", "pair_multipliers", "
 
 
 #: up to this many multipliers the pairing of least total distance is found among all permutations (720 at
-#: most, one vectorised sum); beyond, by ``scipy.optimize.linear_sum_assignment``, whose package takes a
-#: seventh of a second to import, more than a small run's whole continuation
+#: most, one vectorised sum); beyond, by ``scipy.optimize.linear_sum_assignment``, whose package is slow to
+#: import next to a small run (docs/benchmarks.md, a small run as a whole process)
 ENUMERATED = 6
 
 

@@ -466,7 +466,7 @@ class ShootingProblem:
 
     def _contacts(self, u, lam) -> tuple[np.ndarray, int]:
         """``(graze, switches)`` of the orbit: its linearisation's when it was linearised, else from the flow
-        without the variational equations (the same steps and switches bit for bit, a third of the cost)."""
+        without the variational equations (the same steps and switches bit for bit, at a fraction of the cost)."""
         key = (np.asarray(u, dtype=float).tobytes(), float(lam))
         hit = self._cache.get(key)
         if hit is not None:
