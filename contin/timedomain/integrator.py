@@ -63,6 +63,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import inspect
+import re
 
 import numpy as np
 
@@ -178,6 +179,13 @@ class CompiledModel:
                       ["    " + s for s in f.excitation_lines(tag, c)]
             c += len(f.constants(p0))
         self.n_constants = c
+        self.n_force_constants = sum(len(f.constants(p0)) for f in self.forces)
+        #: the parameters the force laws and switching functions read directly (``p[k]`` in their lines, as an
+        #: expression force does) besides their constants
+        self.force_parameters = frozenset(int(k) for line in force + switch + grad
+                                          for k in _PARAMETER_READ.findall(line))
+        #: every excitation's lines are linear in its constants (a parameter sensitivity can be integrated)
+        self.linear_excitations = all(f.linear_in_constants for f in self.excitations)
         head = [
             f"# contin generated simulation module (codegen {codegen.CODEGEN_VERSION}, "
             f"template {SIMULATION_TEMPLATE_VERSION}, kernels {_fingerprint(kernels)})",
@@ -257,7 +265,7 @@ class CompiledModel:
         """
         p0 = self.model.parameter_vector()
         jac, missing = [], []
-        ftau, etau, untimed = [], [], []
+        ftau, etau, untimed, elam = [], [], [], []
         c = m = 0
 
         def name(f):
@@ -285,6 +293,8 @@ class CompiledModel:
                 untimed.append(name(f))
             else:
                 etau += ["    " + s for s in tlines]
+            if f.linear_in_constants:  # (the others: shooting's dR/dlambda by differences, sensitivity_ready)
+                elam += ["    " + s.replace("cst[", "dcst[") for s in f.excitation_lines(f"_e{i}_", c)]
             c += len(f.constants(p0))
         if missing:
             raise SimulationError(
@@ -298,7 +308,7 @@ class CompiledModel:
                 f"have no tau-derivative lines in their compiled form (force_dtau_lines() or "
                 f"excitation_dtau_lines()), so the variational equations cannot be integrated; use central "
                 f"differences")
-        return jacobian_functions(jac, ftau, etau)
+        return jacobian_functions(jac, ftau, etau, elam)
 
     @property
     def module(self):
@@ -400,6 +410,9 @@ class CompiledModel:
         out = np.zeros(2 * self.n)
         self.module.rhs(y, float(tau), p, Minv, C, K, cst, mode, *self._work(), out)
         return out
+
+
+_PARAMETER_READ = re.compile(r"\bp\[(\d+)\]")
 
 
 def compile_model(model: Model) -> CompiledModel:

@@ -25,14 +25,16 @@ the saltation matrix at every located switch; one integration per segment)
 or by central differences of the flow map (``jacobian="differences"``, the
 reference: ``4 n + 1`` integrations per segment).
 
-``dR/dlam`` is a central difference of the plain flow maps in ``lam`` (two
-more integrations of the period). A sensitivity equation would need the
-derivative of every element's compiled constants in the parameter, which
-enter them nonlinearly (clearances, stiffness laws, the step ``h = T / S`` and
-the forcing phase through ``w``); the flow map is smooth in ``lam`` away from
-grazing, so the difference with step ``fd_step max(1, |lam|)`` is accurate to
-its truncation ``O(step^2)`` and rounding ``O(eps / step)``, about 1e-10
-relative at the default step.
+``dR/dlam`` is integrated with the variational equations as one more
+column, the sensitivity ``dz/dlam`` at fixed phases (the step ``h = T / S``
+moves with ``w``; :mod:`contin.timedomain.variational`), when ``lam`` enters
+only the damping and stiffness matrices, the excitations (linear in their
+constants) and the forcing frequency: the common case, ``lam = w`` or an
+amplitude. Where it enters the mass matrix or a force law (a clearance, a
+contact stiffness) it is a central difference of the plain flow maps in
+``lam`` (two more integrations of the period), accurate to its truncation
+``O(step^2)`` and rounding ``O(eps / step)``, about 1e-10 relative at the
+default step ``fd_step max(1, |lam|)``.
 
 Multipliers
 -----------
@@ -61,7 +63,7 @@ from contin.stability.periodic_schur import periodic_eigenvalues
 from contin.stability.saltation import orbit_state
 from contin.timedomain.integrator import RK4_STABILITY, SimulationError, compile_model
 from contin.timedomain.shooting_events import graze_data, grid_graze, nearest_zero, start_graze
-from contin.timedomain.variational import VariationalFlow
+from contin.timedomain.variational import VariationalFlow, parameter_sensitivity
 from contin.util.options import from_mapping
 
 __all__ = ["ShootingOptions", "ShootingProblem", "flip_test"]
@@ -71,12 +73,16 @@ JACOBIANS = ("variational", "differences")
 MIN_FACTORS = 8
 #: linearisations kept (by (u, lam)) for the monitors and the stability verdict
 CACHE_SIZE = 8
-#: a linearisation's cost in plain flows of the same segments: the variational flow (about 7, measured by
-#: scripts/bench/bench_shooting.py) and the two flows of dR/dlam; the engine's Newton solves then evaluate
-#: the iterates by the plain flows alone (a lazy Jacobian, contin.engine.problem.LAZY_COST)
+#: a linearisation's cost in plain flows of the same segments: the variational flow (scripts/bench/
+#: bench_shooting.py), with dR/dlam integrated in it or, for a parameter of the mass or a force law, two flows
+#: more; the engine's Newton solves then evaluate the iterates by the plain flows alone (a lazy Jacobian,
+#: contin.engine.problem.LAZY_COST)
 VARIATIONAL_COST = 9.0
 #: parameter values whose integration setup is kept
 SETUP_CACHE = 4
+#: the relative step of the differences of the damping and stiffness matrices and the compiled constants in lam
+#: (parameter_sensitivity): exact for their dependence, at most quadratic, up to rounding eps / step
+SENSITIVITY_STEP = 1e-4
 
 
 @dataclasses.dataclass(frozen=True)
@@ -356,18 +362,20 @@ class ShootingProblem:
             self._flow = VariationalFlow(self.model, steps_per_period=self.options.steps_per_period)
         return self._flow
 
-    def _segment(self, z, setup, k):
-        """Segment ``k`` from ``z``: end state, its factors (K, 2n, 2n), the graze per switching function and
-        the number of located switches."""
+    def _segment(self, z, setup, k, sensitivity=None):
+        """Segment ``k`` from ``z``: end state, its factors (K, 2n, 2n), the graze per switching function, the
+        number of located switches and, with ``sensitivity`` (:func:`parameter_sensitivity`), ``d end /
+        d lam`` (else None)."""
         flow = self._variational()
         if flow is None:
-            return self._segment_differences(z, setup, k)
+            return (*self._segment_differences(z, setup, k), None)
         try:
             run = flow.run(z, setup[0], k * self._seg_steps, (k + 1) * self._seg_steps, jacobian=True,
-                           factors=self._factors)
+                           factors=self._factors, sensitivity=sensitivity)
         except SimulationError as exc:
             raise ArithmeticError(str(exc)) from None
-        return run.state, np.asarray(run.factors), np.asarray(run.graze, dtype=float).reshape(-1), run.switches
+        return (run.state, np.asarray(run.factors), np.asarray(run.graze, dtype=float).reshape(-1), run.switches,
+                run.sensitivity)
 
     def _segment_differences(self, z, setup, k):
         """:meth:`_segment` by central differences of the flow map (the reference): one factor per segment."""
@@ -415,8 +423,22 @@ class ShootingProblem:
         setup = self._setup(lam)
         ends, factors, graze, switches = np.empty((M, m)), [], [], 0
         Ju = np.zeros((M * m, M * m))
+        # dR/dlam: the sensitivity integrated with the variational equations where it can be, else central
+        # differences of the plain flows (module docstring)
+        step = self.options.fd_step * max(1.0, abs(float(lam)))
+        sens = None
+        if self._variational() is not None:
+            try:  # the matrices and constants at most quadratic in lam: a wider step, exact but for rounding
+                dp = SENSITIVITY_STEP * max(1.0, abs(float(lam)))
+                p_lo, p_hi = (self.model.parameter_vector(self.params_at(lam + s)) for s in (-dp, dp))
+                sens = parameter_sensitivity(self._cm, p_lo, p_hi, dp, self._kw)
+            except (ArithmeticError, SimulationError):
+                sens = None
+        Jlam = np.empty(M * m) if sens is not None else None
         for k in range(M):
-            ends[k], f, g, n_sw = self._segment(Z[k], setup, k)
+            ends[k], f, g, n_sw, dz = self._segment(Z[k], setup, k, sens)
+            if Jlam is not None:
+                Jlam[k * m:(k + 1) * m] = dz
             switches += n_sw
             Phi = f[0]
             for F in f[1:]:
@@ -428,9 +450,8 @@ class ShootingProblem:
             graze.append(g)
         if not (np.all(np.isfinite(ends)) and np.all(np.isfinite(Ju))):
             raise ArithmeticError(f"non-finite flow map at {self.parameter} = {lam:.10g}")
-        # dR/dlam: the plain flow maps at lam +- step (module docstring)
-        step = self.options.fd_step * max(1.0, abs(float(lam)))
-        Jlam = ((self.flows(u, lam + step) - self.flows(u, lam - step)) / (2.0 * step)).reshape(-1)
+        if Jlam is None:
+            Jlam = ((self.flows(u, lam + step) - self.flows(u, lam - step)) / (2.0 * step)).reshape(-1)
         R = (ends - np.roll(Z, -1, axis=0)).reshape(-1)
         lin = _Linearisation(R, Ju, Jlam, np.concatenate(factors, axis=0), nearest_zero(graze), switches)
         self._cache[key] = lin
@@ -441,7 +462,7 @@ class ShootingProblem:
     def flow_jacobian(self, z: np.ndarray, lam: float) -> tuple[np.ndarray, np.ndarray]:
         """The first segment's end state from ``z`` (2n,) and its Jacobian ``Phi`` (2n, 2n): the variational flow
         alone, without ``dR/dlam`` (for iterating the map; with one segment, over the whole period)."""
-        end, factors, _, _ = self._segment(np.asarray(z, dtype=float), self._setup(lam), 0)
+        end, factors, _, _, _ = self._segment(np.asarray(z, dtype=float), self._setup(lam), 0)
         Phi = factors[0]
         for F in factors[1:]:
             Phi = F @ Phi

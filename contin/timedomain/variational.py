@@ -143,6 +143,9 @@ class VariationalRun:
     undefined_saltations : int
         Switches where ``n^T dR/dt1 = 0`` (grazing incidence): the event time
         taken as independent of the state there.
+    sensitivity : ndarray, shape (2n,), or None
+        ``d z(k1) / d lambda`` at fixed ``z(k0)`` and fixed phases (with ``sensitivity`` asked of
+        :meth:`VariationalFlow.run`).
     """
 
     state: np.ndarray
@@ -153,6 +156,36 @@ class VariationalRun:
     graze: np.ndarray
     unresolved: int = 0
     undefined_saltations: int = 0
+    sensitivity: np.ndarray | None = None
+
+
+def parameter_sensitivity(compiled, p_lo: np.ndarray, p_hi: np.ndarray, step: float, kw: int):
+    """The ``sensitivity`` argument of :meth:`VariationalFlow.run` for a parameter ``lambda``.
+
+    From the model's parameter vectors at ``lambda -+ step`` (shape (P,)): central differences of the
+    damping and stiffness matrices and of the compiled constants (exact for their dependence on the
+    parameters, at most quadratic in the built-in and scene elements, up to rounding ``eps / step``), and
+    ``d ln h / d lambda = -(dw / dlambda) / w`` with ``w = p[kw]``, the forcing frequency.
+
+    Returns
+    -------
+    tuple or None
+        ``(dC, dK, dcst, rate)``; None where no sensitivity is integrated (``dR/dlambda`` is then taken by
+        differences of the flow): the mass matrix or a force law (its constants, or a parameter its lines read)
+        moves with ``lambda``, or an excitation's lines are not linear in its constants.
+    """
+    if not compiled.linear_excitations or compiled.force_parameters & set(np.flatnonzero(p_lo != p_hi).tolist()):
+        return None
+    M_lo, C_lo, K_lo = compiled.model.linear(p_lo)
+    M_hi, C_hi, K_hi = compiled.model.linear(p_hi)
+    nf = compiled.n_force_constants
+    cst_lo, cst_hi = (compiled.arguments(q)[3] for q in (p_lo, p_hi))
+    if not (np.array_equal(M_lo, M_hi) and np.array_equal(cst_lo[:nf], cst_hi[:nf])):
+        return None
+    d = 2.0 * step
+    w = 0.5 * (p_lo[kw] + p_hi[kw])
+    return ((np.asarray(C_hi, dtype=float) - C_lo) / d, (np.asarray(K_hi, dtype=float) - K_lo) / d,
+            (cst_hi - cst_lo) / d, -float(p_hi[kw] - p_lo[kw]) / d / w)
 
 
 class VariationalFlow:
@@ -231,7 +264,8 @@ class VariationalFlow:
         self._checked = (key, (h, args))
         return h, args
 
-    def run(self, z, p, k0: int, k1: int, jacobian: bool = True, factors: int = 1, mode=None) -> VariationalRun:
+    def run(self, z, p, k0: int, k1: int, jacobian: bool = True, factors: int = 1, mode=None,
+            sensitivity=None) -> VariationalRun:
         """Integrate from step ``k0`` to step ``k1`` (module docstring).
 
         Parameters
@@ -248,6 +282,13 @@ class VariationalFlow:
             ``K``, the number of factors; it must divide ``k1 - k0``.
         mode : array_like of int, shape (n_switch,), optional
             Contact mode at ``k0`` (default: the state's own).
+        sensitivity : tuple, optional
+            ``(dC, dK, dcst, rate)``: the derivatives in a parameter ``lambda`` of the damping and stiffness
+            matrices (n, n) and of the compiled constants, and ``d ln h / d lambda`` (``-(dw/dlambda) / w``);
+            with ``jacobian``, ``d z(k1) / d lambda`` is integrated with ``Phi`` through the same stages and
+            switches (module docstring). The mass matrix and the force laws' constants must not depend on
+            ``lambda``, and every excitation's lines must be linear in its constants (the caller's check:
+            :meth:`sensitivity_ready`).
 
         Returns
         -------
@@ -298,26 +339,42 @@ class VariationalFlow:
         if m.size == 0:
             m = np.zeros(1, dtype=np.int64)
         want = bool(jacobian)
-        P = np.eye(n2)
-        fac = np.zeros((K if want else 0, n2, n2))
+        lam = want and sensitivity is not None
+        nc = n2 + 1 if lam else n2
+        P = np.eye(n2, nc)
+        fac = np.zeros((K if want else 0, n2, nc))
         graze = np.full(max(ns, 1), np.inf)
         stats = np.zeros(6, dtype=np.int64)
         y = z.copy()
-        if want:
-            status = self.module.flow(y, m, P, k0, k1, self.steps_per_period, h, p, Minv, C, Kmat, cst,
-                                      self.max_events, True, (k1 - k0) // K, fac, graze, stats)
+        if lam:
+            dC, dK, dcst, rate = sensitivity
+            dC, dK = np.ascontiguousarray(dC, dtype=float), np.ascontiguousarray(dK, dtype=float)
+            dcst, rate = np.ascontiguousarray(dcst, dtype=float), float(rate)
         else:
-            status = self.module.flow(y, m, P, k0, k1, self.steps_per_period, h, p, Minv, C, Kmat, cst,
-                                      self.max_events, False, k1 - k0, np.zeros((1, n2, n2)), graze, stats)
+            dC, dK, dcst, rate = C, Kmat, cst, 0.0  # not read
+        if want:
+            status = self.module.flow(y, m, P, k0, k1, self.steps_per_period, h, p, Minv, C, Kmat, cst, dC, dK,
+                                      dcst, rate, self.max_events, True, (k1 - k0) // K, fac, graze, stats)
+        else:
+            status = self.module.flow(y, m, P, k0, k1, self.steps_per_period, h, p, Minv, C, Kmat, cst, dC, dK,
+                                      dcst, rate, self.max_events, False, k1 - k0, np.zeros((1, n2, n2)), graze,
+                                      stats)
         if status != 0:
             kf = int(stats[2])
             text = ", ".join(f"{a}={v:.6g}" for a, v in zip(self.model.param_names, p))
             raise SimulationError(f"variational flow of '{self.model.name}' blew up: non-finite state or "
                                   f"derivative at step {kf} ({kf / self.steps_per_period:.2f} periods) with {text}")
-        jac = None
+        jac = sens = None
+        if lam:
+            # each factor's last column is the sensitivity gathered over its steps: carried through the later ones
+            sens = np.zeros(n2)
+            for f in fac:
+                sens = f[:, :n2] @ sens + f[:, n2]
+            fac = np.ascontiguousarray(fac[:, :, :n2])
         if want:
             jac = fac[0].copy()
             for f in fac[1:]:
                 jac = f @ jac
         return VariationalRun(state=y, factors=fac, jacobian=jac, switches=int(stats[0]), mode=m[:ns].copy(),
-                              graze=graze[:ns].copy(), unresolved=int(stats[1]), undefined_saltations=int(stats[5]))
+                              graze=graze[:ns].copy(), unresolved=int(stats[1]), undefined_saltations=int(stats[5]),
+                              sensitivity=sens)

@@ -33,13 +33,14 @@ def _graze(tx, tv, graze):
 
 @njit(cache=True, error_model="numpy", inline="always")
 def _apply(B, P, Q):
-    # Q = A P with A = [[0, I], [B]]
+    # Q = A P with A = [[0, I], [B]] (P (2N, columns))
     n2 = P.shape[0]
+    nc = P.shape[1]
     for r in range(N):
-        for c in range(n2):
+        for c in range(nc):
             Q[r, c] = P[N + r, c]
     for r in range(N):
-        for c in range(n2):
+        for c in range(nc):
             a = 0.0
             for q in range(n2):
                 a += B[r, q] * P[q, c]
@@ -116,14 +117,20 @@ def step_times(y, tau0, dtau, hs, om, p, Minv, C, K, cst, mode, ta, tb):
 
 
 @njit(cache=True, error_model="numpy")
-def flow(y, mode, P, k0, k1, S, h, p, Minv, C, K, cst, max_events, want, L, factors, graze, stats):
+def flow(y, mode, P, k0, k1, S, h, p, Minv, C, K, cst, dC, dK, dcst, rate, max_events, want, L, factors, graze,
+         stats):
     """Steps k0..k1-1 on y (2n,), mode (NS,) and, with want, P (2n, 2n); factors every L steps.
+
+    P (2n, 2n + 1): its last column the sensitivity dy/dlambda at fixed phase (dC, dK, dcst the
+    derivatives of C, K and cst in lambda, rate = d ln h / d lambda), through the same stages and switches.
 
     stats: 0 events, 1 unresolved, 2 failing step, 3 steps, 4 trials, 5 switches with n . dR/dt1 = 0.
     Returns 0 = done, 1 = non-finite state or derivative.
     """
     n2 = y.shape[0]
+    nc = P.shape[1]  # n2, or n2 + 1 with the sensitivity column
     X, V, TAU, F, DUM, DX, DXD, R, B = _scratch(n2)
+    fl = np.zeros(n2)
     q1 = np.empty(n2)
     q2 = np.empty(n2)
     q3 = np.empty(n2)
@@ -131,16 +138,16 @@ def flow(y, mode, P, k0, k1, S, h, p, Minv, C, K, cst, max_events, want, L, fact
     yt = np.empty(n2)
     ym = np.empty(n2)
     yb = np.empty(n2)
-    Q1 = np.empty((n2, n2))
-    Q2 = np.empty((n2, n2))
-    Q3 = np.empty((n2, n2))
-    Q4 = np.empty((n2, n2))
-    Pt = np.empty((n2, n2))
-    Pm = np.empty((n2, n2))
+    Q1 = np.empty((n2, nc))
+    Q2 = np.empty((n2, nc))
+    Q3 = np.empty((n2, nc))
+    Q4 = np.empty((n2, nc))
+    Pt = np.empty((n2, nc))
+    Pm = np.empty((n2, nc))
     # the step's derivatives in its start and end times, dR/dt0 (ta) and dR/dt1 (tb)
     ta = np.zeros(n2)
     tb = np.zeros(n2)
-    gz = np.zeros(n2)  # d t_start / dz of the current sub-step (zero at grid times)
+    gz = np.zeros(nc)  # d t_start / dz (and / d lambda) of the current sub-step (zero at grid times)
     hasg = False
     ns = max(NS, 1)
     G = np.zeros((ns, n2))
@@ -194,7 +201,7 @@ def flow(y, mode, P, k0, k1, S, h, p, Minv, C, K, cst, max_events, want, L, fact
                 hs = mth * frac * h
                 for i in range(n2):
                     yt[i] = y[i]
-                    for c in range(n2):
+                    for c in range(nc):
                         Pt[i, c] = P[i, c]
                 for st in range(4):
                     ct = 0.0 if st == 0 else (0.5 if st < 3 else 1.0)
@@ -203,16 +210,26 @@ def flow(y, mode, P, k0, k1, S, h, p, Minv, C, K, cst, max_events, want, L, fact
                     rhs(yt, tau0 + ct * dtau, p, Minv, C, K, cst, mode, X, V, TAU, F, DUM, R, kc)
                     jac(yt, tau0 + ct * dtau, p, Minv, C, K, cst, mode, X, V, TAU, F, DX, DXD, B)
                     _apply(B, Pt, Qc)
+                    if nc > n2:
+                        # the sensitivity's stage: dk = A dY + d f / d lambda (dY carries the step's own
+                        # derivative, rate * hs, times the last stage)
+                        rhs_lam(yt, tau0 + ct * dtau, Minv, dC, dK, dcst, R, fl)
+                        for i in range(n2):
+                            Qc[i, n2] += fl[i]
                     if st < 3:
                         cn = 0.5 if st < 2 else 1.0
                         for i in range(n2):
                             yt[i] = y[i] + cn * hs * kc[i]
-                            for c in range(n2):
+                            for c in range(nc):
                                 Pt[i, c] = P[i, c] + cn * hs * Qc[i, c]
+                            if nc > n2:
+                                Pt[i, n2] += cn * rate * hs * kc[i]
                 for i in range(n2):
                     ym[i] = y[i] + hs / 6.0 * (q1[i] + 2.0 * q2[i] + 2.0 * q3[i] + q4[i])
-                    for c in range(n2):
+                    for c in range(nc):
                         Pm[i, c] = P[i, c] + hs / 6.0 * (Q1[i, c] + 2.0 * Q2[i, c] + 2.0 * Q3[i, c] + Q4[i, c])
+                    if nc > n2:
+                        Pm[i, n2] += rate * hs / 6.0 * (q1[i] + 2.0 * q2[i] + 2.0 * q3[i] + q4[i])
                 if finishing or hasg:
                     # the time derivatives only where they enter, a sub-step ending at a switch or starting at
                     # one (a few a period: a call of its own, the stages recomputed)
@@ -239,7 +256,7 @@ def flow(y, mode, P, k0, k1, S, h, p, Minv, C, K, cst, max_events, want, L, fact
                 if want:
                     # Phi <- P Phi + a g^T at the event state; s(y_b(t_e)) = 0 gives dt_e = -n.(..) / n.b
                     for i in range(n2):
-                        for c in range(n2):
+                        for c in range(nc):
                             P[i, c] = Pm[i, c] + (ta[i] * gz[c] if hasg else 0.0)
                     den = 0.0
                     if jev >= 0:
@@ -250,16 +267,16 @@ def flow(y, mode, P, k0, k1, S, h, p, Minv, C, K, cst, max_events, want, L, fact
                         # grazing incidence: the event time taken as fixed
                         stats[5] += 1
                         hasg = False
-                        for c in range(n2):
+                        for c in range(nc):
                             gz[c] = 0.0
                     else:
-                        for c in range(n2):
+                        for c in range(nc):
                             w = 0.0
                             for i in range(n2):
                                 w += G[jev, i] * P[i, c]
                             gz[c] = -w / den
                         for i in range(n2):
-                            for c in range(n2):
+                            for c in range(nc):
                                 P[i, c] += tb[i] * gz[c]
                         hasg = True
                 for i in range(n2):
@@ -277,7 +294,7 @@ def flow(y, mode, P, k0, k1, S, h, p, Minv, C, K, cst, max_events, want, L, fact
                     y[i] = ym[i]
                 if want:
                     for i in range(n2):
-                        for c in range(n2):
+                        for c in range(nc):
                             P[i, c] = Pm[i, c]
                 stats[3] += 1
                 break
@@ -336,7 +353,7 @@ def flow(y, mode, P, k0, k1, S, h, p, Minv, C, K, cst, max_events, want, L, fact
                 if want:
                     # a sub-step ending at the grid time: Phi <- P Phi + a g^T
                     for i in range(n2):
-                        for c in range(n2):
+                        for c in range(nc):
                             P[i, c] = Pm[i, c] + (ta[i] * gz[c] if hasg else 0.0)
                 for j in range(NS):
                     sp[j] = s0[j]
@@ -365,7 +382,7 @@ def flow(y, mode, P, k0, k1, S, h, p, Minv, C, K, cst, max_events, want, L, fact
                             if den == 0.0 or not np.isfinite(den):
                                 stats[5] += 1
                             else:
-                                for c in range(n2):
+                                for c in range(nc):
                                     w = 0.0
                                     for i in range(n2):
                                         w += G[j, i] * P[i, c]
@@ -391,7 +408,7 @@ def flow(y, mode, P, k0, k1, S, h, p, Minv, C, K, cst, max_events, want, L, fact
         # the next step starts at a grid time
         if hasg:
             hasg = False
-            for c in range(n2):
+            for c in range(nc):
                 gz[c] = 0.0
         for i in range(n2):
             if not np.isfinite(y[i]):
@@ -399,7 +416,7 @@ def flow(y, mode, P, k0, k1, S, h, p, Minv, C, K, cst, max_events, want, L, fact
                 return 1
         if want and (k + 1 - k0) % L == 0:
             for i in range(n2):
-                for c in range(n2):
+                for c in range(nc):
                     if not np.isfinite(P[i, c]):
                         stats[2] = k + 1
                         return 1
@@ -421,12 +438,17 @@ def jac(y, tau, p, Minv, C, K, cst, mode, X, V, TAU, F, DX, DXD, B):
 @njit(cache=True)
 def rhs_tau(y, tau, p, Minv, C, K, cst, mode, X, V, TAU, F, R, out):
     return
+
+
+@njit(cache=True)
+def rhs_lam(y, tau, Minv, dC, dK, dcst, R, out):
+    return
 '''
 
 
 
-def jacobian_functions(jac: list, ftau: list, etau: list) -> str:
-    """The source of ``jac`` and ``rhs_tau`` around the elements' lines.
+def jacobian_functions(jac: list, ftau: list, etau: list, elam: list = ()) -> str:
+    """The source of ``jac``, ``rhs_tau`` and ``rhs_lam`` around the elements' lines.
 
     Parameters
     ----------
@@ -437,6 +459,9 @@ def jacobian_functions(jac: list, ftau: list, etau: list) -> str:
         Lines accumulating ``d f_nl / d tau`` into ``F``.
     etau : list of str
         Lines accumulating ``d f_ext / d tau`` into ``R``.
+    elam : list of str
+        Lines accumulating ``d f_ext / d lambda`` into ``R`` (the excitations' lines with the constants'
+        derivatives ``dcst``; only excitations linear in their constants have them).
 
     Returns
     -------
@@ -483,6 +508,24 @@ def jacobian_functions(jac: list, ftau: list, etau: list) -> str:
         "    for i in range(N):",
         "        R[i] = -F[0, i]",
     ] + etau + [
+        "    for i in range(N):",
+        "        out[i] = 0.0",
+        "        a = 0.0",
+        "        for j in range(N):",
+        "            a += Minv[i, j] * R[j]",
+        "        out[N + i] = a",
+        "",
+        "",
+        '@njit(cache=True, error_model="numpy", inline="always")',
+        "def rhs_lam(y, tau, Minv, dC, dK, dcst, R, out):",
+        "    # out = d y' / d lambda at fixed y and tau, (0, M^-1 (d f_ext / d lambda - dC v - dK x)): the mass and",
+        "    # the force laws do not depend on lambda (VariationalFlow.run checks it)",
+        "    for i in range(N):",
+        "        s = 0.0",
+        "        for j in range(N):",
+        "            s -= dC[i, j] * y[N + j] + dK[i, j] * y[j]",
+        "        R[i] = s",
+    ] + list(elam) + [
         "    for i in range(N):",
         "        out[i] = 0.0",
         "        a = 0.0",

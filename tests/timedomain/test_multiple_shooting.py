@@ -76,7 +76,12 @@ def test_jacobians_are_the_central_differences_of_the_residual(case, segments):
     u = prob.start_unknowns(z, w)
     if case == "gap":
         assert simulate(model, {"w": w}, z[:1], z[1:], periods=1, steps_per_period=512).events >= 2
+    plain = []
+    run = prob._run
+    prob._run = lambda *a, **k: plain.append(1) or run(*a, **k)
     R, Ju, Jlam = prob.linearize(u, w)
+    assert not plain  # one integration a segment: dR/dw is the sensitivity integrated with Phi
+    prob._run = run
     np.testing.assert_array_equal(R, prob.residual(u, w))
     want = central_jacobian(prob, u, w)
     assert np.abs(Ju - want).max() <= 1e-6 * np.abs(want).max()
@@ -90,6 +95,72 @@ def test_jacobians_are_the_central_differences_of_the_residual(case, segments):
     h = 1e-7 * w
     finer = (prob.residual(u, w + h) - prob.residual(u, w - h)) / (2 * h)
     assert np.abs(Jlam - finer).max() <= 1e-6 * np.abs(finer).max()
+
+
+@pytest.mark.parametrize("parameter, value, integrated", [("F", 0.5, True), ("c", C, True), ("w", 1.0, True)])
+def test_the_sensitivity_in_any_parameter_of_the_matrices_or_excitations(parameter, value, integrated):
+    """dR/dlam integrated with the variational equations in the forcing amplitude, the damping and the
+    frequency on an orbit through the stop (two switches a period), against central differences."""
+    model = gap_model()
+    prob = ShootingProblem(model, parameter, params={"w": 1.0, "F": F, "c": C},
+                           options=ShootingOptions(steps_per_period=512, segments=2))
+    u = prob.start_unknowns(np.array([1.5, 0.0]), value)
+    plain = []
+    run = prob._run
+    prob._run = lambda *a, **k: plain.append(1) or run(*a, **k)
+    _, _, Jlam = prob.linearize(u, value)
+    prob._run = run
+    assert (not plain) == integrated
+    h = 1e-6 * max(1.0, abs(value))
+    want = (prob.residual(u, value + h) - prob.residual(u, value - h)) / (2 * h)
+    assert np.abs(Jlam - want).max() <= 1e-6 * np.abs(want).max()
+
+
+EXPRESSION_FORCE = """\
+model:
+  name: damped_mathieu
+  dofs: [x]
+  parameters: {c: 0.1, delta: 0.2, eps: 0.4, w: 1.0}
+  mass: [[1]]
+  damping: [[c]]
+  stiffness: [[0]]
+  forces:
+    - {dof: x, expr: "x**2*x_dot + (delta + eps*cos(tau))*x"}
+  frequency: w
+analysis: {type: frequency_response, parameter: delta, range: [0, 1]}
+"""
+
+
+def _stop_with_clearance():
+    model = polynomial_model(["x"], {"c": C, "F": F, "w": 1.0, "g": G}, mass=[[1.0]], damping=[["c"]],
+                             stiffness=[[1.0]], forcing=[{"dof": "x", "amplitude": "F"}])
+    model.forces.append(GapForce(0, Monomial.parse("g", list(model.parameters)), Monomial(20.0), sides="+"))
+    return model, "g", G, np.array([1.5, 0.0])
+
+
+def _expression_force():
+    from contin.scene.build import build_model as scene_model
+    from contin.scene.parse import parse_scene
+
+    return scene_model(parse_scene(EXPRESSION_FORCE)), "delta", 0.2, np.array([0.5, 0.1])
+
+
+@pytest.mark.parametrize("make", [_stop_with_clearance, _expression_force])
+def test_a_parameter_of_a_force_law_takes_dR_dlam_by_differences(make):
+    """The stop's clearance (a constant of its law) and a parameter an expression force reads: no sensitivity
+    is integrated for them (two plain flows a segment), and dR/dlam is the central difference."""
+    model, name, value, z = make()
+    prob = ShootingProblem(model, name, params={"w": 1.0}, options=ShootingOptions(steps_per_period=512))
+    u = prob.start_unknowns(z, value)
+    plain = []
+    run = prob._run
+    prob._run = lambda *a, **k: plain.append(1) or run(*a, **k)
+    _, _, Jlam = prob.linearize(u, value)
+    prob._run = run
+    assert len(plain) == 2
+    h = 1e-7
+    want = (prob.residual(u, value + h) - prob.residual(u, value - h)) / (2 * h)
+    assert np.abs(Jlam - want).max() <= 1e-6 * np.abs(want).max()
 
 
 def test_variational_and_difference_jacobians_agree():

@@ -98,6 +98,10 @@ class HarmonicExcitation(ExcitationElement):
 class HarmonicForm(CompiledForm):
     """The forcing in the generated simulation module: its amplitude is a constant, the cosine a line."""
 
+    #: its lines are linear in its constants (``A cos(k tau + phi)``, ``A``): the same lines with the constants'
+    #: derivatives give the excitation's derivative in a parameter (contin.timedomain.variational)
+    linear_in_constants = True
+
     def constants(self, p):
         e = self.element
         A = e.amplitude.value(p)

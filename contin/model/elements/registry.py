@@ -190,6 +190,10 @@ class CompiledForm:
     imports: tuple = ()
     #: helper kernels whose source is fingerprinted into the module (cache invalidation)
     kernels: tuple = ()
+    #: an excitation whose lines are linear in its constants: the same lines with ``dcst`` for ``cst`` give its
+    #: derivative in a parameter (the sensitivity of :mod:`contin.timedomain.variational`; otherwise shooting
+    #: takes ``dR/dlambda`` by differences of the flow)
+    linear_in_constants = False
 
     def __init__(self, element):
         self.element = element
