@@ -507,30 +507,28 @@ def jacobian_functions(jac: list, ftau: list, etau: list, elam: list = ()) -> st
     ] + ftau + [
         "    for i in range(N):",
         "        R[i] = -F[0, i]",
-    ] + etau + [
-        "    for i in range(N):",
-        "        out[i] = 0.0",
-        "        a = 0.0",
-        "        for j in range(N):",
-        "            a += Minv[i, j] * R[j]",
-        "        out[N + i] = a",
+    ] + etau + _ACCELERATION + [
         "",
         "",
         '@njit(cache=True, error_model="numpy", inline="always")',
         "def rhs_lam(y, tau, Minv, dC, dK, dcst, R, out):",
         "    # out = d y' / d lambda at fixed y and tau, (0, M^-1 (d f_ext / d lambda - dC v - dK x)): the mass and",
-        "    # the force laws do not depend on lambda (VariationalFlow.run checks it)",
+        "    # the force laws do not depend on lambda (parameter_sensitivity checks it)",
         "    for i in range(N):",
         "        s = 0.0",
         "        for j in range(N):",
         "            s -= dC[i, j] * y[N + j] + dK[i, j] * y[j]",
         "        R[i] = s",
-    ] + list(elam) + [
-        "    for i in range(N):",
-        "        out[i] = 0.0",
-        "        a = 0.0",
-        "        for j in range(N):",
-        "            a += Minv[i, j] * R[j]",
-        "        out[N + i] = a",
-    ]
+    ] + list(elam) + _ACCELERATION
     return "\n".join(src) + "\n"
+
+
+#: the generated lines ``out = (0, M^-1 R)``: a derivative of the right-hand side whose velocity rows vanish
+_ACCELERATION = [
+    "    for i in range(N):",
+    "        out[i] = 0.0",
+    "        a = 0.0",
+    "        for j in range(N):",
+    "            a += Minv[i, j] * R[j]",
+    "        out[N + i] = a",
+]
