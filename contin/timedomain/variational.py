@@ -71,6 +71,24 @@ flow's over the step of the switch). There the saltation matrix would leave
 Newton on the discrete map converging linearly; ``Phi`` is the discrete
 map's (``tests/timedomain/test_variational.py``).
 
+Parameter sensitivity
+---------------------
+With ``sensitivity`` (:func:`parameter_sensitivity`) ``Phi`` carries one more
+column, ``q = dy/dlambda`` at fixed phases (the phase grid does not move with
+``lambda``; the step ``h = 2 pi / (w S)`` does, at the rate
+``d ln h / d lambda``). Through the same stages,
+
+    dY_i = q + c_i (dh k_{i-1} + h dk_{i-1}),  dk_i = A_i dY_i + f_lambda,i,
+    q <- q + dh/6 (k1 + 2 k2 + 2 k3 + k4) + h/6 (dk1 + 2 dk2 + 2 dk3 + dk4),
+
+with ``f_lambda = (0, M^-1 (f_ext,lambda - C_lambda v - K_lambda x))`` from
+the compiled ``rhs_lam`` (the mass and the force laws must not depend on
+``lambda``). At a located switch ``q`` is one more column of the updates
+above: the event's phase moves with ``lambda`` as its time with the state,
+and the factors of ``w`` in ``a``, ``b`` and ``dt_e`` cancel. Each factor's
+column gathers the sensitivity over its steps; the run carries them through
+the later factors (:attr:`VariationalRun.sensitivity`).
+
 Residuals. The Illinois iteration stops with a bracket below ``1e-13`` of the
 step and accepts the state just past the surface (``s(y_b)`` of the order of
 ``1e-13 h |n^T b|``), not the root: the map differs from the one with the
