@@ -8,6 +8,7 @@ import numpy as np
 from contin.analyses.shooting_rows import is_shooting, order_of, shooting_row
 from contin.hb.measures import measure_names, point_measures
 from contin.hb.torus import QuasiPeriodicBalance, torus_measure_names, torus_measures
+from contin.model.periodic import is_circle
 from contin.output.checkpoint import read_records, special_record
 from contin.output.dense import checkpoint_solutions
 from contin.output.expansion import ENGINE_UNKNOWNS, StoredExpansion
@@ -102,6 +103,10 @@ class BranchRecorder:
     def _measures(self, u, n, nu, problem=None, lam=None):
         if isinstance(problem, QuasiPeriodicBalance):
             return torus_measures(problem, u, lam, self.dof_names, self.harmonic_columns)
+        if is_circle(problem):
+            from contin.timedomain.circle_measures import circle_measures  # deferred: the time domain
+
+            return circle_measures(problem, u, lam, self.dof_names, min(self.H, self.harmonic_columns))
         out = point_measures(u, n, self.dof_names, self.harmonic_columns)
         if self.observables is not None:
             out.update(self.observables(u, n, nu))
@@ -154,8 +159,9 @@ class BranchRecorder:
             "data": {k: v[i] for k, v in pd.items()}})
         self.n_rows += 1
         self.special_points(branch_id, branch)
+        prob = self.problems.get(branch_id)
         c = self.curves.setdefault(branch_id, {"x": [], "rows": [], "stable": [], "nu": nu,
-                                               "torus": isinstance(self.problems.get(branch_id), QuasiPeriodicBalance)})
+                                               "torus": isinstance(prob, QuasiPeriodicBalance) or is_circle(prob)})
         c["x"].append(lam)
         c["rows"].append(row)
         c["stable"].append(row.get("stable"))
@@ -316,7 +322,11 @@ def _shooting_header(problem) -> dict:
 
 
 def _torus_header(problem) -> dict | None:
-    """What rebuilds a torus branch's problem from the checkpoint (None for a periodic branch)."""
+    """What rebuilds a torus branch's problem from the checkpoint (None for a periodic branch); a circle's
+    problem is made again by its start at the parent's Neimark-Sacker point, and its header says it."""
+    if is_circle(problem):
+        return {"circle": True, "points": problem.points, "steps_per_period": problem.options.steps_per_period,
+                "winding": int(problem.winding)}
     if not isinstance(problem, QuasiPeriodicBalance):
         return None
     return {"harmonics": problem.H1, "harmonics2": problem.H2, "samples": problem.N1, "samples2": problem.N2,

@@ -69,7 +69,9 @@ START_KEYS = ("start", "start_from", "start_simulation", "subharmonic", "harmoni
 
 def _torus_ok(v) -> bool:
     if not isinstance(v, dict) or set(v) - {"harmonics", "harmonics2", "samples", "samples2", "stability", "periods",
-                                           "steps_per_period", "locking_tol"}:
+                                           "steps_per_period", "locking_tol", "points"}:
+        return False
+    if v.get("points") is not None and not (is_int(v["points"]) and 3 <= v["points"] <= 999 and v["points"] % 2):
         return False
     ints = all(v.get(k) is None or (is_int(v[k]) and 1 <= v[k] <= 2**16)
                for k in ("harmonics", "harmonics2", "samples", "samples2"))
@@ -101,7 +103,8 @@ SCHEMA = {
     # quasi-periodic branches started at 'ns' points (contin.hb.torus, contin.bifurcation.torus_branch)
     "torus": Key("a mapping with keys among harmonics, harmonics2, samples, samples2 (integers or null), stability "
                  "('simulation' or 'none'), periods (a number > 0), steps_per_period (an integer >= 4), "
-                 "locking_tol (a number in (0, 0.25))", lambda v: _torus_ok(v), {}),
+                 "locking_tol (a number in (0, 0.25)), points (an odd integer from 3 to 999: the invariant "
+                 "circle's points on a shooting branch)", lambda v: _torus_ok(v), {}),
     "max_branches": integer(8, 1),
     "continuation": mapping(),  # validated by ContinuationOptions.from_dict
     "start_from": string("model", ("model", "linear", "simulation")),

@@ -8,6 +8,7 @@ from contin.stability import StabilityOptions
 from contin.bifurcation.diagram import follow as follow_diagram
 from contin.bifurcation.torus_branch import TorusSettings
 from contin.analyses.shooting_rows import is_shooting, order_of
+from contin.model.periodic import is_circle
 
 __all__ = ["stability_setup"]
 
@@ -95,7 +96,8 @@ def stability_setup(analysis: dict, hb):
             rec.special_points(j, br, prob)
             org = br.info.get("origin")
             out.append((br, {"nu": order_of(prob), "harmonics": getattr(prob, "H", None),
-                             "method": "shooting" if is_shooting(prob) else "hb", "parent": br.info.get("parent"),
+                             "method": "shooting" if is_shooting(prob) or is_circle(prob) else "hb",
+                             "parent": br.info.get("parent"),
                              "torus": br.info.get("torus"),
                              "origin": None if org is None else {k: org[k] for k in ("kind", "parameter", "located",
                                                                                      "note") if k in org}}))

@@ -37,10 +37,13 @@ from contin.bifurcation.torus_branch import end_as_boundary
 from contin.engine.branch import Branch, BranchStatus, SpecialKind
 from contin.engine.continuation import ContinuationOptions, continuation
 from contin.engine.problem import solve_at
+from contin.timedomain.invariant_circle import (CircleOptions, InvariantCircleProblem, circle_lyapunov, circle_start,
+                                               point_jacobians)
 from contin.timedomain.multiple_shooting import ShootingOptions, ShootingProblem
 
-__all__ = ["FLIP_SPREAD", "LOCKING_TOL", "MAX_DENOMINATOR", "LockedOrbit", "classify_circle_end", "follow_circle",
-           "locked_orbits"]
+__all__ = ["FLIP_SPREAD", "LOCKING_TOL", "LYAPUNOV_PERIODS", "MAX_DENOMINATOR", "CircleStabilityMonitor",
+           "CircleStart", "LockedOrbit", "circle_child_start", "classify_circle_end", "follow_circle", "locked_orbits",
+           "run_circle"]
 
 #: a flip counts as the collapse where the circle is this small against its largest (elsewhere it would be the
 #: parametrisation turning, not the circle shrinking)
@@ -60,7 +63,8 @@ def _spread(problem, u) -> float:
 
 def follow_circle(problem, u0, lam0: float, lam_range, options: ContinuationOptions | None = None, *,
                   tangent=None, solve_start: bool = False, parameter_name: str | None = None,
-                  max_denominator: int = MAX_DENOMINATOR, locking_tol: float = LOCKING_TOL) -> Branch:
+                  max_denominator: int = MAX_DENOMINATOR, locking_tol: float = LOCKING_TOL, monitors=(),
+                  callback=None, checkpoint=None, resume=None) -> Branch:
     """Trace the circle branch from ``u0`` (for example :func:`~contin.timedomain.invariant_circle.circle_start`)
     and tell its end (module docstring).
 
@@ -78,6 +82,12 @@ def follow_circle(problem, u0, lam0: float, lam_range, options: ContinuationOpti
     parameter_name : str, optional
     max_denominator, locking_tol
         Rationals taken as locking, and how close.
+    monitors, callback, checkpoint
+        The engine's (:func:`contin.engine.continuation.continuation`); ``callback`` is called at every stored
+        point, the flip included.
+    resume : callable, optional
+        ``resume(problem, options, monitors, callback) -> Branch`` takes up the same branch of an interrupted
+        run instead of tracing it from ``u0``.
 
     Returns
     -------
@@ -90,6 +100,7 @@ def follow_circle(problem, u0, lam0: float, lam_range, options: ContinuationOpti
         return {"circle_spread": _spread(problem, u)}
 
     def watch(branch: Branch, index: int):
+        going = True if callback is None else callback(branch, index) is not False
         if index > 0:
             spread = branch.point_data["circle_spread"]
             small = min(spread[index], spread[index - 1]) < FLIP_SPREAD * max(spread[:index + 1])
@@ -97,10 +108,15 @@ def follow_circle(problem, u0, lam0: float, lam_range, options: ContinuationOpti
             if small and float(np.sum(now * before)) < 0.0:
                 flipped.append(index)
                 return False
-        return True
+        return going
 
-    br = continuation(problem, u0, lam0, lam_range, options, parameter_name=parameter_name or problem.parameter,
-                      monitors=[monitor], tangent=tangent, solve_start=solve_start, callback=watch)
+    mons = [monitor, *monitors]
+    if resume is not None:
+        br = resume(problem, options, mons, watch)
+    else:
+        br = continuation(problem, u0, lam0, lam_range, options, parameter_name=parameter_name or problem.parameter,
+                          monitors=mons, tangent=tangent, solve_start=solve_start, callback=watch,
+                          checkpoint=checkpoint)
     classify_circle_end(br, problem, max_denominator, locking_tol, collapsed=bool(flipped))
     return br
 
@@ -226,3 +242,116 @@ def locked_orbits(problem, u, lam: float, q: int, *, tol: float = 1e-10, max_ite
         dist = float(max(np.min(np.max(np.abs(U - z), axis=1)) for z in Z))
         found.append(LockedOrbit(shoot, x, rot, dist, shoot.multipliers(x, lam)))
     return found
+
+
+#: periods of the circle map averaged for a point's Lyapunov exponents (products of interpolated Jacobians,
+#: no flow: a few microseconds each)
+LYAPUNOV_PERIODS = 4000
+
+
+class CircleStabilityMonitor:
+    """Engine monitor: a circle's stability from the Lyapunov exponents of the map along it.
+
+    The map's Jacobians at the circle's points are read off the circle's own
+    Jacobian at the solution, those halfway between integrated (one
+    variational flow each; :func:`~contin.timedomain.invariant_circle.point_jacobians`);
+    interpolated along the circle and multiplied over :data:`LYAPUNOV_PERIODS`
+    periods (:func:`~contin.timedomain.invariant_circle.circle_lyapunov`), the
+    ``2N`` of them give the exponents and the ``N`` points alone the same
+    again: their difference is the error of the interpolation (the flow map's
+    Jacobian has corners along a circle where a contact arc opens), which a
+    verdict must exceed. Reported in the columns of a periodic branch:
+    ``stable``; ``n_unstable`` the normal exponents above zero;
+    ``max_multiplier`` ``exp`` of the largest normal exponent (the growth of
+    the fastest normal perturbation over a forcing period); and
+    ``normal_exponent`` with its ``normal_exponent_error``. An undecided
+    verdict is no verdict.
+    """
+
+    def __init__(self, problem, periods: int = LYAPUNOV_PERIODS):
+        self.problem = problem
+        self.periods = periods
+        self.undecided: list[float] = []  # parameter values without a verdict
+
+    def __call__(self, u, lam, Ju=None, Jlam=None) -> dict:
+        jac = point_jacobians(self.problem, u, lam, Ju, midpoints=True)
+        fine = circle_lyapunov(self.problem, u, lam, iterations=self.periods, jacobians=jac)
+        coarse = circle_lyapunov(self.problem, u, lam, iterations=self.periods, jacobians=jac[0::2])
+        error = abs(fine.largest_normal - coarse.largest_normal)
+        stable = fine.stable if abs(fine.largest_normal) > error else None
+        normal = np.delete(fine.exponents, fine.tangent)
+        if stable is None:
+            self.undecided.append(float(lam))
+        return {"evaluated": stable is not None, "stable": bool(stable), "n_unstable": int(np.sum(normal > 0.0)),
+                "max_multiplier": float(np.exp(fine.largest_normal)), "normal_exponent": float(fine.largest_normal),
+                "normal_exponent_error": float(error)}
+
+
+@dataclasses.dataclass(frozen=True)
+class CircleStart:
+    """The first point of a circle branch (:func:`circle_child_start`): its problem, unknowns, parameter and
+    tangent; ``kind``, ``side`` and ``eps`` (the ellipse's size relative to the state) as a switch's start says
+    them."""
+
+    problem: InvariantCircleProblem
+    u: np.ndarray
+    lam: float
+    tangent: np.ndarray
+    kind: str = "ns"
+    side: int = 1
+    eps: float = 1e-2
+
+
+def circle_child_start(shooting, lam: float, unknowns, points: int) -> CircleStart:
+    """The first circle of the torus born at a Neimark-Sacker point of a shooting branch.
+
+    Parameters
+    ----------
+    shooting : ShootingProblem
+        The branch's problem (one forcing period: ``nu = 1``).
+    lam : float
+        The Neimark-Sacker point.
+    unknowns : array_like, shape (shooting.size,)
+        The orbit there (its first segment's start is the state at forcing phase zero).
+    points : int
+        ``N``, points of the circle.
+
+    Raises
+    ------
+    ValueError
+        For a subharmonic branch, or where no multiplier pair lies on the unit circle.
+    """
+    if shooting.nu != 1:
+        raise ValueError(f"the torus of a Neimark-Sacker point of a branch of {shooting.nu} forcing periods is "
+                         f"not built (its circle would be of the map over {shooting.nu} periods)")
+    z = np.asarray(unknowns, dtype=float)[:2 * shooting.n]
+    opts = CircleOptions(points=int(points), steps_per_period=shooting.options.steps_per_period)
+    problem, u0, tangent = circle_start(shooting.model, shooting.parameter, z, float(lam), shooting.base, opts,
+                                        eps=CircleStart.eps)
+    return CircleStart(problem, u0, float(lam), tangent)
+
+
+def run_circle(start: CircleStart, lam_range, options: ContinuationOptions, parameter_name: str, *,
+               stability: bool = True, callback=None, checkpoint=None, resume=None) -> Branch:
+    """Trace the circle branch from ``start`` with its stability (:class:`CircleStabilityMonitor`) and its ends
+    told (:func:`follow_circle`).
+
+    Returns
+    -------
+    Branch
+        Its ``info["torus"]`` says the discretisation: ``{"circle": True, "points", "steps_per_period",
+        "winding"}``.
+    """
+    problem = start.problem
+    monitors = [CircleStabilityMonitor(problem)] if stability else []
+    opts = options.replace(unknown_scale=None, parameter_scale=None)
+    br = follow_circle(problem, start.u, start.lam, lam_range, opts, tangent=start.tangent, parameter_name=parameter_name,
+                       monitors=monitors, callback=callback, checkpoint=checkpoint, resume=resume)
+    for mon in monitors:
+        if mon.undecided:
+            br.message = (f"{br.message}; no stability verdict at {len(mon.undecided)} point(s) (the largest normal "
+                          f"Lyapunov exponent within its error of zero; first at {parameter_name}="
+                          f"{mon.undecided[0]:.10g})")
+    br.info["torus"] = {"circle": True, "points": problem.points, "steps_per_period": problem.options.steps_per_period,
+                        "winding": int(problem.winding)}
+    return br

@@ -296,6 +296,32 @@ def _torus_child(prob, br: Branch, sp: SpecialPoint, torus: TorusSettings | None
     return st
 
 
+def _circle_child(prob, sp: SpecialPoint, torus: TorusSettings | None, diagram, parent: int):
+    """The first circle of the torus at a shooting branch's Neimark-Sacker point ``sp``, or None (the failure
+    recorded in the diagram)."""
+    from contin.bifurcation.circle_branch import circle_child_start  # deferred: the time domain
+
+    try:
+        return circle_child_start(prob, sp.parameter, sp.unknowns, (torus or TorusSettings()).points)
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+        where = _from_bracket(sp)
+        diagram.failed_switches.append({"parent": parent, "kind": "ns", "parameter": float(sp.parameter), "side": 1,
+                                        "message": f"no first circle of the torus: {exc}"
+                                                   + (f" ({where})" if where else "")})
+        return None
+
+
+def _run_circle(st, lam_range, options, name: str, settings: TorusSettings, callback, checkpoint, previous):
+    """The circle branch from ``st``, or the same branch of an interrupted run taken up (``previous``)."""
+    from contin.bifurcation.circle_branch import run_circle  # deferred: the time domain
+
+    resume = None if previous is None else (
+        lambda problem, opts, mons, watch: _resume(previous, problem, lam_range, opts, name, [], mons, watch,
+                                                   checkpoint))
+    return run_circle(st, lam_range, options, name, stability=settings.stability != "none", callback=callback,
+                      checkpoint=checkpoint, resume=resume)
+
+
 def _shooting_pd(prob, sp: SpecialPoint, failed: list) -> list:
     """The one first point of the doubled branch at a shooting branch's period doubling (its two sides are one
     orbit shifted by a forcing period), or none with the reason in ``failed``."""
@@ -436,6 +462,14 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
                 if len(diagram) >= max_branches:
                     return diagram
                 j = len(diagram)
+                if is_shooting(prob):  # the torus as an invariant circle of the stroboscopic map
+                    st = _circle_child(prob, sp, torus, diagram, i)
+                    if st is None or not lam_range[0] <= st.lam <= lam_range[1]:
+                        continue
+                    child = _run_circle(st, lam_range, options, name, torus or TorusSettings(), cb_for(j, st.problem),
+                                        ck_for(j, st.problem), previous.get(j))
+                    diagram.add(child, st, i, sp, None, depth + 1)
+                    continue
                 st = _torus_child(prob, br, sp, torus, options, diagram, i)
                 if st is None or not lam_range[0] <= st.lam <= lam_range[1]:
                     continue

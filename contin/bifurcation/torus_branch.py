@@ -48,6 +48,10 @@ COLLAPSED = 1e-2
 class TorusSettings:
     """How torus branches are discretised, checked and ended.
 
+    A torus started on a harmonic-balance branch is a two-frequency balance (``options``); one started on a
+    shooting branch an invariant circle of ``points`` points (:mod:`contin.bifurcation.circle_branch`), its
+    stability from its Lyapunov exponents unless ``stability`` is ``none``.
+
     Parameters
     ----------
     options : TorusOptions or None
@@ -58,9 +62,12 @@ class TorusSettings:
     steps_per_period : int
         RK4 steps per forcing period of the check.
     locking_tol : float
-        ``|w2/(w/nu) - p/q|`` below which a branch that stops is said to lock.
+        ``|w2/(w/nu) - p/q|`` below which a branch that stops is said to lock (a torus of harmonic balance;
+        a circle's locking: :mod:`contin.bifurcation.circle_branch`).
     max_denominator : int
-        Largest ``q`` of the locking ratios.
+        Largest ``q`` of the locking ratios (harmonic balance).
+    points : int
+        ``N``, points of the invariant circle of a torus started on a shooting branch (odd, >= 3).
     """
 
     options: TorusOptions | None = None
@@ -69,8 +76,12 @@ class TorusSettings:
     steps_per_period: int = 256
     locking_tol: float = 0.02
     max_denominator: int = 4
+    points: int = 15
 
     def __post_init__(self):
+        if isinstance(self.points, bool) or not isinstance(self.points, int) or self.points < 3 or self.points % 2 == 0:
+            raise ValueError(f"TorusSettings.points must be an odd integer >= 3 (the circle's points), "
+                             f"got {self.points!r}")
         if self.stability not in ("simulation", "none"):
             raise ValueError(f"TorusSettings.stability must be 'simulation' or 'none', got {self.stability!r}")
         if not self.periods > 0:

@@ -29,7 +29,7 @@ from typing import Protocol, Sequence, runtime_checkable
 
 import numpy as np
 
-__all__ = ["AllDofs", "PeriodicProblem", "SHOOTING_MODULE", "is_shooting"]
+__all__ = ["AllDofs", "CIRCLE_MODULE", "PeriodicProblem", "SHOOTING_MODULE", "is_circle", "is_shooting"]
 
 
 @runtime_checkable
@@ -126,3 +126,13 @@ def is_shooting(problem) -> bool:
     """
     module = sys.modules.get(SHOOTING_MODULE)
     return module is not None and isinstance(problem, module.ShootingProblem)
+
+
+CIRCLE_MODULE = "contin.timedomain.invariant_circle"
+
+
+def is_circle(problem) -> bool:
+    """Whether ``problem`` is a torus as an invariant circle of the stroboscopic map (its unknowns are the
+    circle's points and its rotation number); answered as :func:`is_shooting`, without importing the time domain."""
+    module = sys.modules.get(CIRCLE_MODULE)
+    return module is not None and isinstance(problem, module.InvariantCircleProblem)

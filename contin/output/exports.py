@@ -164,9 +164,11 @@ def run_data(tables: dict, summary: dict | None, points: dict, headers: dict, pa
     if not points:
         return data
     n = len(data["dofs"])
-    torus_rows = sorted(r for r, p in points.items() if int(p["branch"]) in tori)
+    # an invariant circle's rows hold its points, not coefficients (left in state.jsonl)
+    balanced = {j: t for j, t in tori.items() if not t.get("circle")}
+    torus_rows = sorted(r for r, p in points.items() if int(p["branch"]) in balanced)
     if torus_rows and n:
-        _torus_coefficients(data, points, torus_rows, tori, n)
+        _torus_coefficients(data, points, torus_rows, balanced, n)
     rows = sorted(r for r in points if int(points[r]["branch"]) not in tori)
     if not rows:
         return data

@@ -32,8 +32,9 @@ system as there sec. 2).
 Jacobian: ``dr_j/du_l = Phi(u_j) delta_jl - S_rho[j, l] I``, with ``Phi``
 the exact derivative of the discrete flow map by the variational equations
 (:class:`contin.timedomain.multiple_shooting.ShootingProblem`, one segment,
-``nu = 1``); ``dr/drho = -(dS_rho/drho) U`` in closed form; ``dr/dlam`` by the
-shooting problem's central difference of the flow in ``lam``.
+``nu = 1``); ``dr/drho = -(dS_rho/drho) U`` in closed form; ``dr/dlam`` the
+shooting problem's (the flow's sensitivity to ``lam``, integrated with the
+variational equations where ``lam`` enters the linear part or the frequency).
 """
 
 from __future__ import annotations
@@ -44,11 +45,13 @@ from typing import Mapping
 
 import numpy as np
 
+from contin.timedomain.circle_measures import strongest_winding
 from contin.timedomain.multiple_shooting import VARIATIONAL_COST, ShootingOptions, ShootingProblem
 from contin.util.options import from_mapping
 from contin.engine.problem import solve_at
 
-__all__ = ["CircleLyapunov", "CircleOptions", "InvariantCircleProblem", "circle_lyapunov", "circle_start", "shift_matrix"]
+__all__ = ["CircleLyapunov", "CircleOptions", "InvariantCircleProblem", "circle_lyapunov", "circle_start",
+           "point_jacobians", "shift_matrix"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -128,7 +131,15 @@ class InvariantCircleProblem:
         ``N``.
     size : int
         Unknowns ``2 n N + 1``: the points (row-major, point by point) and ``rho``.
+    winding : int
+        The integer added to ``rho`` for the torus' second frequency ``w2 = |rho + winding| w``: the circle
+        fixes ``rho`` modulo 1 only, and the line a system's self-excited motion shows is one of
+        ``(rho + m) w`` (:func:`circle_start` takes the strongest line of the mode it starts from; 0 by default).
     """
+
+    winding = 0
+    #: the torus is a branch of the one-period map: order 1 in a branch's rows
+    nu = 1
 
     #: a linearisation costs one variational flow per point against one plain flow per point
     jacobian_cost = VARIATIONAL_COST
@@ -209,6 +220,14 @@ class InvariantCircleProblem:
         """The forcing frequency ``w`` at ``lam``."""
         return self.map.frequency_at(lam)
 
+    def params_at(self, lam: float) -> dict:
+        """Parameter overrides at ``lam``."""
+        return self.map.params_at(lam)
+
+    def period_at(self, lam: float) -> float:
+        """The forcing period ``T`` the map integrates over."""
+        return self.map.period_at(lam)
+
     def solve(self, u0, lam: float, tol: float = 1e-11, max_iter: int = 6) -> np.ndarray:
         """The circle near ``u0`` at fixed ``lam`` by Newton (the phase condition closes the system).
 
@@ -220,9 +239,8 @@ class InvariantCircleProblem:
         return solve_at(self, u0, lam, tol=tol, max_iter=max_iter, what="invariant circle")
 
     def second_frequency(self, u, lam: float) -> float:
-        """The torus' second frequency ``w2 = rho w`` (``rho`` taken in ``[0, 1)``; ``w2`` and ``w - w2`` are the
-        same torus seen from the two sides)."""
-        return (self.blocks(u)[1] % 1.0) * self.frequency_at(lam)
+        """The torus' second frequency ``w2 = |rho + winding| w`` (class docstring)."""
+        return abs(self.blocks(u)[1] + self.winding) * self.frequency_at(lam)
 
     def points_on_circle(self, u, theta) -> np.ndarray:
         """The interpolated circle at the angles ``theta`` (shape (K,)): states, shape (K, 2n)."""
@@ -264,7 +282,8 @@ def circle_start(model, parameter: str, z, lam: float, params: Mapping[str, floa
     Returns
     -------
     problem : InvariantCircleProblem
-        Its anchor the ellipse.
+        Its anchor the ellipse; its ``winding`` that of the strongest line of the ellipse's trajectories
+        (:func:`contin.timedomain.circle_measures.strongest_winding`): the mode's dominant frequency.
     u0 : ndarray, shape (problem.size,)
     tangent : ndarray, shape (problem.size + 1,)
         Along the ellipse's amplitude, 0 in ``rho`` and ``lam``; unit length.
@@ -293,6 +312,7 @@ def circle_start(model, parameter: str, z, lam: float, params: Mapping[str, floa
     problem.set_anchor(U)
     rho0 = float(np.angle(mu[j])) / (2.0 * math.pi)
     u0 = problem.unknowns(U, rho0)
+    problem.winding = strongest_winding(problem, u0, lam)
     tangent = np.r_[ellipse.ravel(), 0.0, 0.0]
     return problem, u0, tangent / np.linalg.norm(tangent)
 
@@ -300,6 +320,8 @@ def circle_start(model, parameter: str, z, lam: float, params: Mapping[str, floa
 #: a normal exponent within this (per forcing period) of zero gives no verdict, nor one within twice the
 #: tangential exponent's distance to zero or within 1 / iterations (the averages' own error)
 EXPONENT_TOL = 1e-3
+#: the floor of that tolerance with the Jacobians interpolated along the circle (thousands of periods averaged)
+INTERPOLATED_TOL = 1e-4
 
 
 @dataclasses.dataclass(frozen=True)
@@ -311,12 +333,13 @@ class CircleLyapunov:
     exponents : ndarray, shape (2n,)
         Per forcing period, in decreasing order.
     tangent : int
-        Index of the tangential exponent (the one nearest zero: the circle's own direction).
+        Index of the tangential exponent (the circle's own direction, zero up to the error of the data).
     largest_normal : float
         The largest of the others.
     stable : bool or None
         ``largest_normal < -tol`` (True), ``> tol`` (False), else None (undecided), with ``tol`` the
-        largest of ``EXPONENT_TOL``, twice the tangential exponent's modulus and ``1 / iterations``.
+        largest of ``EXPONENT_TOL`` (``INTERPOLATED_TOL`` from interpolated Jacobians), twice the
+        tangential exponent's modulus and ``1 / iterations``.
     iterations : int
     """
 
@@ -327,16 +350,56 @@ class CircleLyapunov:
     iterations: int
 
 
-def circle_lyapunov(problem: InvariantCircleProblem, u, lam: float, iterations: int = 200) -> CircleLyapunov:
+def point_jacobians(problem: "InvariantCircleProblem", u, lam: float, Ju=None, midpoints: bool = False) -> np.ndarray:
+    """The map's Jacobians ``DP`` at the circle's points, shape (N, 2n, 2n), or (2N, 2n, 2n) with ``midpoints``.
+
+    At the points ``u_j`` they are read off the diagonal blocks of the circle's Jacobian ``Ju``
+    (``Phi_j - S_rho[j, j] I``, see :meth:`InvariantCircleProblem.linearize`) when it is given dense, else
+    one variational flow per point. ``midpoints`` adds those at the interpolant's points halfway between
+    (one variational flow each), in the order of their angles ``2 pi j / (2N)``.
+    """
+    U, rho = problem.blocks(u)
+    N, m = problem.points, 2 * problem.n
+    if isinstance(Ju, np.ndarray) and Ju.shape == (problem.size, problem.size):
+        diag = float(shift_matrix(N, rho)[0, 0])  # S_rho is circulant: one diagonal value
+        out = np.stack([Ju[j * m:(j + 1) * m, j * m:(j + 1) * m] for j in range(N)])
+        out[:, range(m), range(m)] += diag
+    else:
+        out = np.stack([problem.map.flow_jacobian(z, lam)[1] for z in U])
+    if not midpoints:
+        return out
+    between = problem.points_on_circle(u, 2.0 * math.pi * (np.arange(N) + 0.5) / N)
+    both = np.empty((2 * N, m, m))
+    both[0::2], both[1::2] = out, np.stack([problem.map.flow_jacobian(z, lam)[1] for z in between])
+    return both
+
+
+def _interpolation_weights(count: int, theta) -> np.ndarray:
+    """Weights (len(theta), count) of the trigonometric interpolant of ``count`` values at ``2 pi j / count``
+    (odd ``count``: degree ``(count - 1) / 2``; even: the last cosine halved), evaluated at ``theta``."""
+    d = np.asarray(theta, dtype=float)[:, None] - 2.0 * math.pi * np.arange(count)[None, :] / count
+    K = (count - 1) // 2
+    w = 1.0 + 2.0 * sum(np.cos(k * d) for k in range(1, K + 1))
+    if count % 2 == 0:
+        w = w + np.cos((count // 2) * d)
+    return w / count
+
+
+def circle_lyapunov(problem: InvariantCircleProblem, u, lam: float, iterations: int = 200,
+                    jacobians=None) -> CircleLyapunov:
     """The torus' stability from the Lyapunov exponents of the map restricted to its circle.
 
     A perturbation ``v`` of the circle at ``theta`` is carried by ``DP(u(theta))`` to
-    ``theta + 2 pi rho``; along the points ``u(2 pi k rho)`` of the circle (its
-    interpolant, so that an unstable circle is not left) the products
-    ``DP_k ... DP_1`` are orthonormalised at every step (QR; Benettin et al.,
-    *Meccanica* 15 (1980) 9) and the logarithms of ``|R_ii|`` averaged. One
-    exponent is the circle's own direction (zero up to ``O(1 / iterations)``);
-    the torus is stable when the others, the normal exponents, are negative.
+    ``theta + 2 pi rho``. The circle's own direction is exact: on an invariant
+    circle ``DP(u(theta)) u'(theta) = u'(theta + 2 pi rho)``, so the tangential
+    exponent, the mean of ``log |DP t_k|`` over the unit tangents ``t_k`` at
+    the points ``u(2 pi k rho)`` of the circle's interpolant, telescopes to zero
+    and what it shows is the error of the data. The normal exponents are those
+    of the map on the normal bundle (the quotient by the tangent): a basis
+    orthogonal to ``t_k`` carried by ``DP``, the component along ``t_{k+1}``
+    removed, orthonormalised at every step (QR; Benettin et al., *Meccanica* 15
+    (1980) 9), the logarithms of ``|R_ii|`` averaged. The torus is stable when
+    the normal exponents are negative.
 
     Parameters
     ----------
@@ -346,6 +409,12 @@ def circle_lyapunov(problem: InvariantCircleProblem, u, lam: float, iterations: 
     lam : float
     iterations : int
         Periods of the map averaged.
+    jacobians : array_like, shape (K, 2n, 2n), optional
+        ``DP`` at ``K`` equally spaced angles ``2 pi j / K`` of the circle (:func:`point_jacobians`: its
+        points, ``K = N``, or with the midpoints, ``K = 2N``): then ``DP`` along the circle is their
+        trigonometric interpolant, as smooth in ``theta`` as the flow map, and no flow is integrated (the
+        products cost a few microseconds a period, so ``iterations`` can be large; the verdict's floor is
+        then :data:`INTERPOLATED_TOL`). Without it, one variational flow a period from the interpolated point.
 
     Returns
     -------
@@ -353,18 +422,41 @@ def circle_lyapunov(problem: InvariantCircleProblem, u, lam: float, iterations: 
     """
     if isinstance(iterations, bool) or not isinstance(iterations, (int, np.integer)) or iterations < 1:
         raise ValueError(f"iterations: expected a positive integer, got {iterations!r}")
-    _, rho = problem.blocks(u)
-    m = 2 * problem.n
-    Q = np.eye(m)
-    sums = np.zeros(m)
-    for k in range(iterations):
-        z = problem.points_on_circle(u, 2.0 * math.pi * ((k * rho) % 1.0))[0]
-        _, Phi = problem.map.flow_jacobian(z, lam)
-        Q, R = np.linalg.qr(Phi @ Q)
+    U, rho = problem.blocks(u)
+    m, N = 2 * problem.n, problem.points
+    theta = 2.0 * math.pi * ((np.arange(iterations + 1) * rho) % 1.0)
+    # the interpolant's weights at theta_k: row 0 of S_{theta_k / 2 pi}, and of its derivative (Dirichlet kernel)
+    d = theta[:, None] - 2.0 * math.pi * np.arange(N)[None, :] / N
+    k = np.arange(1, (N - 1) // 2 + 1)[:, None, None]
+    tangents = -(2.0 / N) * np.sum(k * np.sin(k * d), axis=0) @ U  # u'(theta_k), (iterations + 1, m)
+    tangents /= np.linalg.norm(tangents, axis=1)[:, None]
+    if jacobians is not None:
+        J = np.asarray(jacobians, dtype=float)
+        if J.ndim != 3 or J.shape[1:] != (m, m) or J.shape[0] < 3:
+            raise ValueError(f"jacobians: expected shape (K, {m}, {m}) with K >= 3 equally spaced angles, "
+                             f"got {J.shape}")
+        along = np.einsum("kj,jab->kab", _interpolation_weights(len(J), theta[:-1]), J)
+    # a basis of the normal space at theta_0: the complement of the tangent
+    Q = np.linalg.qr(np.c_[tangents[0], np.eye(m)])[0][:, 1:m]
+    sums = np.zeros(m - 1)
+    tangential = 0.0
+    for i in range(iterations):
+        if jacobians is not None:
+            Phi = along[i]
+        else:
+            z = problem.points_on_circle(u, theta[i])[0]
+            _, Phi = problem.map.flow_jacobian(z, lam)
+        tangential += math.log(float(np.linalg.norm(Phi @ tangents[i])))
+        A = Phi @ Q
+        A -= np.outer(tangents[i + 1], tangents[i + 1] @ A)
+        Q, R = np.linalg.qr(A)
         sums += np.log(np.abs(np.diag(R)))
-    exps = np.sort(sums / iterations)[::-1]
-    tangent = int(np.argmin(np.abs(exps)))
-    largest = float(np.max(np.delete(exps, tangent))) if m > 1 else -math.inf
-    tol = max(EXPONENT_TOL, 2.0 * abs(float(exps[tangent])), 1.0 / iterations)
+    normal = np.sort(sums / iterations)[::-1]
+    tangential /= iterations
+    exps = np.sort(np.r_[normal, tangential])[::-1]
+    tangent = int(np.flatnonzero(exps == tangential)[0])
+    largest = float(normal[0]) if m > 1 else -math.inf
+    floor = EXPONENT_TOL if jacobians is None else INTERPOLATED_TOL
+    tol = max(floor, 2.0 * abs(tangential), 1.0 / iterations)
     stable = True if largest < -tol else (False if largest > tol else None)
     return CircleLyapunov(exps, tangent, largest, stable, int(iterations))

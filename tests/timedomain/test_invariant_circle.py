@@ -14,6 +14,7 @@ from contin.engine.newton import solve_at_parameter
 from contin.hb.problem import HarmonicBalance, HBOptions
 from contin.hb.torus import TorusOptions
 from contin.timedomain.invariant_circle import (CircleOptions, InvariantCircleProblem, circle_lyapunov, circle_start,
+                                               point_jacobians,
                                                shift_matrix)
 from contin.timedomain.shooting import ShootingOptions, periodic_orbit
 from van_der_pol_model import F, MU, vdp_model
@@ -152,7 +153,7 @@ def test_the_van_der_pol_torus_is_stable_by_its_lyapunov_exponents(qp_branch):
     assert ly.stable is True and abs(ly.exponents[ly.tangent]) < 2.0 / ly.iterations
     x, _ = qp.samples_of(u_qp, w)[:2]
     divergence = MU * (2 * math.pi / w) * (1.0 - float(np.mean(np.asarray(x) ** 2)))
-    # measured at 400 iterations: sum -0.5253, normal -0.5203, the divergence -0.5270
+    # measured at 400 iterations: sum -0.5253, normal -0.5257, tangential 4.5e-4, the divergence -0.5270
     assert float(np.sum(ly.exponents)) == pytest.approx(divergence, abs=2.0 / ly.iterations)
     assert ly.largest_normal == pytest.approx(divergence, abs=4.0 / ly.iterations)
 
@@ -168,3 +169,53 @@ def test_the_van_der_pol_torus_is_stable_by_its_lyapunov_exponents(qp_branch):
     # after 20 periods: measured 3.6e-4 of the start's distance (exp(-0.52 * 20) = 3e-5: the contraction
     # varies along the circle, and the start is not small)
     assert gap(y) < 1e-3 * gap(y0)
+
+
+def test_the_exponents_from_the_points_jacobians_meet_liouville_without_a_flow(qp_branch):
+    """The map's Jacobians at the circle's points, read off the circle's own Jacobian, equal the variational
+    flow's there; interpolated along the circle they give the Lyapunov exponents with no flow integrated, so
+    many periods can be averaged: the tangential exponent then sits within 1 / iterations of zero and the sum
+    meets Liouville's mean divergence mu T (1 - <x^2>) tighter than the flow's 400 periods above."""
+    N = 21
+    qp, u_qp, w, prob, _, res = circle_at_092(qp_branch, N, 1024)
+    _, Ju, _ = prob.linearize(res.x, w)
+    from_Ju = point_jacobians(prob, res.x, w, Ju)
+    by_flow = point_jacobians(prob, res.x, w)
+    assert from_Ju.shape == (N, 2, 2)
+    assert np.abs(from_Ju - by_flow).max() < 1e-12 * np.abs(by_flow).max()
+    ly = circle_lyapunov(prob, res.x, w, iterations=20000, jacobians=from_Ju)
+    x, _ = qp.samples_of(u_qp, w)[:2]
+    divergence = MU * (2 * math.pi / w) * (1.0 - float(np.mean(np.asarray(x) ** 2)))
+    # measured: tangential 2.8e-5, sum -0.526921 against the divergence -0.527015, normal -0.526949
+    assert ly.stable is True and abs(ly.exponents[ly.tangent]) < 1e-4
+    assert float(np.sum(ly.exponents)) == pytest.approx(divergence, abs=2e-4)
+    assert ly.largest_normal == pytest.approx(divergence, abs=1.5e-4)
+    with pytest.raises(ValueError, match=r"jacobians: expected shape \(K, 2, 2\)"):
+        circle_lyapunov(prob, res.x, w, jacobians=np.zeros((2, 2, 2)))
+
+
+def test_a_circles_row_equals_the_two_frequency_balances_torus(qp_branch):
+    """The row measures of the circle (its points' trajectories over a period, module
+    contin.timedomain.circle_measures) against those of the two-frequency balance's torus at the same w: the
+    second frequency, the forced, free and combination lines and the harmonics of the forcing, each a
+    different computation of the same torus; the extremes against the balance's surface sampled on a 64 times
+    finer grid than its own (2.4213560; on its 4x grid, what its rows say, 2.4212875)."""
+    from contin.hb import aft2d
+    from contin.hb.torus import torus_measures
+    from contin.timedomain.circle_measures import circle_measures
+
+    from contin.timedomain.circle_measures import strongest_winding
+
+    qp, u_qp, w, prob, _, res = circle_at_092(qp_branch, 21, 2048)
+    # the self-excited line near 1 (0.9937) is w + rho w: the winding 1, found as the strongest line
+    prob.winding = strongest_winding(prob, res.x, w)
+    assert prob.winding == 1
+    mine = circle_measures(prob, res.x, w, ["x"], 3)
+    ref = torus_measures(qp, u_qp, w, ["x"], 3)
+    assert mine["frequency2"] == pytest.approx(ref["frequency2"], abs=1e-8)
+    for key in ("forced_x", "free_x", "comb_x", "h1_x", "h2_x", "h3_x", "rms_x", "h0_x"):
+        assert mine[key] == pytest.approx(ref[key], abs=1e-7), key
+    x = aft2d.synthesize2(qp.blocks(u_qp), qp.basis.pairs, 64 * qp.N1, 64 * qp.N2)[0][:, 0]
+    assert mine["max_x"] == pytest.approx(x.max(), abs=1e-5)
+    assert mine["min_x"] == pytest.approx(x.min(), abs=1e-5)
+    assert ref["free_x"] > 0.1 and ref["forced_x"] > 0.1  # both lines are there to compare

@@ -1,0 +1,74 @@
+"""Tori as invariant circles in a scene: ``switch: [ns]`` on a shooting branch (scenes/van_der_pol_circle.yaml).
+
+Truth from outside the code: the same tori of the two-frequency balance
+(:mod:`contin.hb.torus`, H1 = H2 = 12), itself checked against averaging and
+simulation (docs/validation/van-der-pol.md), at the range ends both reach
+exactly; the torus' normal Lyapunov exponent against Liouville's mean
+divergence ``mu T (1 - <x^2>)`` over that balance's torus (for a one-dof
+system the tangential exponent is zero, so the normal one is the whole sum).
+"""
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from contin.app.cli import main
+from contin.bifurcation.diagram import follow
+from contin.bifurcation.torus_branch import TorusSettings
+from contin.hb.problem import HarmonicBalance, HBOptions
+from contin.hb.torus import TorusOptions, torus_measures
+from contin.output.results import read_csv
+from van_der_pol_model import MU, vdp_model
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    out = tmp_path_factory.mktemp("circle")
+    assert main(["run", str(ROOT / "scenes/van_der_pol_circle.yaml"), "-o", str(out), "-q",
+                 "--set", "output.plots=false"]) == 0
+    hb = HarmonicBalance(vdp_model(), "w", HBOptions(5))
+    d = follow(hb, hb.linear_solution(0.9), 0.9, (0.8, 1.2), {"ds": 0.02}, stability={"method": "hill"},
+               switch=("ns",), torus=TorusSettings(TorusOptions(12, 12), stability="none"))
+    return out, d
+
+
+def test_the_circles_rows_are_the_two_frequency_balances_tori_at_the_range_ends(runs):
+    out, d = runs
+    rows = read_csv(out / "branches.csv")
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "complete"
+    tori = [b for b in summary["analysis"]["branches"] if b.get("torus")]
+    assert len(tori) == 2 and all(b["torus"]["circle"] and b["torus"]["points"] == 21 for b in tori)
+    assert all(b["status"] == "range_end" for b in summary["analysis"]["branches"])
+    for j in (1, 2):
+        qb, qp = d.branches[j], d.problems[j]
+        ref = torus_measures(qp, qb.unknowns[-1], float(qb.parameter[-1]), ["x"], 5)
+        mine = np.flatnonzero(rows["branch"] == j)[-1]
+        assert rows["w"][mine] == pytest.approx(float(qb.parameter[-1]), abs=1e-12)
+        # measured: frequency2 3e-11, the lines 7e-11, amp 7.5e-5 (the balance's 4x grid under-reads the extremes)
+        assert rows["frequency2"][mine] == pytest.approx(ref["frequency2"], abs=1e-8)
+        for key in ("free_x", "forced_x", "h1_x", "h3_x", "rms_x"):
+            assert rows[key][mine] == pytest.approx(ref[key], abs=1e-7), key
+        assert rows["amp_x"][mine] == pytest.approx(ref["amp_x"], abs=2e-4)
+        # stable by the normal exponent, which meets Liouville's mean divergence over the balance's torus
+        x = qp.samples_of(qb.unknowns[-1], float(qb.parameter[-1]))[0]
+        divergence = MU * (2 * math.pi / rows["w"][mine]) * (1.0 - float(np.mean(np.asarray(x) ** 2)))
+        assert rows["stable"][mine] == "true" or rows["stable"][mine] is True
+        assert math.log(rows["max_multiplier"][mine]) == pytest.approx(divergence, abs=1e-3)
+
+
+def test_the_circles_start_at_the_shooting_branchs_neimark_sacker_points(runs):
+    out, d = runs
+    sp = read_csv(out / "special_points.csv")
+    ns = sorted(float(w) for b, k, w in zip(sp["branch"], sp["kind"], sp["w"]) if b == 0 and k == "ns")
+    ref = sorted(float(s.parameter) for s in d.branches[0].special_points if s.kind.value == "ns")
+    np.testing.assert_allclose(ns, ref, atol=1e-8)  # the flow's and Hill's Neimark-Sacker points
+    rows = read_csv(out / "branches.csv")
+    for j, w_ns in zip((1, 2), ns):
+        first = np.flatnonzero(rows["branch"] == j)[0]
+        assert rows["w"][first] == pytest.approx(w_ns, abs=1e-6)
