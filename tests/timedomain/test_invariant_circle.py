@@ -17,6 +17,7 @@ from contin.timedomain.invariant_circle import (CircleOptions, InvariantCirclePr
                                                point_jacobians,
                                                shift_matrix)
 from contin.timedomain.shooting import ShootingOptions, periodic_orbit
+from contin.api.system import System
 from van_der_pol_model import F, MU, vdp_model
 
 
@@ -190,6 +191,19 @@ def test_the_exponents_from_the_points_jacobians_meet_liouville_without_a_flow(q
     assert ly.stable is True and abs(ly.exponents[ly.tangent]) < 1e-4
     assert float(np.sum(ly.exponents)) == pytest.approx(divergence, abs=2e-4)
     assert ly.largest_normal == pytest.approx(divergence, abs=1.5e-4)
+    # the same torus run backwards (mu -> -mu; the points with their velocities reversed, rho -> -rho) is the
+    # same circle of the inverse map: unstable, its normal exponent the opposite (measured +0.526943)
+    back = System(dofs=["x"], parameters={"mu": -MU, "F": F, "w": w}, mass=[[1]], damping=[["-mu"]],
+                  stiffness=[[1]], forces=[{"dof": "x", "expr": "mu*x**2*x_dot"}],
+                  excitation=[{"dof": "x", "expr": "F*cos(tau)"}], frequency="w").model
+    rev = InvariantCircleProblem(back, "w", options=CircleOptions(points=N, steps_per_period=1024))
+    U, rho = prob.blocks(res.x)
+    U = U * np.array([1.0, -1.0])
+    rev.set_anchor(U)
+    r = solve_at_parameter(rev, rev.unknowns(U, -rho), w)
+    assert r.converged and np.abs(rev.blocks(r.x)[0] - U).max() < 1e-5  # the RK4 steps backwards: 1.3e-6
+    ly = circle_lyapunov(rev, r.x, w, iterations=20000, jacobians=point_jacobians(rev, r.x, w))
+    assert ly.stable is False and ly.largest_normal == pytest.approx(-divergence, abs=1.5e-4)
     with pytest.raises(ValueError, match=r"jacobians: expected shape \(K, 2, 2\)"):
         circle_lyapunov(prob, res.x, w, jacobians=np.zeros((2, 2, 2)))
 
