@@ -33,6 +33,7 @@ from contin.analyses.handover import boundary_gap, hand_over
 from contin.analyses.shooting_rows import (METHODS, ShootingSettings, analysis_method, is_shooting, shooting_problem,
                                            shooting_start)
 from contin.analyses.stability_hooks import stability_setup
+from contin.analyses.torus_start import check_torus_start, circle_from_simulation
 from contin.bifurcation.start import START_LOW_HARMONICS, HomotopyFailed, harmonic_start, simulation_start
 from contin.engine.branch import BranchStatus
 from contin.engine.continuation import ContinuationOptions
@@ -64,7 +65,7 @@ __all__ = ["FrequencyResponse", "FrequencyResponsePlan", "StartSetup", "BranchRe
 
 #: keys a further start (``analysis.starts``) may change; the others are shared
 START_KEYS = ("start", "start_from", "start_simulation", "subharmonic", "harmonics", "samples", "crossings", "both_ways",
-              "guess", "stability_options", "switch", "continuation", "method", "shooting")
+              "guess", "stability_options", "switch", "continuation", "method", "shooting", "solution", "torus")
 
 
 def _torus_ok(v) -> bool:
@@ -105,6 +106,8 @@ SCHEMA = {
                  "('simulation' or 'none'), periods (a number > 0), steps_per_period (an integer >= 4), "
                  "locking_tol (a number in (0, 0.25)), points (an odd integer from 3 to 999: the invariant "
                  "circle's points on a shooting branch)", lambda v: _torus_ok(v), {}),
+    # a start on a torus: the invariant circle a simulation settles on (contin.analyses.torus_start)
+    "solution": string("periodic", ("periodic", "torus")),
     "max_branches": integer(8, 1),
     "continuation": mapping(),  # validated by ContinuationOptions.from_dict
     "start_from": string("model", ("model", "linear", "simulation")),
@@ -304,6 +307,9 @@ def _plan(scene, model) -> FrequencyResponsePlan:
         problem = engine_problem(sc, hb)
         method = analysis_method(a, hb)
         shooting = ShootingSettings.from_dict(a.get("shooting"), f"{key}.shooting")
+        check_torus_start(a, key, method)
+        if a["solution"] == "torus":
+            method = "shooting"
         if method == "shooting":
             problem = shooting_problem(hb, shooting)
             if a["guess"] is not None:
@@ -332,8 +338,10 @@ def _shooting_factory(plan: FrequencyResponsePlan):
 
 
 def _wants_tori(scene) -> bool:
-    """Whether any start of the scene switches at Neimark-Sacker points (then the torus columns are written)."""
-    return any("ns" in (s.get("switch") or ()) for s in [scene.analysis, *(scene.analysis.get("starts") or ())])
+    """Whether any start of the scene switches at Neimark-Sacker points or starts on a torus (then the torus
+    columns are written)."""
+    return any("ns" in (s.get("switch") or ()) or s.get("solution") == "torus"
+               for s in [scene.analysis, *(scene.analysis.get("starts") or ())])
 
 
 def plot_measures(scene, model, hb) -> list[str]:
@@ -371,7 +379,12 @@ def _run(plan: FrequencyResponsePlan, ctx) -> Outcome:
         for setup in plan.starts:
             sc, hb_i, problem, lam0, opts = setup.scene, setup.hb, setup.problem, setup.sweep.start, setup.options
             a = sc.analysis
-            if len(results) in previous:  # taken up from the checkpoint: no start to compute
+            if a["solution"] == "torus":  # the circle and its anchor from the simulation (again on resume)
+                try:
+                    problem, u0 = circle_from_simulation(problem, a, lam0, hb_i.H)
+                except (SimulationError, ArithmeticError, ValueError) as exc:
+                    raise RunError(f"no starting torus at {hb_i.parameter}={lam0:g}: {exc}") from None
+            elif len(results) in previous:  # taken up from the checkpoint: no start to compute
                 u0 = np.asarray(previous[len(results)].unknowns[0])
             elif is_shooting(problem):
                 u_hb = None if a["start_from"] == "simulation" else start_guess(sc, model, hb_i, lam0)

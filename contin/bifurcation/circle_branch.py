@@ -296,10 +296,12 @@ class CircleStart:
     problem: InvariantCircleProblem
     u: np.ndarray
     lam: float
-    tangent: np.ndarray
+    tangent: np.ndarray | None
     kind: str = "ns"
     side: int = 1
     eps: float = 1e-2
+    #: correct ``u`` at ``lam`` first (a start from a fitted guess; a switch's start is corrected by the engine)
+    solve_start: bool = False
 
 
 def circle_child_start(shooting, lam: float, unknowns, points: int) -> CircleStart:
@@ -346,7 +348,8 @@ def run_circle(start: CircleStart, lam_range, options: ContinuationOptions, para
     monitors = [CircleStabilityMonitor(problem)] if stability else []
     opts = options.replace(unknown_scale=None, parameter_scale=None)
     br = follow_circle(problem, start.u, start.lam, lam_range, opts, tangent=start.tangent, parameter_name=parameter_name,
-                       monitors=monitors, callback=callback, checkpoint=checkpoint, resume=resume)
+                       monitors=monitors, callback=callback, checkpoint=checkpoint, resume=resume,
+                       solve_start=start.solve_start)
     for mon in monitors:
         if mon.undecided:
             br.message = (f"{br.message}; no stability verdict at {len(mon.undecided)} point(s) (the largest normal "

@@ -24,7 +24,7 @@ from contin.bifurcation.torus_start import torus_start
 from contin.engine.branch import Branch, BranchStatus, SpecialKind, SpecialPoint
 from contin.engine.continuation import ContinuationOptions, continuation
 from contin.hb.grazing import grazing_events
-from contin.model.periodic import is_shooting
+from contin.model.periodic import is_circle, is_shooting
 from contin.stability.events import stability_events
 from contin.stability.monitor import StabilityMonitor
 from contin.stability.options import StabilityMethod, StabilityOptions
@@ -418,7 +418,7 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
     diagram = BifurcationDiagram()
 
     # the first branch
-    monitor, events, monitors = _stability(problem, stability, options)
+    monitor, events, monitors = (None, [], []) if is_circle(problem) else _stability(problem, stability, options)
 
     def cb_for(index, prob):
         return callback_factory(index, prob) if callback_factory is not None else callback
@@ -427,6 +427,19 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
         return None if checkpoint_factory is None else checkpoint_factory(index, prob)
 
     previous = previous or {}
+    if is_circle(problem):  # a torus from a start (an invariant circle): no switching from it
+        from contin.bifurcation.circle_branch import CircleStart  # deferred: the time domain
+
+        st = CircleStart(problem, np.asarray(u0, dtype=float), float(lam0), None, kind="start", solve_start=True)
+        root = _run_circle(st, lam_range, options, name, torus or TorusSettings(), cb_for(0, problem),
+                           ck_for(0, problem), previous.get(0))
+        root.info.update(parent=None, origin=None, depth=0)
+        diagram.branches.append(root)
+        diagram.problems.append(problem)
+        diagram.parents.append(None)
+        diagram.origins.append(None)
+        diagram.monitors.append(None)
+        return diagram
     if 0 in previous:
         root = _resume(previous[0], problem, lam_range, options, name, events, monitors, cb_for(0, problem),
                        ck_for(0, problem))

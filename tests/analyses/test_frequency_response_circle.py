@@ -72,3 +72,53 @@ def test_the_circles_start_at_the_shooting_branchs_neimark_sacker_points(runs):
     for j, w_ns in zip((1, 2), ns):
         first = np.flatnonzero(rows["branch"] == j)[0]
         assert rows["w"][first] == pytest.approx(w_ns, abs=1e-6)
+
+
+TORUS_START = (ROOT / "scenes/van_der_pol_circle.yaml").read_text().split("analysis:")[0] + """\
+analysis:
+  type: frequency_response
+  parameter: w
+  range: [0.8, 0.9]
+  start: 0.85
+  solution: torus
+  start_from: simulation
+  start_simulation: {transient: 100}
+  both_ways: true
+  method: shooting
+  torus: {points: 21}
+output: {measure: amp_x, plots: false}
+"""
+
+
+def test_a_torus_start_from_simulation_reaches_the_balances_torus(tmp_path, runs):
+    """``solution: torus``: the circle fitted to a simulation's sections at w = 0.85 (contin.analyses.torus_start),
+    followed both ways; at w = 0.8 the same torus as the two-frequency balance's."""
+    _, d = runs
+    scene = tmp_path / "s.yaml"
+    scene.write_text(TORUS_START)
+    assert main(["run", str(scene), "-o", str(tmp_path / "out"), "-q"]) == 0
+    rows = read_csv(tmp_path / "out/branches.csv")
+    summary = json.loads((tmp_path / "out/summary.json").read_text())
+    assert [b["status"] for b in summary["analysis"]["branches"]] == ["range_end", "range_end"]
+    assert all(b["torus"]["circle"] for b in summary["analysis"]["branches"])
+    qb, qp = d.branches[1], d.problems[1]
+    ref = torus_measures(qp, qb.unknowns[-1], float(qb.parameter[-1]), ["x"], 5)
+    i = int(np.flatnonzero(np.asarray(rows["w"]) == 0.8)[0])
+    assert rows["frequency2"][i] == pytest.approx(ref["frequency2"], abs=1e-8)
+    assert rows["free_x"][i] == pytest.approx(ref["free_x"], abs=1e-7)
+
+
+@pytest.mark.parametrize("change, key, expected", [
+    ("start_from: simulation", "analysis.start_from", "simulation with solution: torus"),
+    ("method: shooting", "analysis.method", "shooting or auto with solution: torus"),
+    ("both_ways: true", "analysis.switch", "no switch with solution: torus"),
+])
+def test_a_torus_start_says_what_it_needs(tmp_path, capsys, change, key, expected):
+    bad = {"start_from: simulation": "start_from: model", "method: shooting": "method: hb",
+           "both_ways: true": "both_ways: true\n  switch: [ns]"}[change]
+    scene = tmp_path / "s.yaml"
+    scene.write_text(TORUS_START.replace(change, bad))
+    assert main(["run", str(scene), "-o", str(tmp_path / "out"), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert key in err and expected in err
+    assert not (tmp_path / "out").exists()

@@ -6,6 +6,7 @@ import math
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
+from scipy.optimize import minimize_scalar
 
 from contin.bifurcation.diagram import follow
 from contin.bifurcation.torus_branch import TorusSettings
@@ -233,3 +234,40 @@ def test_a_circles_row_equals_the_two_frequency_balances_torus(qp_branch):
     assert mine["max_x"] == pytest.approx(x.max(), abs=1e-5)
     assert mine["min_x"] == pytest.approx(x.min(), abs=1e-5)
     assert ref["free_x"] > 0.1 and ref["forced_x"] > 0.1  # both lines are there to compare
+
+
+def test_a_circle_fitted_to_a_scipy_simulation_converges_to_the_balances_torus(qp_branch):
+    """The sections of a DOP853 integration (scipy) settled on the stable torus at w = 0.92, fitted by the
+    circle's trigonometric polynomial (contin.timedomain.circle_fit), are a first guess from which Newton
+    finds the circle of the two-frequency balance's section: the same rotation number, and every point on it."""
+    from contin.timedomain.circle_fit import fit_circle
+
+    N = 21
+    _, _, w, ref, _, res = circle_at_092(qp_branch, N, 1024)
+    T = 2 * math.pi / w
+    t = np.arange(60, 360) * T
+    sol = solve_ivp(vdp_rhs(w), (0, t[-1]), [1.0, 0.0], method="DOP853", t_eval=t, rtol=1e-11, atol=1e-12)
+    fit = fit_circle(sol.y.T, N)
+    assert fit.misfit < 1e-5 and fit.rho == pytest.approx(ref.blocks(res.x)[1] % 1.0, abs=1e-6)
+    prob = InvariantCircleProblem(vdp_model(), "w", options=CircleOptions(points=N, steps_per_period=1024))
+    prob.set_anchor(fit.points)
+    got = solve_at_parameter(prob, prob.unknowns(fit.points, fit.rho), w)
+    assert got.converged
+    assert prob.blocks(got.x)[1] % 1.0 == pytest.approx(ref.blocks(res.x)[1] % 1.0, abs=1e-10)
+    # the same curve in another parametrisation: the reference's interpolant at the angles shifted by the
+    # best phase (found on a grid, then refined by scipy)
+    P = prob.blocks(got.x)[0]
+    theta = 2 * np.pi * np.arange(N) / N
+
+    def misfit(shift):
+        return float(np.abs(ref.points_on_circle(res.x, theta + shift) - P).max())
+
+    grid = np.linspace(0.0, 2 * np.pi, 2000, endpoint=False)
+    start = grid[int(np.argmin([misfit(a) for a in grid]))]
+    gap = minimize_scalar(misfit, bounds=(start - 0.01, start + 0.01), method="bounded",
+                          options={"xatol": 1e-13}).fun
+    assert gap < 1e-6  # measured 3.0e-7: two anchors, two discrete circles of N = 21 on one curve
+    with pytest.raises(ValueError, match="at least 42 states"):
+        fit_circle(sol.y.T[:10], N)
+    with pytest.raises(ValueError, match="odd integer"):
+        fit_circle(sol.y.T, 20)
