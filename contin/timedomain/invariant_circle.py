@@ -45,6 +45,7 @@ from typing import Mapping
 
 import numpy as np
 
+from contin.stability.circle_products import fourier_rows, normal_products
 from contin.timedomain.circle_measures import strongest_winding
 from contin.timedomain.multiple_shooting import VARIATIONAL_COST, ShootingOptions, ShootingProblem
 from contin.util.options import from_mapping
@@ -374,17 +375,6 @@ def point_jacobians(problem: "InvariantCircleProblem", u, lam: float, Ju=None, m
     return both
 
 
-def _interpolation_weights(count: int, theta) -> np.ndarray:
-    """Weights (len(theta), count) of the trigonometric interpolant of ``count`` values at ``2 pi j / count``
-    (odd ``count``: degree ``(count - 1) / 2``; even: the last cosine halved), evaluated at ``theta``."""
-    d = np.asarray(theta, dtype=float)[:, None] - 2.0 * math.pi * np.arange(count)[None, :] / count
-    K = (count - 1) // 2
-    w = 1.0 + 2.0 * sum(np.cos(k * d) for k in range(1, K + 1))
-    if count % 2 == 0:
-        w = w + np.cos((count // 2) * d)
-    return w / count
-
-
 def circle_lyapunov(problem: InvariantCircleProblem, u, lam: float, iterations: int = 200,
                     jacobians=None) -> CircleLyapunov:
     """The torus' stability from the Lyapunov exponents of the map restricted to its circle.
@@ -425,32 +415,30 @@ def circle_lyapunov(problem: InvariantCircleProblem, u, lam: float, iterations: 
     U, rho = problem.blocks(u)
     m, N = 2 * problem.n, problem.points
     theta = 2.0 * math.pi * ((np.arange(iterations + 1) * rho) % 1.0)
-    # the interpolant's weights at theta_k: row 0 of S_{theta_k / 2 pi}, and of its derivative (Dirichlet kernel)
-    d = theta[:, None] - 2.0 * math.pi * np.arange(N)[None, :] / N
-    k = np.arange(1, (N - 1) // 2 + 1)[:, None, None]
-    tangents = -(2.0 / N) * np.sum(k * np.sin(k * d), axis=0) @ U  # u'(theta_k), (iterations + 1, m)
+    # u'(theta_k) from the interpolant's rows (a_0, a_1, b_1, ...): sum k (b_k cos k theta - a_k sin k theta)
+    rows = fourier_rows(U)
+    k = np.arange(1, (N - 1) // 2 + 1)
+    tangents = (np.cos(np.outer(theta, k)) * k) @ rows[2::2] - (np.sin(np.outer(theta, k)) * k) @ rows[1::2]
     tangents /= np.linalg.norm(tangents, axis=1)[:, None]
+    # a basis of the normal space at theta_0: the complement of the tangent
+    Q = np.linalg.qr(np.c_[tangents[0], np.eye(m)])[0][:, 1:m]
+    sums = np.zeros(m - 1)
     if jacobians is not None:
         J = np.asarray(jacobians, dtype=float)
         if J.ndim != 3 or J.shape[1:] != (m, m) or J.shape[0] < 3:
             raise ValueError(f"jacobians: expected shape (K, {m}, {m}) with K >= 3 equally spaced angles, "
                              f"got {J.shape}")
-        along = np.einsum("kj,jab->kab", _interpolation_weights(len(J), theta[:-1]), J)
-    # a basis of the normal space at theta_0: the complement of the tangent
-    Q = np.linalg.qr(np.c_[tangents[0], np.eye(m)])[0][:, 1:m]
-    sums = np.zeros(m - 1)
-    tangential = 0.0
-    for i in range(iterations):
-        if jacobians is not None:
-            Phi = along[i]
-        else:
+        tangential = normal_products(fourier_rows(J), theta, np.ascontiguousarray(tangents), np.array(Q), sums)
+    else:
+        tangential = 0.0
+        for i in range(iterations):
             z = problem.points_on_circle(u, theta[i])[0]
             _, Phi = problem.map.flow_jacobian(z, lam)
-        tangential += math.log(float(np.linalg.norm(Phi @ tangents[i])))
-        A = Phi @ Q
-        A -= np.outer(tangents[i + 1], tangents[i + 1] @ A)
-        Q, R = np.linalg.qr(A)
-        sums += np.log(np.abs(np.diag(R)))
+            tangential += math.log(float(np.linalg.norm(Phi @ tangents[i])))
+            A = Phi @ Q
+            A -= np.outer(tangents[i + 1], tangents[i + 1] @ A)
+            Q, R = np.linalg.qr(A)
+            sums += np.log(np.abs(np.diag(R)))
     normal = np.sort(sums / iterations)[::-1]
     tangential /= iterations
     exps = np.sort(np.r_[normal, tangential])[::-1]

@@ -11,8 +11,13 @@ w in [0.8, 0.95] (quasi-periodic below the entrainment boundary w = 0.951).
   and contin's spectral-line estimator picks the second frequency and the amplitudes (as a paper's
   simulation figure is made).
 
-Both are timed in this run, side by side; the script prints the times, the ratio, and the largest
-difference between the two in the second frequency and in the self-excited line's amplitude.
+- the same tori as invariant circles (N = 21 points, 1024 RK4 steps a period): the periodic branch by
+  shooting from w = 0.97 down, its Neimark-Sacker point, the circle branch to w = 0.8 with the stability
+  of every point from its Lyapunov exponents (contin.bifurcation.circle_branch).
+
+All are timed in this run, side by side; the script prints the times, the ratios, the largest
+difference between the balance and the sweep in the second frequency and in the self-excited line's
+amplitude, and the circle's second frequency at w = 0.8 against the balance's.
 
     python scripts/bench/bench_torus.py [--quick]
 """
@@ -49,6 +54,19 @@ def torus_branch(H: int):
     hb = HarmonicBalance(model(), "w", HBOptions(5))
     d = follow(hb, hb.linear_solution(0.8), 0.8, (0.8, 0.97), {"ds": 0.02}, stability={"method": "hill"},
                switch=("ns",), torus=TorusSettings(TorusOptions(H, H), stability="none"))
+    return d.branches[1], d.problems[1]
+
+
+def circle_branch(points: int, steps: int):
+    """The tori as invariant circles: shooting from w = 0.97 down, the circle from its Neimark-Sacker point."""
+    from contin.timedomain.shooting import ShootingOptions, ShootingProblem
+
+    m = model()
+    run = simulate(m, {"w": 0.97}, np.array([1.0]), np.zeros(1), periods=300, steps_per_period=steps,
+                   record_every=steps)
+    sp = ShootingProblem(m, "w", None, ShootingOptions(steps_per_period=steps))
+    d = follow(sp, run.final_state, 0.97, (0.8, 0.97), {"ds": 0.02, "direction": -1},
+               stability={"method": "floquet"}, switch=("ns",), torus=TorusSettings(points=points))
     return d.branches[1], d.problems[1]
 
 
@@ -103,6 +121,19 @@ def main(argv=None) -> None:
     print(f"ratio sweep / torus branch: {t_sim / t_torus:.1f}; with the stability check: "
           f"{t_sim / (t_torus + t_stab):.1f}")
     print(f"largest relative difference: second frequency {d_w2:.2e}, self-excited line {d_amp:.2e}")
+    N = 11 if a.quick else 21
+    circle_branch(5, 256)  # compile the flow and its variational equations once
+    t0 = time.perf_counter()
+    cb, cp = circle_branch(N, 1024)
+    t_circle = time.perf_counter() - t0
+    stable = int(np.sum(np.asarray(cb.point_data["stable"], dtype=bool) & np.asarray(cb.point_data["evaluated"],
+                                                                                      dtype=bool)))
+    print(f"invariant circles (N = {N}, 1024 steps a period): periodic branch by shooting and the circle branch, "
+          f"{len(cb)} points with their Lyapunov exponents ({stable} stable) in {t_circle:.2f} s; "
+          f"ratio sweep / circle branch: {t_sim / t_circle:.1f}")
+    if cb.parameter[-1] == br.parameter[-1] == 0.8:
+        print(f"second frequency at w = 0.8: circle {cp.second_frequency(cb.unknowns[-1], 0.8):.10f}, "
+              f"balance {br.unknowns[-1, -1]:.10f}")
 
 
 if __name__ == "__main__":
