@@ -56,12 +56,7 @@ def circle_surface(problem, u, lam: float) -> tuple[np.ndarray, np.ndarray, floa
     """
     U, rho = problem.blocks(u)
     S = problem.options.steps_per_period
-    T = 2.0 * math.pi / problem.frequency_at(lam)
-    t = np.arange(S) * T / S
-    X = np.empty((len(U), S, U.shape[1]))
-    for j, z in enumerate(U):
-        x, v = problem.map.orbit(z, lam, t)  # on the step grid: the integrator's own states
-        X[j, :, :problem.n], X[j, :, problem.n:] = x.T, v.T
+    X = np.stack([problem.map.step_states(z, lam) for z in U])  # (N, S, 2n): the integrator's own states
     r = rho + problem.winding
     if r < 0.0:  # phi reversed: point j sits at phi = -2 pi j / N
         X = np.roll(X[::-1], 1, axis=0)

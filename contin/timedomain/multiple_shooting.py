@@ -547,6 +547,13 @@ class ShootingProblem:
         t = np.arange(self.segments) * self.period_at(lam) / self.segments
         return np.asarray(orbit_state(full, coeffs, lam, t), dtype=float).reshape(-1)
 
+    def step_states(self, u: np.ndarray, lam: float) -> np.ndarray:
+        """The states ``(x, x')`` of the orbit ``u`` at every RK4 step over its period, the integrator's own:
+        shape (nu * steps_per_period, 2n), the first the start, the period's end left out."""
+        Z = self._blocks(u)
+        setup = self._setup(lam)
+        return np.vstack([Z[:1]] + [self._run(Z[k], setup, k, record=True)[1] for k in range(self.segments)])[:-1]
+
     def orbit(self, u: np.ndarray, lam: float, t):
         """Displacements and velocities of the orbit ``u`` at times ``t`` in ``[0, period]``.
 
