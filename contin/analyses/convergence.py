@@ -115,6 +115,7 @@ from contin.analyses.convergence_plan import (BASE_TABLES, CONVERGENCE, Converge
                                               setting_label, slug, validate)
 from contin.output.figures import figure_style, legend_below, new_figure, save_figure
 from contin.output.labels import math as math_text, quantity
+from contin.output.plotting import laid_out_renderer
 from contin.output.outcome import Outcome
 from contin.scene.schema import SceneError
 
@@ -339,6 +340,7 @@ def draw_convergence(ax, records: list[dict], items: list[tuple[str, str]], kind
     """
     markers = "osD^v<>ph*"
     labelled: set = set()
+    notes: list = []  # (text, time, error) of each setting's label, placed once the axes are final
     groups = list(dict.fromkeys(r.get("group", "") for r in records))
     styles = ["-", "--", ":", "-."]
     for k, (c, d) in enumerate(items):
@@ -355,7 +357,7 @@ def draw_convergence(ax, records: list[dict], items: list[tuple[str, str]], kind
                 if li not in labelled:  # the quantities of a setting share its time: one label per setting
                     labelled.add(li)
                     short = li[len(group) + 2:] if group and li.startswith(group + ", ") else li
-                    ax.annotate(short, (ti, ei), textcoords="offset points", xytext=(4, 3), fontsize=7)
+                    notes.append((short, ti, ei))
     if budget is not None:
         ax.axhline(budget, color="0.5", ls=":", lw=1, label=f"error budget {budget:g}")
     ax.set_xlabel(("wall" if cost == "wall_time" else "CPU") + " time per run [s]")
@@ -366,6 +368,26 @@ def draw_convergence(ax, records: list[dict], items: list[tuple[str, str]], kind
         ax.tick_params(axis="x", which="minor", labelsize=7)
     ax.set_ylabel("error against the reference setting")
     ax.grid(True, which="both", alpha=0.3)
+    _place_labels(ax, notes)
+
+
+#: where a setting's label may sit beside its point (offset points, horizontal alignment), in order
+_LABEL_SPOTS = (((4, 3), "left"), ((4, -10), "left"), ((-4, 3), "right"), ((-4, -10), "right"))
+
+
+def _place_labels(ax, notes) -> None:
+    """Each setting's label at the first spot beside its point where it overlaps no label placed before; a label
+    with no free spot is left out (its point keeps its marker, the legend and the table name it)."""
+    renderer = laid_out_renderer(ax.figure)
+    placed = []
+    for text, t, e in notes:
+        for offset, ha in _LABEL_SPOTS:
+            ann = ax.annotate(text, (t, e), textcoords="offset points", xytext=offset, fontsize=7, ha=ha)
+            box = ann.get_window_extent(renderer)
+            if not any(box.overlaps(p) for p in placed):
+                placed.append(box)
+                break
+            ann.remove()
 
 
 def plot_convergence(path: Path, records: list[dict], items: list[tuple[str, str]], kinds: dict,

@@ -122,3 +122,40 @@ def test_a_torus_start_says_what_it_needs(tmp_path, capsys, change, key, expecte
     err = capsys.readouterr().err
     assert key in err and expected in err
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.slow
+def test_a_torus_start_killed_midway_resumes_to_the_same_rows(tmp_path):
+    """Killed inside the first circle branch of a torus start: the resumed run fits the same circle again (the
+    same simulation, the same anchor), takes the branch up from its last point and ends with the rows of the
+    uninterrupted run."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    scene = tmp_path / "s.yaml"
+    scene.write_text(TORUS_START)
+    ref = tmp_path / "ref"
+    assert main(["run", str(scene), "-o", str(ref), "-q"]) == 0
+    out = tmp_path / "run"
+    proc = subprocess.Popen([sys.executable, "-m", "contin", "run", str(scene), "-o", str(out), "-q"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+    def rows():
+        try:
+            return max(0, sum(1 for _ in open(out / "branches.csv")) - 1)
+        except FileNotFoundError:
+            return 0
+
+    t0 = time.time()
+    while rows() < 6 and proc.poll() is None and time.time() - t0 < 120:
+        time.sleep(0.005)
+    assert proc.poll() is None, "the run finished before it could be killed"
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    assert main(["run", str(scene), "-o", str(out), "-q", "--resume"]) == 0
+    a, b = read_csv(ref / "branches.csv"), read_csv(out / "branches.csv")
+    assert len(a["branch"]) == len(b["branch"])
+    for col in ("w", "frequency2", "free_x", "amp_x", "max_multiplier"):
+        np.testing.assert_allclose(b[col], a[col], rtol=1e-9, atol=1e-12, err_msg=col, equal_nan=True)
