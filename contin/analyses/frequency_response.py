@@ -33,7 +33,7 @@ from contin.analyses.handover import boundary_gap, hand_over
 from contin.analyses.shooting_rows import (METHODS, ShootingSettings, analysis_method, is_shooting, shooting_problem,
                                            shooting_start)
 from contin.analyses.stability_hooks import stability_setup
-from contin.analyses.torus_start import check_torus_start, circle_from_simulation
+from contin.analyses.torus_start import check_torus_start, circle_from_simulation, torus_keys_ok
 from contin.bifurcation.start import START_LOW_HARMONICS, HomotopyFailed, harmonic_start, simulation_start
 from contin.engine.branch import BranchStatus
 from contin.engine.continuation import ContinuationOptions
@@ -68,20 +68,6 @@ START_KEYS = ("start", "start_from", "start_simulation", "subharmonic", "harmoni
               "guess", "stability_options", "switch", "continuation", "method", "shooting", "solution", "torus")
 
 
-def _torus_ok(v) -> bool:
-    if not isinstance(v, dict) or set(v) - {"harmonics", "harmonics2", "samples", "samples2", "stability", "periods",
-                                           "steps_per_period", "locking_tol", "points"}:
-        return False
-    if v.get("points") is not None and not (is_int(v["points"]) and 3 <= v["points"] <= 999 and v["points"] % 2):
-        return False
-    ints = all(v.get(k) is None or (is_int(v[k]) and 1 <= v[k] <= 2**16)
-               for k in ("harmonics", "harmonics2", "samples", "samples2"))
-    return (ints and v.get("stability", "simulation") in ("simulation", "none")
-            and (v.get("periods") is None or (is_number(v["periods"]) and v["periods"] > 0))
-            and (v.get("steps_per_period") is None or (is_int(v["steps_per_period"]) and 4 <= v["steps_per_period"] <= 2**20))
-            and (v.get("locking_tol") is None or (is_number(v["locking_tol"]) and 0 < v["locking_tol"] < 0.25)))
-
-
 #: the keys of a ``frequency_response`` analysis section
 SCHEMA = {
     "type": string(required=True),
@@ -105,7 +91,7 @@ SCHEMA = {
     "torus": Key("a mapping with keys among harmonics, harmonics2, samples, samples2 (integers or null), stability "
                  "('simulation' or 'none'), periods (a number > 0), steps_per_period (an integer >= 4), "
                  "locking_tol (a number in (0, 0.25)), points (an odd integer from 3 to 999: the invariant "
-                 "circle's points on a shooting branch)", lambda v: _torus_ok(v), {}),
+                 "circle's points on a shooting branch)", torus_keys_ok, {}),
     # a start on a torus: the invariant circle a simulation settles on (contin.analyses.torus_start)
     "solution": string("periodic", ("periodic", "torus")),
     "max_branches": integer(8, 1),
@@ -502,8 +488,12 @@ class FrequencyResponse(Analysis):
                           "auto": f"  method: harmonic balance, handed to shooting ({sh.segments} segment(s), "
                                   f"{sh.steps_per_period} steps a period) at a grazing point it cannot pass"}
                          [plan.first.method])
-        if "ns" in a["switch"]:
-            t = TorusSettings.from_dict(a.get("torus") or {}, hb.H)
+        t = TorusSettings.from_dict(a.get("torus") or {}, hb.H)
+        if plan.first.method != "hb" and ("ns" in a["switch"] or a["solution"] == "torus"):
+            lines.append(f"  tori: invariant circles of {t.points} points ({sh.steps_per_period} steps a period); "
+                         + ("stability by their Lyapunov exponents" if t.stability != "none" else "no stability")
+                         + ("; the first fitted to a simulation" if a["solution"] == "torus" else ""))
+        elif "ns" in a["switch"]:
             o = t.options
             lines.append(f"  tori: H1={o.harmonics}, H2={o.harmonics2}, crossings {o.crossings}; stability "
                          + (f"by simulation ({t.periods:g} periods, {t.steps_per_period} steps each)"

@@ -16,15 +16,31 @@ import math
 import numpy as np
 
 from contin.bifurcation.torus_branch import TorusSettings
-from contin.scene.schema import SceneError
+from contin.scene.schema import SceneError, is_int, is_number
 
-__all__ = ["MAX_MISFIT", "MIN_RECORD", "RECORD_PER_POINT", "check_torus_start", "circle_from_simulation"]
+__all__ = ["MAX_MISFIT", "MIN_RECORD", "RECORD_PER_POINT", "check_torus_start", "circle_from_simulation",
+           "torus_keys_ok"]
 
 #: recorded forcing periods per point of the circle, and at least
 RECORD_PER_POINT = 20
 MIN_RECORD = 400
 #: a fit further than this (relative RMS) from the sections is no torus to start from
 MAX_MISFIT = 0.05
+
+
+def torus_keys_ok(v) -> bool:
+    """Whether ``v`` is a valid ``analysis.torus`` mapping (its keys and their values' types and ranges)."""
+    if not isinstance(v, dict) or set(v) - {"harmonics", "harmonics2", "samples", "samples2", "stability", "periods",
+                                           "steps_per_period", "locking_tol", "points"}:
+        return False
+    if v.get("points") is not None and not (is_int(v["points"]) and 3 <= v["points"] <= 999 and v["points"] % 2):
+        return False
+    ints = all(v.get(k) is None or (is_int(v[k]) and 1 <= v[k] <= 2**16)
+               for k in ("harmonics", "harmonics2", "samples", "samples2"))
+    return (ints and v.get("stability", "simulation") in ("simulation", "none")
+            and (v.get("periods") is None or (is_number(v["periods"]) and v["periods"] > 0))
+            and (v.get("steps_per_period") is None or (is_int(v["steps_per_period"]) and 4 <= v["steps_per_period"] <= 2**20))
+            and (v.get("locking_tol") is None or (is_number(v["locking_tol"]) and 0 < v["locking_tol"] < 0.25)))
 
 
 def check_torus_start(a: dict, key: str, method: str) -> None:
