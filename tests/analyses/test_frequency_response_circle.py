@@ -159,3 +159,13 @@ def test_a_torus_start_killed_midway_resumes_to_the_same_rows(tmp_path):
     assert len(a["branch"]) == len(b["branch"])
     for col in ("w", "frequency2", "free_x", "amp_x", "max_multiplier"):
         np.testing.assert_allclose(b[col], a[col], rtol=1e-9, atol=1e-12, err_msg=col, equal_nan=True)
+
+
+def test_check_says_the_tori_are_invariant_circles(tmp_path, capsys):
+    assert main(["check", str(ROOT / "scenes/van_der_pol_circle.yaml")]) == 0
+    assert "tori: invariant circles of 21 points (1024 steps a period); stability by their Lyapunov exponents" \
+        in capsys.readouterr().out
+    scene = tmp_path / "s.yaml"
+    scene.write_text(TORUS_START)
+    assert main(["check", str(scene)]) == 0
+    assert "; the first fitted to a simulation" in capsys.readouterr().out
