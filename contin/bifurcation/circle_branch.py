@@ -299,7 +299,7 @@ class CircleStart:
     tangent: np.ndarray | None
     kind: str = "ns"
     side: int = 1
-    eps: float = 1e-2
+    eps: float = 1e-3
     #: correct ``u`` at ``lam`` first (a start from a fitted guess; a switch's start is corrected by the engine)
     solve_start: bool = False
 
