@@ -21,7 +21,9 @@ map:
   special point naming ``p/q``. :func:`locked_orbits` finds the periodic
   orbits of ``q`` forcing periods there, by multiple shooting (one segment a
   forcing period) started from the circle's points, and tells the rotation
-  ``p/q`` each one makes around the circle.
+  ``p/q`` each one makes around the circle; :func:`locked_starts` makes them
+  the first points of their branches (a diagram follows them, children of
+  the circle branch).
 
 Any other end keeps the engine's status and message.
 """
@@ -33,6 +35,7 @@ from fractions import Fraction
 
 import numpy as np
 
+from contin.bifurcation.switching import BranchStart
 from contin.bifurcation.torus_branch import end_as_boundary
 from contin.engine.branch import Branch, BranchStatus, SpecialKind
 from contin.engine.continuation import ContinuationOptions, continuation
@@ -42,8 +45,8 @@ from contin.timedomain.invariant_circle import (CircleOptions, InvariantCirclePr
 from contin.timedomain.multiple_shooting import ShootingOptions, ShootingProblem
 
 __all__ = ["FLIP_SPREAD", "LOCKING_TOL", "LYAPUNOV_PERIODS", "MAX_DENOMINATOR", "CircleStabilityMonitor",
-           "CircleStart", "LockedOrbit", "circle_child_start", "classify_circle_end", "follow_circle", "locked_orbits",
-           "run_circle"]
+           "CircleStart", "LOCKED_OFFSETS", "LockedOrbit", "circle_child_start", "classify_circle_end", "follow_circle",
+           "locked_orbits", "locked_starts", "run_circle"]
 
 #: a flip counts as the collapse where the circle is this small against its largest (elsewhere it would be the
 #: parametrisation turning, not the circle shrinking)
@@ -214,7 +217,8 @@ def locked_orbits(problem, u, lam: float, q: int, *, tol: float = 1e-10, max_ite
     Returns
     -------
     list of LockedOrbit
-        The distinct orbits found (a cyclic shift of the segment starts is the same orbit).
+        The distinct orbits found (a cyclic shift of the segment starts is the same orbit), those of fewer
+        periods left out.
     """
     if isinstance(q, bool) or not isinstance(q, (int, np.integer)) or q < 1:
         raise ValueError(f"locked_orbits: q must be a positive integer, got {q!r}")
@@ -233,6 +237,8 @@ def locked_orbits(problem, u, lam: float, q: int, *, tol: float = 1e-10, max_ite
             continue
         Z = x.reshape(q, n2)
         scale = max(1.0, float(np.max(np.abs(Z))))
+        if any(np.max(np.abs(np.roll(Z, d, axis=0) - Z)) < 1e-6 * scale for d in range(1, q) if q % d == 0):
+            continue  # an orbit of fewer periods (the torus' own periodic orbit, run q times): not on the tongue
         if any(min(np.max(np.abs(np.roll(Z, k, axis=0) - o.unknowns.reshape(q, n2))) for k in range(q)) < 1e-6 * scale
                for o in found):
             continue
@@ -358,3 +364,42 @@ def run_circle(start: CircleStart, lam_range, options: ContinuationOptions, para
     br.info["torus"] = {"circle": True, "points": problem.points, "steps_per_period": problem.options.steps_per_period,
                         "winding": int(problem.winding)}
     return br
+
+
+#: how far into the tongue the orbits of a locked circle are sought, in turn (relative to ``max(1, |lam|)``)
+LOCKED_OFFSETS = (1e-4, 3e-4, 5.6e-4, 1e-3, 2e-3)
+
+
+def locked_starts(problem, branch: Branch, starts: int = 11) -> list:
+    """First points of the branches of periodic orbits at a circle branch's locking end.
+
+    A little past the last circle, into the tongue (:data:`LOCKED_OFFSETS` in
+    turn, until some are found), :func:`locked_orbits` finds the orbits of
+    ``q`` forcing periods from ``starts`` of its points; each one starts a
+    branch of multiple shooting with ``q`` segments (its problem), its tangent
+    the null vector of ``[dR/du dR/dlam]`` pointing on into the tongue.
+
+    Returns
+    -------
+    list of BranchStart
+        Empty where the branch did not lock, or no orbit was found.
+    """
+    locks = [sp for sp in branch.special_points if sp.kind is SpecialKind.LOCKING]
+    if not locks or len(branch) < 2:
+        return []
+    q = Fraction(str(locks[-1].data["rational"])).denominator
+    last = float(branch.parameter[-1])
+    ahead = float(np.sign(last - float(branch.parameter[0]))) or 1.0  # the branch's way (its last steps zigzag)
+    for offset in LOCKED_OFFSETS:
+        lam = last + ahead * offset * max(1.0, abs(last))
+        orbits = locked_orbits(problem, branch.unknowns[-1], lam, q, starts=starts, max_iter=20)
+        if orbits:
+            break
+    out = []
+    for o in orbits:
+        _, Ju, Jlam = o.problem.linearize(o.unknowns, lam)
+        tangent = np.linalg.svd(np.c_[Ju, Jlam])[2][-1]
+        tangent *= np.sign(tangent[-1] * ahead) or 1.0
+        out.append(BranchStart(o.problem, np.asarray(o.unknowns), lam, tangent, SpecialKind.LOCKING, tangent[:-1],
+                               offset, 1, (np.asarray(o.unknowns), lam)))
+    return out

@@ -322,6 +322,41 @@ def _run_circle(st, lam_range, options, name: str, settings: TorusSettings, call
                       checkpoint=checkpoint, resume=resume)
 
 
+def _locked_children(diagram, j: int, lam_range, options, stability, name: str, cb_for, ck_for, previous,
+                     max_branches: int) -> bool:
+    """At the locking end of circle branch ``j``: the branches of its periodic orbits of ``q`` forcing periods
+    (:func:`contin.bifurcation.circle_branch.locked_starts`), or the failure recorded; False where
+    ``max_branches`` is reached."""
+    from contin.bifurcation.circle_branch import locked_starts  # deferred: the time domain
+
+    br, circle = diagram.branches[j], diagram.problems[j]
+    lock = next((sp for sp in br.special_points if sp.kind is SpecialKind.LOCKING), None)
+    if lock is None:
+        return True
+    try:
+        found = locked_starts(circle, br)
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+        found, why = [], str(exc)
+    else:
+        why = "no periodic orbit of the locking's period found from the circle's points"
+    if not found:
+        diagram.failed_switches.append({"parent": j, "kind": "locking", "parameter": float(lock.parameter), "side": 1,
+                                        "message": why})
+    for st in found:
+        if len(diagram) >= max_branches:
+            return False
+        if not lam_range[0] <= st.lam <= lam_range[1]:
+            continue
+        k = len(diagram)
+        su, sl = continuation_scales(None, options, st.u)
+        child, mon = _run(st, lam_range, options, stability, name, su, sl, cb_for(k, st.problem),
+                          ck_for(k, st.problem), previous.get(k))
+        if mon is not None:
+            _record_stability(child, mon)
+        diagram.add(child, st, j, lock, mon, br.info.get("depth", 1) + 1)
+    return True
+
+
 def _shooting_pd(prob, sp: SpecialPoint, failed: list) -> list:
     """The one first point of the doubled branch at a shooting branch's period doubling (its two sides are one
     orbit shifted by a forcing period), or none with the reason in ``failed``."""
@@ -482,6 +517,9 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
                     child = _run_circle(st, lam_range, options, name, torus or TorusSettings(), cb_for(j, st.problem),
                                         ck_for(j, st.problem), previous.get(j))
                     diagram.add(child, st, i, sp, None, depth + 1)
+                    if not _locked_children(diagram, j, lam_range, options, stability, name, cb_for, ck_for, previous,
+                                            max_branches):
+                        return diagram
                     continue
                 st = _torus_child(prob, br, sp, torus, options, diagram, i)
                 if st is None or not lam_range[0] <= st.lam <= lam_range[1]:

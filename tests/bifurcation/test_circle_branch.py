@@ -146,3 +146,67 @@ def test_the_rotors_torus_verdicts_agree_with_long_simulations_from_the_circle()
             assert gap < 1e-4
         else:
             assert gap > 1e-3
+
+
+def test_orbits_of_fewer_periods_are_not_taken_for_a_locking():
+    """Inside the entrained range (w = 0.96) the stable harmonic orbit attracts Newton from points near it; run
+    twice it is an orbit of two periods too, but not one on a 1:2 tongue: locked_orbits leaves it out, while the
+    same points solved for one period find it."""
+    run = simulate(vdp_model(), {"w": 0.96}, np.zeros(1), np.zeros(1), periods=300, steps_per_period=1024,
+                   record_every=1024)
+    z = run.section[-1]
+    prob = InvariantCircleProblem(vdp_model(), "w", options=CircleOptions(points=5, steps_per_period=1024))
+    ring = z + 1e-3 * np.array([[np.cos(a), np.sin(a)] for a in 2 * np.pi * np.arange(5) / 5])
+    u = prob.unknowns(ring, 0.1)
+    assert locked_orbits(prob, u, 0.96, 2) == []
+    ones = locked_orbits(prob, u, 0.96, 1)
+    assert len(ones) == 1 and np.max(np.abs(ones[0].unknowns - z)) < 1e-6
+
+
+def test_a_locked_circle_starts_the_branches_of_its_orbits():
+    """A circle branch of the damped Mathieu-Duffing oscillator that ends locked at 1/2 (the ring of the test
+    above, its end told by classify_circle_end): locked_starts gives the first point of the orbit of two periods
+    (the trivial orbit, of one period, is left out), on its multiple shooting of two segments, with a tangent
+    in the kernel of [dR/du dR/dlam] that goes on the way the circle branch went."""
+    from contin.bifurcation.circle_branch import locked_starts
+
+    model = build_model("mathieu", {"delta": 0.25, "eps": 0.2, "c": 0.05, "g": 1.0, "w": 1.0})
+    z = simulate(model, {}, [0.05], [0.0], periods=300, steps_per_period=256, record_every=256).section[-1]
+    N = 11
+    th = 2 * np.pi * np.arange(N) / N
+    U = np.cos(th)[:, None] * z + np.sin(th)[:, None] * np.array([-z[1], z[0]])
+    prob = InvariantCircleProblem(model, "w", options=CircleOptions(points=N, steps_per_period=256))
+    b = BranchBuilder("w", prob.size)
+    for k, (w, rho) in enumerate(((1.001, 0.4985), (1.0, 0.4999))):  # a branch going down in w
+        b.append_point(prob.unknowns(U, rho), w, np.r_[np.zeros(prob.size), -1.0], k * 1e-3, 3, 1e-3, 1e-12,
+                       {"circle_spread": 0.1})
+    br = b.finish(BranchStatus.STEP_TOO_SMALL, "step size fell below ds_min")
+    classify_circle_end(br, prob)
+    assert br.special_points[-1].kind is SpecialKind.LOCKING
+    starts = locked_starts(prob, br)
+    assert len(starts) == 1
+    st = starts[0]
+    assert st.problem.nu == 2 and st.problem.segments == 2 and st.lam < 1.0
+    R, Ju, Jlam = st.problem.linearize(st.u, st.lam)
+    assert np.abs(R).max() < 1e-9
+    assert np.linalg.norm(np.c_[Ju, Jlam] @ st.tangent) < 1e-8 and st.tangent[-1] < 0.0
+    z0, z1 = st.u.reshape(2, 2)
+    np.testing.assert_allclose(z1, -z0, atol=1e-8)  # the symmetric orbit of the test above
+
+    # in a diagram the orbit's branch is followed as the circle branch's child, its origin the locking point
+    from contin.bifurcation.diagram import BifurcationDiagram, _locked_children
+    from contin.stability import StabilityOptions
+
+    d = BifurcationDiagram()
+    d.branches.append(br)
+    d.problems.append(prob)
+    d.parents.append(None)
+    d.origins.append(None)
+    d.monitors.append(None)
+    assert _locked_children(d, 0, (0.95, 1.05), ContinuationOptions(ds=0.01, max_points=8),
+                            StabilityOptions.from_dict({"method": "floquet"}), "w", lambda j, p: None,
+                            lambda j, p: None, {}, 8)
+    assert len(d) == 2 and d.parents[1] == 0 and d.branches[1].info["origin"]["kind"] == "locking"
+    child, orbit = d.branches[1], d.problems[1]
+    assert len(child) == 8 and child.parameter[-1] < st.lam  # on into the tongue
+    assert all(np.abs(orbit.residual(u, w)).max() < 1e-8 for u, w in zip(child.unknowns, child.parameter))
