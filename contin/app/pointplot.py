@@ -9,6 +9,7 @@ import numpy as np
 import yaml
 
 from contin.analyses.frequency_response import build_problem
+from contin.analyses.shooting_rows import ShootingSettings, shooting_problem, shooting_row
 from contin.analyses.simulate import SPECTRUM_FLOOR, draw_spectrum
 from contin.app.point_drawing import (closed_period, contact_geometry, contact_panels, draw_contact,
                                       draw_contact_panel, fill_places, legend_above, name_lines)
@@ -95,6 +96,18 @@ def stored_expansion(outdir: Path) -> StoredExpansion:
     return StoredExpansion(make=make)
 
 
+def _shooting_coefficients(scene, model, header: dict, rec: dict) -> np.ndarray:
+    """A shooting row's coefficients from its stored state (:func:`contin.analyses.shooting_rows.shooting_row`)."""
+    d = header.get("shooting") or {}
+    settings = ShootingSettings(int(d.get("segments", 1)), int(d.get("steps_per_period", 1024)))
+    problem = shooting_problem(build_problem(scene, model), settings, int(scene.analysis["subharmonic"]))
+    u = np.asarray(rec["u"], dtype=float)
+    if u.shape != (problem.size,):
+        raise SceneError("state.jsonl", f"a shooting row of {problem.size} values (the segment starts)",
+                         f"{u.size} values")
+    return shooting_row(problem, u, float(rec["lam"]), int(scene.analysis["harmonics"]), model.dof_names)[0]
+
+
 def plot_point(outdir: Path, row: int, samples: int = 512) -> Path:
     """Draw the time history, orbit and spectrum of one stored solution.
 
@@ -107,15 +120,23 @@ def plot_point(outdir: Path, row: int, samples: int = 512) -> Path:
     outdir = Path(outdir)
     _, scene = read_run_scene(outdir)
     rec = load_state_row(outdir, row)
+    header = rec["branch_record"]
+    if header.get("torus") is not None:
+        raise SceneError("--point", f"a row of a periodic branch (row {row} is a point of the quasi-periodic "
+                                    f"branch {rec['branch']}, a torus)", row)
     nu = rec.get("nu") if isinstance(rec.get("nu"), int) and rec["nu"] >= 1 else scene.analysis.get("subharmonic", 1)
     scene.analysis["subharmonic"] = nu  # the row's own order and harmonic count
-    if isinstance(rec.get("H"), int) and rec["H"] >= 1:
-        scene.analysis["harmonics"] = rec["H"]
+    shooting = header.get("method") == "shooting"
+    H = header.get("H") if shooting else rec.get("H")  # a shooting row: nu H harmonics of w / nu
+    if isinstance(H, int) and H >= 1:
+        scene.analysis["harmonics"] = H
     scene.analysis["samples"] = None
     model = build_model(scene)
+    if shooting:  # its state at t = 0 integrated again: the coefficients its row was written from
+        rec = dict(rec, u=_shooting_coefficients(scene, model, header, rec))
     _check_row_size(outdir / "state.jsonl", row, rec, model, scene.analysis.get("harmonics", 5))
     hb = build_problem(scene, model)
-    u = StoredExpansion(hb)(rec["branch_record"], rec["u"], rec["lam"])
+    u = np.asarray(rec["u"], dtype=float) if shooting else StoredExpansion(hb)(header, rec["u"], rec["lam"])
     if u.shape != (hb.size,) or not np.all(np.isfinite(u)):
         raise SceneError(str(outdir / "state.jsonl"), f"row {row} with {hb.size} finite coefficients",
                          f"{u.size} values")

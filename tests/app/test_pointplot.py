@@ -203,3 +203,47 @@ def test_contin_plot_of_a_rotor_point_draws_the_bearing_in_its_clearance(tmp_pat
     r = np.hypot(orbit[:, 0], orbit[:, 1])
     assert np.all(r > 0.1) and np.all(r < 0.11)
     assert np.all(np.isfinite(lines["in contact"].get_xdata()))
+
+
+def test_contin_plot_of_a_shooting_row_and_of_a_torus_row(tmp_path, capsys):
+    """A row of a branch followed by shooting stores its state at t = 0: `contin plot` integrates it again and
+    draws the orbit its row was written from (the orbit passes through the stored state); a row of a torus is
+    no periodic solution, and is refused by name."""
+    import contin.app.pointplot as pointplot
+    from contin.app.cli import main
+    from contin.output.results import read_csv
+
+    out = tmp_path / "out"
+    (tmp_path / "rotor.yaml").write_text(ROTOR.replace("range: [1.6, 1.65]", "range: [1.6, 1.62]")
+                                         + "  method: shooting\n  shooting: {steps_per_period: 2048}\n")
+    assert main(["run", str(tmp_path / "rotor.yaml"), "-o", str(out), "-q"]) == 0
+    assert main(["plot", str(out), "--point", "2"]) == 0
+    rec = pointplot.load_state_row(out, 2)
+    assert rec["branch_record"]["method"] == "shooting"
+    _, scene = pointplot.read_run_scene(out)
+    scene.analysis["harmonics"] = rec["branch_record"]["H"]
+    c = pointplot._shooting_coefficients(scene, build_model(scene), rec["branch_record"], rec)
+    x0 = c.reshape(-1, 4)[0] + c.reshape(-1, 4)[1::2].sum(axis=0)  # x(0): the mean plus the cosines
+    np.testing.assert_allclose(x0, np.asarray(rec["u"])[:4], atol=1e-3)  # H = 8 of an orbit in contact
+    assert read_csv(out / "branches.csv")["amp_x1"][2] > 0
+
+    torus = tmp_path / "torus"
+    (tmp_path / "t.yaml").write_text("""\
+model:
+  name: van_der_pol
+  dofs: [x]
+  parameters: {mu: 0.1, F: 0.15, w: 1}
+  mass: [[1]]
+  damping: [["-mu"]]
+  stiffness: [[1]]
+  forces: [{dof: x, expr: "mu*x**2*x_dot"}]
+  excitation: [{dof: x, expr: "F*cos(tau)"}]
+  frequency: w
+analysis: {type: frequency_response, parameter: w, range: [0.88, 0.9], start: 0.9, solution: torus,
+           start_from: simulation, start_simulation: {transient: 100}, method: shooting, torus: {points: 11}}
+output: {plots: false}
+""")
+    assert main(["run", str(tmp_path / "t.yaml"), "-o", str(torus), "-q"]) == 0
+    capsys.readouterr()
+    assert main(["plot", str(torus), "--point", "1"]) == 2
+    assert "row 1 is a point of the quasi-periodic branch 0, a torus" in " ".join(capsys.readouterr().err.split())
