@@ -10,6 +10,7 @@ models (hypothesis), and shown to catch a constructed jump. The same runs' data 
 agree with their tables.
 """
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -34,6 +35,7 @@ from contin.hb.torus import QuasiPeriodicBalance, TorusOptions
 from contin.models.polynomial import polynomial_model
 from contin.scene.build import build_model as scene_model
 from contin.scene.parse import load_scene
+from contin.bifurcation.circle_branch import circle_child_start
 from contin.bifurcation.start import integrated_model
 from contin.bifurcation.switching import doubled_problem
 from contin.timedomain.multiple_shooting import ShootingOptions, ShootingProblem
@@ -75,13 +77,24 @@ def scene_branches(name, scene_run):
     records = read_records(out / "state.jsonl")
     headers = {r["branch"]: r for r in records if r.get("type") == "branch"}
     branches = rebuild_branches(records, hb.parameter)
+    summary = json.loads((out / "summary.json").read_text())["analysis"]["branches"]
+    problems = {}
     for j, br in sorted(branches.items()):
         nu = int(br.info["subharmonic"])
+        if (br.info.get("torus") or {}).get("circle"):  # an invariant circle: made again by its start, its anchor
+            origin = summary[j]["origin"]
+            parent = branches[summary[j]["parent"]]
+            sp = next(s for s in parent.special_points if s.kind.value == "ns" and s.parameter == origin["parameter"])
+            problems[j] = circle_child_start(problems[summary[j]["parent"]], sp.parameter, sp.unknowns,
+                                             br.info["torus"]["points"]).problem
+            yield j, problems[j], br
+            continue
         if headers.get(j, {}).get("method") == "shooting":  # the integrated flow's problem, as followed
             sh = headers[j]["shooting"]
             opts = ShootingOptions(steps_per_period=sh["steps_per_period"], segments=sh["segments"], subharmonic=nu)
             base = {k: v for k, v in hb.parameters().items() if k != hb.parameter}
-            yield j, ShootingProblem(integrated_model(hb), hb.parameter, base, opts), br
+            problems[j] = ShootingProblem(integrated_model(hb), hb.parameter, base, opts)
+            yield j, problems[j], br
             continue
         if br.info.get("torus") is not None:  # a quasi-periodic branch: its own problem
             t = br.info["torus"]
