@@ -462,7 +462,7 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
         return None if checkpoint_factory is None else checkpoint_factory(index, prob)
 
     previous = previous or {}
-    if is_circle(problem):  # a torus from a start (an invariant circle): no switching from it
+    if is_circle(problem):  # a torus from a start (an invariant circle): no switching from it but at its locking
         from contin.bifurcation.circle_branch import CircleStart  # deferred: the time domain
 
         st = CircleStart(problem, np.asarray(u0, dtype=float), float(lam0), None, kind="start", solve_start=True)
@@ -474,6 +474,7 @@ def follow(problem, u0, lam0: float, lam_range, options: ContinuationOptions | d
         diagram.parents.append(None)
         diagram.origins.append(None)
         diagram.monitors.append(None)
+        _locked_children(diagram, 0, lam_range, options, stability, name, cb_for, ck_for, previous, max_branches)
         return diagram
     if 0 in previous:
         root = _resume(previous[0], problem, lam_range, options, name, events, monitors, cb_for(0, problem),

@@ -550,9 +550,13 @@ class ShootingProblem:
     def step_states(self, u: np.ndarray, lam: float) -> np.ndarray:
         """The states ``(x, x')`` of the orbit ``u`` at every RK4 step over its period, the integrator's own:
         shape (nu * steps_per_period, 2n), the first the start, the period's end left out."""
+        return self._states(u, lam)[:-1]
+
+    def _states(self, u, lam: float) -> np.ndarray:
+        """The states at every step over the period, its end included: shape (nu * steps_per_period + 1, 2n)."""
         Z = self._blocks(u)
         setup = self._setup(lam)
-        return np.vstack([Z[:1]] + [self._run(Z[k], setup, k, record=True)[1] for k in range(self.segments)])[:-1]
+        return np.vstack([Z[:1]] + [self._run(Z[k], setup, k, record=True)[1] for k in range(self.segments)])
 
     def orbit(self, u: np.ndarray, lam: float, t):
         """Displacements and velocities of the orbit ``u`` at times ``t`` in ``[0, period]``.
@@ -564,17 +568,12 @@ class ShootingProblem:
         -------
         x, xd : ndarray, shape (n, len(t))
         """
-        Z = self._blocks(u)
         T = self.period_at(lam)
         t = np.atleast_1d(np.asarray(t, dtype=float))
         if t.size and (np.min(t) < 0.0 or np.max(t) > T * (1 + 1e-12)):
             raise ValueError(f"orbit: the times must lie in [0, {T:.10g}] (one period), got "
                              f"[{np.min(t):.10g}, {np.max(t):.10g}]")
-        setup = self._setup(lam)
-        states = [Z[:1]]
-        for k in range(self.segments):
-            states.append(self._run(Z[k], setup, k, record=True)[1])
-        Y = np.vstack(states)
+        Y = self._states(u, lam)
         grid = np.arange(Y.shape[0]) * T / self._steps
         closes = np.allclose(Y[-1], Y[0], rtol=0.0, atol=1e-8 * max(1.0, float(np.abs(Y).max())))
         if closes:
