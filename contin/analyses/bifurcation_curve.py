@@ -1,4 +1,8 @@
-"""``bifurcation_curve``: fold and period-doubling curves in the plane of two parameters.
+"""``bifurcation_curve``: fold, period-doubling and Neimark-Sacker curves in the plane of two parameters.
+
+With ``method: shooting`` the stages below are those of
+:mod:`contin.analyses.shooting_curves` (the integrated flow's curves, Neimark-Sacker
+curves among them); the files are the same.
 
 1. A one-parameter run in ``parameter`` (``p1``) over ``range`` at the scene's
    value of ``second_parameter`` (``p2``) locates folds (the engine's fold
@@ -42,8 +46,11 @@ import numpy as np
 from contin.analyses.base import Analysis, RunContext, RunError, ScaleCheck
 from contin.analyses.bifurcation_curve_shooting import shooting_options, shooting_reference
 from contin.analyses.branch_recorder import BranchRecorder
+from contin.analyses.curve_files import (curve_progress, curve_summary, not_started, plot_curves, write_curve_points,
+                                         write_one_parameter_points, write_table)
 from contin.analyses.frequency_response import build_problem, continuation_options, start_guess
 from contin.analyses.simulate import check_time_step
+from contin.analyses.shooting_curves import curve_rows, one_parameter_points, response_plan, run_shooting_curves
 from contin.analyses.stability_hooks import stability_options
 from contin.bifurcation.curve_system import FlipTestEvent
 from contin.bifurcation.two_parameter import CurveOptions, curve_from_point, special_point_kind
@@ -51,9 +58,7 @@ from contin.engine.continuation import ContinuationOptions, continuation
 from contin.hb.factory import harmonic_balance
 from contin.hb.measures import measure_names, point_measures
 from contin.hb.problem import HarmonicBalance
-from contin.output.labels import math
 from contin.output.outcome import Outcome
-from contin.output.plane_plot import two_parameter_diagram
 from contin.scene.budget import bifurcation_curve_demands
 from contin.scene.parse import check_parameter_values
 from contin.scene.preflight import dofs_text
@@ -80,7 +85,18 @@ BIFURCATION_CURVE = {
     "frequency": string(),
     "second_parameter": string(required=True),
     "second_range": Key("a list of two different numbers [low, high]", _pair, required=True),
-    "curves": listing(["fold", "pd"], lambda x: x in ("fold", "pd"), "a list of curve kinds among 'fold', 'pd'"),
+    "curves": listing(["fold", "pd"], lambda x: x in ("fold", "pd", "ns"),
+                      "a list of curve kinds among 'fold', 'pd', 'ns' (ns with method: shooting)"),
+    # harmonic balance, or shooting on the integrated flow (contin.analyses.shooting_curves)
+    "method": string("hb", ("hb", "shooting")),
+    "switch": listing([], lambda x: x == "pd", "a list of bifurcation kinds among 'pd' (with method: shooting: the "
+                      "2nu branches, whose points start curves too)"),
+    # which located points start curves (method: shooting): all, or those nearest to the listed values of p1
+    "curve_starts": Key("'all' or a list of numbers (values of the first parameter: the located point nearest to "
+                        "each starts a curve)", lambda v: v == "all" or (isinstance(v, list) and v and
+                                                                          all(is_number(x) for x in v)), "all"),
+    "starts": listing([], lambda x: isinstance(x, dict), "a list of mappings, each a further start of the "
+                      "one-parameter run (method: shooting; the keys of frequency_response's starts)"),
     "harmonics": Key("an integer from 1 to 2000", lambda v: is_int(v) and 1 <= v <= 2000, 5),
     "subharmonic": Key("an integer from 1 to 64", lambda v: is_int(v) and 1 <= v <= 64, 1),
     "samples": Key("an integer from 2*harmonics+1 to 2**20, or null",
@@ -103,9 +119,6 @@ BIFURCATION_CURVE = {
     "shooting_refine": Key("an integer from 0 to 30", lambda v: is_int(v) and 0 <= v <= 30, 0),
     "shooting_options": mapping(),
 }
-
-CURVE_POINT_KINDS = ("cusp", "fold_flip", "extremum", "start", "end")
-
 
 def _options(scene, key: str, cls):
     try:
@@ -188,6 +201,9 @@ class BifurcationCurvePlan:
         ``setup(problem) -> (events, monitors)`` of a one-parameter run.
     shooting : ShootingOptions or None
         Of the shooting reference, when ``analysis.shooting`` asks for one.
+    response : FrequencyResponsePlan or None
+        With ``method: shooting``, the one-parameter run's
+        (:func:`contin.analyses.shooting_curves.response_plan`).
     """
 
     sweep: SweepPlan
@@ -200,13 +216,15 @@ class BifurcationCurvePlan:
     curve: CurveOptions
     setup: Callable
     shooting: ShootingOptions | None
+    response: object = None
 
 
 class BifurcationCurve(Analysis):
-    """Fold and period-doubling curves in the plane of two parameters (this module's docstring says how)."""
+    """Fold, period-doubling and Neimark-Sacker curves in the plane of two parameters (this module's docstring
+    says how; ``method: shooting``: :mod:`contin.analyses.shooting_curves`)."""
 
     name = "bifurcation_curve"
-    summary = "Fold and period-doubling curves in the plane of two parameters."
+    summary = "Fold, period-doubling and Neimark-Sacker curves in the plane of two parameters."
     required = "range, second_parameter, second_range"
     schema = BIFURCATION_CURVE
 
@@ -248,6 +266,20 @@ class BifurcationCurve(Analysis):
         for key, cls in (("continuation", ContinuationOptions), ("curve_continuation", ContinuationOptions),
                          ("curve_options", CurveOptions)):
             _options(scene, key, cls)
+        response = None
+        if a["method"] == "shooting":
+            if a["shooting"]:
+                raise scene.error("analysis.shooting", "no reference values with method: shooting (the curves are "
+                                  "the integrated flow's)", a["shooting"])
+            shooting_options(scene)  # the discretisation's options, checked by name
+            response = response_plan(scene, model)
+        else:
+            if a["starts"]:
+                raise scene.error("analysis.starts", "method: shooting for further starts", a["starts"])
+            for key, bad in (("curves", "ns"), ("switch", "pd")):
+                if bad in a[key]:
+                    raise scene.error(f"analysis.{key}", f"method: shooting for '{bad}' (harmonic balance follows "
+                                      "fold and period-doubling curves of the one-parameter branch)", a[key])
         shooting = None
         if a["shooting"]:
             if "pd" not in a["curves"]:
@@ -267,13 +299,25 @@ class BifurcationCurve(Analysis):
         check_output(scene, measures + ["max_multiplier", "n_unstable"], [p1, p2])
         return BifurcationCurvePlan(sweep, hb, p2, (lo2, hi2), p2_value, opts,
                                     _options(scene, "curve_continuation", ContinuationOptions),
-                                    _options(scene, "curve_options", CurveOptions), setup, shooting)
+                                    _options(scene, "curve_options", CurveOptions), setup, shooting, response)
 
     def describe(self, plan: BifurcationCurvePlan, scene, model) -> list[str]:
         """The one-parameter run, the unknowns, the curves, the overlaid runs and the shooting reference."""
         hb, a = plan.hb, scene.analysis
         p1, p2 = plan.sweep.parameter, plan.second
         (lo, hi), (lo2, hi2) = (plan.sweep.lo, plan.sweep.hi), plan.second_range
+        if plan.response is not None:
+            steps = int(dict(a["shooting_options"]).get("steps_per_period", 4096))
+            n = 2 * hb.n
+            starts = "all located points" if a["curve_starts"] == "all" else \
+                f"the located points nearest to {p1} = " + ", ".join(f"{v:g}" for v in a["curve_starts"])
+            return [f"  one-parameter run in {p1} over [{lo:g}, {hi:g}] at {p2}={plan.second_value:g} by shooting "
+                    f"({steps} RK4 steps a forcing period, contact switches located), "
+                    f"{len(plan.response.starts)} start(s)",
+                    f"  unknowns: {n} = {hb.n} dof x 2 (x, x'); curve systems: {n + 1} (state and {p1}), ns: {n + 2} "
+                    f"(and the multiplier's angle)",
+                    f"  curves: {', '.join(a['curves'])} in ({p1}, {p2}), {p2} over [{lo2:g}, {hi2:g}], from {starts}",
+                    f"  overlaid one-parameter runs at {p2} = {', '.join(f'{v:g}' for v in a['overlay']) or 'none'}"]
         return [f"  one-parameter run in {p1} over [{lo:g}, {hi:g}] at {p2}={plan.second_value:g}, harmonics "
                 f"H={hb.H}, subharmonic nu={hb.nu}, samples N={hb.N}",
                 f"  unknowns: {hb.size} = {hb.n} dof x (2H+1); curve systems: {hb.size + 1} (coefficients and {p1})",
@@ -294,6 +338,8 @@ class BifurcationCurve(Analysis):
 
     def run(self, plan: BifurcationCurvePlan, ctx: RunContext) -> Outcome:
         """The one-parameter run, the curves from its points, the overlaid runs and the shooting reference."""
+        if plan.response is not None:
+            return _run_shooting(self, plan, ctx)
         return _run(self, plan, ctx)
 
 
@@ -369,23 +415,13 @@ def _run(analysis: BifurcationCurve, plan: BifurcationCurvePlan, ctx: RunContext
             if ctx.stop_requested:
                 break
             kind = special_point_kind(sp).value
-            near = _on_curve(curves, kind, float(sp.parameter), p2_value)
-            if near is not None and near[2] <= 1e-6 * scale1:
-                skipped.append({"kind": kind, p1: float(sp.parameter), "on_curve": near[0]})
+            why = not_started(_on_curve(curves, kind, float(sp.parameter), p2_value), len(curves), a["max_curves"],
+                              1e-6 * scale1)
+            if why is not None:
+                skipped.append({"kind": kind, p1: float(sp.parameter), **why})
                 continue
-            if len(curves) >= a["max_curves"]:
-                skipped.append({"kind": kind, p1: float(sp.parameter), "reason": "max_curves"})
-                continue
-            cid = len(curves)
-
-            def ccb(branch, i, cid=cid, kind=kind):
-                ctx.progress.update(f"{kind} curve {cid}  {p2}={branch.parameter[i]:.6g}  "
-                                    f"{p1}={branch.unknowns[i][-1]:.6g}  point {i}",
-                                    parameter=branch.parameter, bounds=(lo2, hi2), task=f"curve {cid}")
-                return not ctx.stop_requested
-
             curves.append(curve_from_point(problem0, sp, p2, (lo2, hi2), (lo, hi), curve_opts, cur_opts,
-                                           callback=ccb))
+                                           callback=curve_progress(ctx, kind, len(curves), p1, p2, (lo2, hi2))))
         ctx.timings["curves"] = time.perf_counter() - t1
         _write_curves(ctx, curves, p1, p2, model)
         t2 = time.perf_counter()
@@ -404,7 +440,8 @@ def _run(analysis: BifurcationCurve, plan: BifurcationCurvePlan, ctx: RunContext
         ctx.timings["shooting"] = time.perf_counter() - t3
     finally:
         rec.close()
-    checks = _write_one_parameter_points(ctx, [(0, p2_value, branch0)] + overlay, curves, kinds, p1, p2)
+    checks = write_one_parameter_points(ctx, _one_parameter_points([(0, p2_value, branch0)] + overlay, curves, kinds,
+                                                                   p1, p2), p1, p2)
     ctx.interrupted = ctx.interrupted or ctx.stop_requested
     lines = [v for _, v, _ in overlay] + [p2_value]
     part = {
@@ -416,7 +453,7 @@ def _run(analysis: BifurcationCurve, plan: BifurcationCurvePlan, ctx: RunContext
         "subharmonic": hb.nu,
         "samples": hb.N,
         "one_parameter_runs": runs_info,
-        "curves": [_curve_summary(cid, cur, p1, p2) for cid, cur in enumerate(curves)],
+        "curves": [curve_summary(cid, cur, p1, p2) for cid, cur in enumerate(curves)],
         "starts_on_earlier_curves": skipped,
         "one_parameter_points": len(checks),
         "max_distance_to_curves": max((c["distance"] for c in checks if c["distance"] is not None), default=None),
@@ -426,19 +463,8 @@ def _run(analysis: BifurcationCurve, plan: BifurcationCurvePlan, ctx: RunContext
              for e in cur.ends], p2, what="curve"),
     }
     return analysis.outcome(ctx, part, shortfalls=part["shortfalls"], data=rec.run_data(ctx.summary),
-                            draw=lambda: _plot(ctx, curves, checks, p1, p2, (lo, hi), (lo2, hi2), lines,
-                                               shooting.get("points", [])))
-
-
-def _curve_summary(cid, cur, p1, p2) -> dict:
-    out = {"curve": cid, "kind": cur.kind.value, "nu": cur.nu, "points": len(cur), "closed": cur.closed,
-           "ends": cur.ends,
-           "special_points": {k: len(cur.points_of_kind(k)) for k in ("cusp", "fold_flip", "extremum")}}
-    if len(cur):
-        out[f"{p1}_range"] = [float(cur.p1.min()), float(cur.p1.max())]
-        out[f"{p2}_range"] = [float(cur.p2.min()), float(cur.p2.max())]
-        out["start"] = {p1: float(cur.p1[cur.start_index]), p2: float(cur.p2[cur.start_index])}
-    return out
+                            draw=lambda: plot_curves(ctx, curves, checks, p1, p2, (lo, hi), (lo2, hi2), lines,
+                                                     shooting.get("points", [])))
 
 
 def _write_curves(ctx, curves, p1, p2, model) -> None:
@@ -446,10 +472,8 @@ def _write_curves(ctx, curves, p1, p2, model) -> None:
     hc = ctx.scene.output["harmonic_columns"]
     H = max((c.harmonics for c in curves), default=1)
     obs = list(getattr(model, "observable_names", ()) if getattr(model, "observables", None) else ())
-    cols = ["curve", "kind", "nu", p1, p2] + measure_names(names, hc, H) + obs
-    rows = ctx.sink.table("curves.csv", cols)
-    pts = ctx.sink.table("curve_points.csv", ["curve", "kind", p1, p2, "located", "parameter", "detail"])
-    try:
+
+    def rows():
         for cid, cur in enumerate(curves):
             for i in range(len(cur)):
                 u = cur.unknowns[i]
@@ -457,55 +481,54 @@ def _write_curves(ctx, curves, p1, p2, model) -> None:
                 row.update(point_measures(u, len(names), names, hc))
                 if obs:
                     row.update(model.observables(u, len(names), cur.nu))
-                rows.write(row)
-            for sp in cur.special_points:
-                pts.write({"curve": cid, "kind": sp.kind.value, p1: sp.p1, p2: sp.p2, "located": sp.located,
-                           "parameter": sp.data.get("parameter", ""), "detail": sp.message})
-    finally:
-        rows.close()
-        pts.close()
+                yield row
+
+    write_table(ctx, "curves.csv", ["curve", "kind", "nu", p1, p2] + measure_names(names, hc, H) + obs, rows())
+    write_curve_points(ctx, curves, p1, p2)
 
 
-def _write_one_parameter_points(ctx, runs, curves, kinds, p1, p2) -> list:
-    cols = ["branch", p2, "kind", p1, "located", "interval_lo", "interval_hi", "curve", f"curve_{p1}", "distance"]
-    out = ctx.sink.table("one_parameter_points.csv", cols)
+def _one_parameter_points(runs, curves, kinds, p1, p2) -> list:
     checks = []
-    try:
-        for j, value, br in runs:
-            for sp in br.special_points:
-                kind = special_point_kind(sp).value
-                if kind not in ("fold", "pd"):
-                    continue
-                near = _on_curve(curves, kind, float(sp.parameter), value) if kind in kinds else None
-                row = {"branch": j, p2: value, "kind": kind, p1: float(sp.parameter), "located": bool(sp.located),
-                       "interval_lo": sp.bracket[0], "interval_hi": sp.bracket[1],
-                       "curve": None if near is None else near[0], f"curve_{p1}": None if near is None else near[1],
-                       "distance": None if near is None else near[2]}
-                out.write(row)
-                checks.append(row)
-    finally:
-        out.close()
+    for j, value, br in runs:
+        for sp in br.special_points:
+            kind = special_point_kind(sp).value
+            if kind not in ("fold", "pd"):
+                continue
+            near = _on_curve(curves, kind, float(sp.parameter), value) if kind in kinds else None
+            checks.append({"branch": j, p2: value, "kind": kind, p1: float(sp.parameter), "located": bool(sp.located),
+                           "interval_lo": sp.bracket[0], "interval_hi": sp.bracket[1],
+                           "curve": None if near is None else near[0], f"curve_{p1}": None if near is None else near[1],
+                           "distance": None if near is None else near[2]})
     return checks
 
 
-def _label(cur) -> str:
-    """Legend text of a curve (curves of one text share an entry that names their numbers)."""
-    if cur.kind.value == "fold":
-        return "fold (jump region)" if cur.nu == 1 else rf"fold of the $\nu = {cur.nu}$ solutions"
-    return f"period doubling (1/{2 * cur.nu}-subharmonic region)"
-
-
-def _plot(ctx, curves, checks, p1, p2, range1, range2, lines, reference=()) -> list:
-    """``bifurcation_curves.<format>`` in the result directory (a run that writes files)."""
-    out, sym = ctx.scene.output, getattr(ctx.model, "symbols", None)
-    ref_y = [q["y"] for q in reference]
-    return two_parameter_diagram(
-        [{"kind": c.kind.value, "x": c.p1, "y": c.p2, "id": i, "label": _label(c)} for i, c in enumerate(curves)],
-        [{"kind": sp.kind.value if sp.kind.value != "end" else "stop", "x": sp.p1, "y": sp.p2}
-         for c in curves for sp in c.special_points
-         if (sp.kind.value in CURVE_POINT_KINDS[:3] and sp.located) or (sp.kind.value == "end" and not sp.located)],
-        [{"kind": c["kind"], "x": c[p1], "y": c[p2], "located": c["located"]} for c in checks],
-        p1, p2, ctx.sink.path("bifurcation_curves"), lines=sorted(set(lines)), reference=reference, xlim=range1,
-        ylim=(min([range2[0]] + lines + ref_y), max([range2[1]] + lines + ref_y)), units=out["units"],
-        labels=out["labels"], symbols=sym, formats=out["formats"], dpi=out["dpi"], style=out["style"],
-        title=out["title"] or f"{ctx.model.name}: bifurcation curves in ({math(p1, sym)}, {math(p2, sym)})")
+def _run_shooting(analysis: BifurcationCurve, plan: BifurcationCurvePlan, ctx: RunContext) -> Outcome:
+    """``method: shooting`` (:mod:`contin.analyses.shooting_curves`): its stages, files and figure."""
+    a = ctx.scene.analysis
+    p1, p2 = plan.sweep.parameter, plan.second
+    (lo, hi), (lo2, hi2) = (plan.sweep.lo, plan.sweep.hi), plan.second_range
+    curves, runs, runs_info, skipped, rec, unmatched = run_shooting_curves(plan, ctx)
+    names = list(ctx.model.dof_names)
+    head = ["curve", "kind", "nu", p1, p2, "angle"]
+    write_table(ctx, "curves.csv", head + rec.measures,
+                (row for cid, cur in enumerate(curves) for row in curve_rows(rec, cur, cid, p1, p2)))
+    write_curve_points(ctx, curves, p1, p2)
+    checks = write_one_parameter_points(ctx, one_parameter_points(runs, curves, tuple(a["curves"]), p1, p2),
+                                        p1, p2, nu=True)
+    ctx.interrupted = ctx.interrupted or ctx.stop_requested
+    lines = sorted({float(v) for _, v, _, _ in runs})
+    part = {
+        "method": "shooting", "parameters": [p1, p2], "range": [lo, hi], "second_range": [lo2, hi2],
+        "unknowns": 2 * len(names), "steps_per_period": int(dict(a["shooting_options"]).get("steps_per_period", 4096)),
+        "one_parameter_runs": runs_info,
+        "curves": [curve_summary(cid, cur, p1, p2) for cid, cur in enumerate(curves)],
+        "starts_on_earlier_curves": skipped,
+        "one_parameter_points": len(checks),
+        "max_distance_to_curves": max((c["distance"] for c in checks if c["distance"] is not None), default=None),
+        "shortfalls": shortfalls(runs_info, p1, rec.failed_switches, what="one-parameter branch") + shortfalls(
+            [{**e, "branch": f"{cid} ({cur.kind.value}), {e['side']} side,"} for cid, cur in enumerate(curves)
+             for e in cur.ends], p2, what="curve") + shortfalls(unmatched, p1, what="curve"),
+    }
+    return analysis.outcome(ctx, part, shortfalls=part["shortfalls"], data=rec.run_data(ctx.summary),
+                            draw=lambda: plot_curves(ctx, curves, checks, p1, p2, (lo, hi), (lo2, hi2), lines,
+                                                     on_curves_only=True))

@@ -112,6 +112,13 @@ class BranchRecorder:
             out.update(self.observables(u, n, nu))
         return out
 
+    def solution_measures(self, problem, u, lam: float) -> dict:
+        """The row measures of a solution ``u`` of ``problem`` at ``lam`` that belongs to no branch (a point of a
+        two-parameter curve)."""
+        nu = order_of(problem)
+        c, sampled = self._solution(None, u, lam, nu, problem)
+        return {**self._measures(c, len(self.dof_names), nu, problem, lam), **sampled}
+
     def point(self, branch_id: int, nu: int, branch, i: int, H: int | None = None, problem=None) -> None:
         self.offsets.setdefault(branch_id, self.n_rows - i)
         self._engine_offsets.setdefault(branch_id, self.n_rows - i)

@@ -86,6 +86,8 @@ class CurveKind(str, enum.Enum):
     FOLD = "fold"
     #: period doublings (multiplier -1): the boundary of a 2 nu-subharmonic region
     PD = "pd"
+    #: Neimark-Sacker (a pair of multipliers exp(+-i theta)): the boundary of a torus' region (shooting only)
+    NS = "ns"
 
     def __str__(self) -> str:
         return self.value
@@ -95,11 +97,11 @@ def as_curve_kind(kind) -> CurveKind:
     try:
         return CurveKind(kind)
     except ValueError:
-        raise ValueError(f"curve kind must be 'fold' or 'pd', got {kind!r}") from None
+        raise ValueError(f"curve kind must be 'fold', 'pd' or 'ns', got {kind!r}") from None
 
 
 _MATRIX = {CurveKind.FOLD: MatrixKind.JACOBIAN, CurveKind.PD: MatrixKind.FLIP}
-CODIM2_KINDS = ("cusp", "fold_flip", "extremum")
+CODIM2_KINDS = ("cusp", "fold_flip", "extremum", "resonance")
 
 
 class SingularityProblem:
@@ -128,6 +130,9 @@ class SingularityProblem:
                  detect: tuple = CODIM2_KINDS, u_scale: float | None = None, p1_scale: float = 1.0):
         self.hb = hb
         self.kind = as_curve_kind(kind)
+        if self.kind not in _MATRIX:
+            raise ValueError(f"a {self.kind.value} curve by harmonic balance is not built: follow it by shooting "
+                             f"(contin.bifurcation.shooting_curve_system)")
         self.matrix_kind = _MATRIX[self.kind]
         model = hb.model
         if p1 == p2:

@@ -68,7 +68,9 @@ class CurveOptions:
         halves into one curve (unless the first half closes a loop).
     detect : tuple of str
         Codimension-two points and turning points to locate, among
-        ``"cusp"`` (fold curves), ``"fold_flip"`` and ``"extremum"``.
+        ``"cusp"`` (fold curves), ``"fold_flip"``, ``"extremum"`` and
+        ``"resonance"`` (curves by shooting: the strong resonances of a
+        Neimark-Sacker curve, the 1:2 resonance of a period-doubling curve).
     fd_step : float
         Relative step of the central differences of the second-derivative
         terms (:class:`contin.hb.derivatives.HBDerivatives`), in (0, 1e-2].
@@ -136,15 +138,17 @@ class _CurveEvent(FunctionEvent):
         return out
 
 
-def _events(problem: SingularityProblem, detect) -> list:
+def _events(problem, detect) -> list:
     m = problem.m
     names = problem.p1, problem.p2
-    evs = []
+    evs = list(problem.curve_events(detect)) if hasattr(problem, "curve_events") else []
     if "extremum" in detect:
         evs.append(_CurveEvent(lambda pt: float(pt.tangent[-1]), name=f"extremum in {names[1]}",
                                kind=SpecialKind.EXTREMUM, describe=lambda pt: {"parameter": names[1]}))
         evs.append(_CurveEvent(lambda pt: float(pt.tangent[m]), name=f"extremum in {names[0]}",
                                kind=SpecialKind.EXTREMUM, describe=lambda pt: {"parameter": names[0]}))
+    if hasattr(problem, "curve_events"):
+        return evs
     if "cusp" in detect and problem.kind is CurveKind.FOLD:
         evs.append(_CurveEvent(lambda pt: float(pt.data["cusp_test"]), name="cusp", kind=SpecialKind.CUSP))
     if "fold_flip" in detect:
@@ -212,11 +216,26 @@ def continue_curve(hb: HarmonicBalance, kind: CurveKind | str, p1: str, p2: str,
     problem = SingularityProblem(hb, kind, p1, p2, curve_options.fd_step, curve_options.detect, u_scale=umax,
                                  p1_scale=(hi1 - lo1) if math.isfinite(hi1 - lo1) else max(abs(p1_0), 1.0))
     z0 = np.concatenate([u0, [float(p1_0)]])
+    return trace_curve(problem, z0, p2_0, (lo2, hi2), (lo1, hi1), options, curve_options, callback=callback,
+                       nu=hb.nu, harmonics=hb.H)
+
+
+def trace_curve(problem, z0, p2_0: float, p2_range, p1_range, options: ContinuationOptions,
+                curve_options: CurveOptions, *, callback=None, nu: int = 1, harmonics: int = 0) -> BifurcationCurve:
+    """Continue an extended system ``problem`` (unknowns ``z = (..., p1)``, parameter ``p2``) both ways from
+    ``z0`` and join the halves (:func:`continue_curve`; the systems of
+    :mod:`contin.bifurcation.curve_system` and :mod:`contin.bifurcation.shooting_curve_system`)."""
+    lo2, hi2 = p2_range
+    lo1, hi1 = p1_range
+    p1, p2 = problem.p1, problem.p2
+    kind = problem.kind
+
     problem.initialize_borders(z0, p2_0)
     b0, c0 = problem.b.copy(), problem.c.copy()
     opts = options.replace(detect_folds=False, detect_branch_points=False)
     events = _events(problem, curve_options.detect)
     left: dict = {}
+    ended: dict = {}  # side -> the located point where the curve ends (a strong resonance)
 
     def make_callback(side: int):
         def cb(branch: Branch, i: int):
@@ -225,6 +244,8 @@ def continue_curve(hb: HarmonicBalance, kind: CurveKind | str, p1: str, p2: str,
             q = float(z[-1])
             if i > 0 and not lo1 <= q <= hi1:
                 left[side] = hi1 if q > hi1 else lo1
+                return False
+            if i > 0 and resonance_end(problem, branch, side, ended):
                 return False
             return True if callback is None else callback(branch, i)
 
@@ -256,15 +277,30 @@ def continue_curve(hb: HarmonicBalance, kind: CurveKind | str, p1: str, p2: str,
                             f"discretised equations are discontinuous there (a time sample at a switching "
                             f"surface of a non-smooth force, e.g. contact onset), and the curve of the "
                             f"truncated problem does not continue across it")
+            elif hasattr(problem, "end_note"):
+                message += problem.end_note(br.unknowns[-1], float(br.parameter[-1]))
         if d in left:
             status = BranchStatus.RANGE_END.value
             message = f"reached the end of the {p1} range at {p1}={left[d]:.10g}"
+        elif d in ended:
+            status, message = BranchStatus.BOUNDARY.value, problem.end_message(ended[d])
         runs.append((d, br))
         ends.append({"side": "forward" if d > 0 else "backward", "status": status, "message": message})
         if not len(br) or br.status is BranchStatus.CLOSED_LOOP or (
-                br.status is BranchStatus.INTERRUPTED and d not in left):
+                br.status is BranchStatus.INTERRUPTED and d not in left and d not in ended):
             break
-    return _assemble(problem, hb, kind, (p1, p2), runs, ends, left, curve_options)
+    return _assemble(problem, nu, harmonics, kind, (p1, p2), runs, ends, left, ended, curve_options)
+
+
+def resonance_end(problem, branch: Branch, side: int, ended: dict) -> bool:
+    """True (and ``ended[side]`` the point) when the last step located a point where ``problem``'s curves end
+    (its ``end_kinds``: the strong resonances 1:1 and 1:2 of a Neimark-Sacker curve)."""
+    kinds = getattr(problem, "end_kinds", ())
+    for sp in branch.special_points:
+        if sp.kind in kinds and sp.located:
+            ended[side] = sp
+            return True
+    return False
 
 
 def _jump_ahead(problem: SingularityProblem, br: Branch):
@@ -311,7 +347,7 @@ def _land(problem: SingularityProblem, za, la, zb, lb, bound: float, tol: float)
     return np.concatenate([res.x[:m], [bound]]), float(res.x[m])
 
 
-def _halves(problem, runs, ends, left, curve_options):
+def _halves(problem, runs, ends, left, ended, curve_options):
     """Per traced direction: its points (landed on a p1 bound if asked) and special points."""
     out = []
     m1 = problem.m + 1
@@ -319,7 +355,8 @@ def _halves(problem, runs, ends, left, curve_options):
         P = len(br)
         Z = np.array(br.unknowns).reshape(P, m1)
         L = np.array(br.parameter, dtype=float)
-        T = np.array(br.tangents).reshape(P, m1 + 1) * (1.0 if d > 0 else -1.0)  # along the curve's order
+        # along the curve's order: the first run is its forward half as traced, the second is reversed
+        T = np.array(br.tangents).reshape(P, m1 + 1) * (1.0 if j == 0 else -1.0)
         sps = [sp for sp in br.special_points if sp.kind is not SpecialKind.START]
         if d in left and P >= 2:
             landed = None
@@ -333,6 +370,13 @@ def _halves(problem, runs, ends, left, curve_options):
                 ends[j]["message"] += " (first point beyond the bound)"
             sps.append(SpecialPoint(SpecialKind.END, float(L[-1]), Z[-1].copy(), (L[-1], L[-1]), P - 1, 0.0,
                                     message=ends[j]["message"], event="end"))
+        elif d in ended and P >= 2:
+            # the curve ends on the located point: the step past it (the curve folded back onto itself) is dropped
+            sp = ended[d]
+            Z[-1], L[-1] = sp.unknowns, float(sp.parameter)
+            sps = [q for q in sps if q.index < P - 1 or q is sp]
+            sps.append(SpecialPoint(SpecialKind.END, float(L[-1]), Z[-1].copy(), (L[-1], L[-1]), P - 1, 0.0,
+                                    message=ends[j]["message"], event="end"))
         elif P and not any(sp.kind is SpecialKind.END for sp in sps):
             # a direction that stopped early: its last point, with the reason
             sps.append(SpecialPoint(SpecialKind.END, float(L[-1]), Z[-1].copy(), (L[-1], L[-1]), P - 1, 0.0,
@@ -342,10 +386,10 @@ def _halves(problem, runs, ends, left, curve_options):
     return out
 
 
-def _assemble(problem, hb, kind, names, runs, ends, left, curve_options) -> BifurcationCurve:
+def _assemble(problem, nu, harmonics, kind, names, runs, ends, left, ended, curve_options) -> BifurcationCurve:
     """Join the backward half (reversed) and the forward half into one curve."""
     m = problem.m
-    halves = _halves(problem, runs, ends, left, curve_options)
+    halves = _halves(problem, runs, ends, left, ended, curve_options)
     Zf, Lf, Tf, spf = halves[0]
     Zb, Lb, Tb, spb = (halves[1] if len(halves) > 1 and len(halves[1][1])
                        else (np.zeros((1, m + 1)), np.zeros(1), np.zeros((1, m + 2)), []))
@@ -378,20 +422,32 @@ def _assemble(problem, hb, kind, names, runs, ends, left, curve_options) -> Bifu
     rank = {SpecialKind.START: 0.0, SpecialKind.END: 0.1}
     specials.sort(key=lambda p: p.index + rank.get(p.kind, 0.5))
     return BifurcationCurve(
-        kind=kind, parameters=tuple(names), nu=hb.nu, harmonics=hb.H, p1=Z[:, m].copy(), p2=L,
+        kind=kind, parameters=tuple(names), nu=nu, harmonics=harmonics, p1=Z[:, m].copy(), p2=L,
         unknowns=Z[:, :m].copy(), special_points=specials, ends=ends, start_index=n_back, problem=problem,
         branches=[br for _, br in runs], tangents=T, scales=scales,
     )
 
 
 def _dedupe(points: list, problem) -> list:
-    """A cusp is also an extremum of both parameters: keep the cusp only."""
-    cusps = [p for p in points if p.kind is SpecialKind.CUSP]
+    """A cusp is also an extremum of both parameters, and so is a curve's end where it folds back onto itself (a
+    Neimark-Sacker curve at a 1:1 or 1:2 resonance): keep the cusp or the resonance only."""
+    ends = getattr(problem, "end_kinds", ())
     scale1 = max(problem.p1_scale, 1e-300)
+    for r in [p for p in points if p.kind in ends]:
+        # the curve folds back at the resonance: its turning point in p2, located by the tangent, is the exact
+        # place (the angle's test, a square root of the distance along the curve there, is located less well)
+        turn = [p for p in points if p.kind is SpecialKind.EXTREMUM and p.data.get("parameter") == problem.p2
+                and abs(p.p1 - r.p1) <= 1e-3 * scale1 and abs(p.p2 - r.p2) <= 1e-3 * max(1.0, abs(r.p2))]
+        if turn:
+            for q in [p for p in points if p.kind is SpecialKind.END and p.p1 == r.p1 and p.p2 == r.p2] + [r]:
+                q.p1, q.p2, q.unknowns = turn[0].p1, turn[0].p2, turn[0].unknowns.copy()
+    cusps = [p for p in points if p.kind is SpecialKind.CUSP or p.kind in ends]
     out = []
     for p in points:
-        if p.kind is SpecialKind.EXTREMUM and any(abs(p.p1 - c.p1) <= 1e-6 * scale1 and
-                                                  abs(p.p2 - c.p2) <= 1e-6 * max(1.0, abs(c.p2)) for c in cusps):
+        tol = [1e-3 if c.kind in ends else 1e-6 for c in cusps]
+        if p.kind is SpecialKind.EXTREMUM and any(abs(p.p1 - c.p1) <= t * scale1 and
+                                                  abs(p.p2 - c.p2) <= t * max(1.0, abs(c.p2))
+                                                  for c, t in zip(cusps, tol)):
             continue
         out.append(p)
     return out

@@ -83,6 +83,15 @@ class SpecialKind(str, enum.Enum):
     CUSP = "cusp"
     #: codimension two: multipliers +1 and -1 at once (a fold curve meets a period-doubling curve)
     FOLD_FLIP = "fold_flip"
+    #: codimension two, on a Neimark-Sacker curve: the critical multipliers reach exp(2 pi i p/q), strong
+    #: resonances 1:1 (a fold curve), 1:2 (a period-doubling curve), 1:3, 1:4 (Kuznetsov 2004, sec. 9.5)
+    R1 = "r1"
+    R2 = "r2"
+    R3 = "r3"
+    R4 = "r4"
+    #: codimension two, on a Neimark-Sacker curve: a real multiplier crosses -1 (+1) as well
+    FLIP_NS = "flip_ns"
+    FOLD_NS = "fold_ns"
     #: a two-parameter curve turns in one of its parameters (not a bifurcation)
     EXTREMUM = "extremum"
     #: a quasi-periodic branch's second frequency reaches a low-order rational ratio to the first (entrainment)

@@ -26,14 +26,19 @@ __all__ = ["CURVE_STYLE", "CODIM2_MARKERS", "POINT_MARKERS", "smooth_arc", "draw
 
 #: colour and legend text of each kind of curve
 CURVE_STYLE = {"fold": ("tab:red", "fold curve (jump region)"),
-               "pd": ("tab:purple", "period-doubling curve (2nu-subharmonic region)")}
+               "pd": ("tab:purple", "period-doubling curve (2nu-subharmonic region)"),
+               "ns": ("tab:blue", "Neimark-Sacker curve (a torus is born)")}
 #: marker, colour and size of the codimension-two points and of a curve that stopped early
 CODIM2_MARKERS = {"cusp": ("^", "k", 8), "fold_flip": ("*", "tab:green", 11), "extremum": ("o", "0.4", 4),
+                  "r1": ("D", "tab:orange", 8), "r2": ("D", "tab:green", 8), "r3": ("v", "tab:olive", 8),
+                  "r4": ("<", "tab:olive", 8), "flip_ns": ("P", "tab:cyan", 9), "fold_ns": ("P", "tab:pink", 9),
                   "stop": ("X", "tab:brown", 8)}
 #: marker and colour of the points located by one-parameter runs (those of the bifurcation diagram)
-POINT_MARKERS = {"fold": ("o", "tab:red"), "pd": ("s", "tab:purple")}
+POINT_MARKERS = {"fold": ("o", "tab:red"), "pd": ("s", "tab:purple"), "ns": ("x", "tab:blue")}
 
 _CODIM2_TEXT = {"cusp": "cusp", "fold_flip": "fold-flip point", "extremum": "turning point of the curve",
+                "r1": "1:1 resonance", "r2": "1:2 resonance", "r3": "1:3 resonance", "r4": "1:4 resonance",
+                "flip_ns": "flip-Neimark-Sacker point", "fold_ns": "fold-Neimark-Sacker point",
                 "stop": "curve stops early"}
 
 
@@ -128,7 +133,7 @@ def draw_two_parameter(ax, curves, codim2, points, p1: str, p2: str, *, lines=()
     ----------
     ax : matplotlib Axes
     curves : list of dict
-        ``kind`` ('fold' or 'pd'), ``x`` (P,) = p1, ``y`` (P,) = p2, ``label``
+        ``kind`` ('fold', 'pd' or 'ns'), ``x`` (P,) = p1, ``y`` (P,) = p2, ``color`` (optional), ``label``
         (the legend text; curves of one kind with the same label share an
         entry, which names their ``id`` s when given).
     codim2 : list of dict
@@ -158,9 +163,12 @@ def draw_two_parameter(ax, curves, codim2, points, p1: str, p2: str, *, lines=()
     span = tuple(float(s) if np.isfinite(s) and s > 0 else 1.0 for s in span)
     groups: dict = {}  # (kind, text) -> ids
     drawn = []
+    colors = {}
     for c in curves:
         color, text = CURVE_STYLE.get(c["kind"], ("k", c["kind"]))
+        color = c.get("color") or color
         groups.setdefault((c["kind"], c.get("label") or text), []).append(c.get("id"))
+        colors[(c["kind"], c.get("label") or text)] = color
         xs, ys = smooth_arc(c["x"], c["y"], span)
         drawn.append((c["kind"], xs, ys))
         if _turns(ys):
@@ -173,9 +181,10 @@ def draw_two_parameter(ax, curves, codim2, points, p1: str, p2: str, *, lines=()
                 if poly is not None:
                     ax.fill(*poly, color=CURVE_STYLE.get(drawn[i][0], ("k",))[0], alpha=0.12, lw=0)
     for (kind, text), ids in groups.items():
+        text0 = text
         if all(i is not None for i in ids):
             text = ("curve " if len(ids) == 1 else "curves ") + ", ".join(str(i) for i in ids) + ": " + text
-        ax.plot([], [], "-", color=CURVE_STYLE.get(kind, ("k",))[0], lw=1.6, label=text)
+        ax.plot([], [], "-", color=colors[(kind, text0)], lw=1.6, label=text)
     if len(lines):
         for v in lines:
             ax.axhline(v, color="0.6", lw=0.8, ls=":", zorder=0)

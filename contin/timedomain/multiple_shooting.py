@@ -51,6 +51,7 @@ start of the doubled branch at a period doubling).
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 from collections import OrderedDict
@@ -262,6 +263,17 @@ class ShootingProblem:
         return self
 
     condensed = False
+
+    def with_params(self, params: Mapping[str, float]) -> "ShootingProblem":
+        """The same problem with other values of the fixed parameters (``params`` updates the overrides):
+        the compiled model and the variational flow are shared, the caches of orbits and setups are not."""
+        if self.parameter in params:
+            raise ValueError(f"{self.parameter!r} is the problem's own parameter, not a fixed one")
+        self._variational()  # created once, shared by the copies
+        out = copy.copy(self)
+        out.base = {**self.base, **{k: float(v) for k, v in params.items()}}
+        out._cache, out._passes, out._setups = OrderedDict(), OrderedDict(), OrderedDict()
+        return out
 
     @property
     def dof_names(self) -> tuple:

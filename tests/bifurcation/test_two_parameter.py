@@ -357,8 +357,10 @@ def test_bad_curve_arguments_raise():
         continue_curve(hb, "fold", "w", "F", u, 5.0, 0.5, (0, 1), (0.5, 3.0))
     with pytest.raises(ValueError, match="unknown parameter 'G'"):
         continue_curve(hb, "fold", "w", "G", u, 1.0, 0.5, (0, 1))
-    with pytest.raises(ValueError, match="'fold' or 'pd'"):
+    with pytest.raises(ValueError, match="'fold', 'pd' or 'ns'"):
         continue_curve(hb, "hopf", "w", "F", u, 1.0, 0.5, (0, 1))
+    with pytest.raises(ValueError, match="ns curve by harmonic balance is not built: follow it by shooting"):
+        continue_curve(hb, "ns", "w", "F", u, 1.0, 0.5, (0, 1))
     br = continuation(hb, hb.linear_solution(0.5), 0.5, (0.5, 3.0), ContinuationOptions(ds_max=0.1))
     with pytest.raises(ValueError, match="starts at a 'fold' or 'pd' point, not at 'end'"):
         curve_from_point(hb, br.points_of_kind("end")[0], "F", (0, 1))
