@@ -91,8 +91,9 @@ class ShootingCurveProblem:
     p2 : str
         The continuation parameter.
     detect : tuple of str
-        Among ``fold_flip`` (fold and pd curves: the other of multipliers +1 and -1;
-        ns curves: a real multiplier at -1 or +1 as well) and ``resonance`` (ns curves).
+        Among ``cusp`` (fold curves), ``fold_flip`` (fold and pd curves: the other of
+        multipliers +1 and -1; ns curves: a real multiplier at -1 or +1 as well) and
+        ``resonance`` (ns and pd curves).
     u_scale, p1_scale : float, optional
         Typical magnitudes of the state and ``p1`` (the engine's scaling).
     fd_step : float
@@ -100,7 +101,7 @@ class ShootingCurveProblem:
     """
 
     def __init__(self, shooting: ShootingProblem, kind: CurveKind | str, p2: str,
-                 detect: tuple = ("fold_flip", "resonance"), u_scale: float | None = None, p1_scale: float = 1.0,
+                 detect: tuple = ("cusp", "fold_flip", "resonance"), u_scale: float | None = None, p1_scale: float = 1.0,
                  fd_step: float = FD_STEP):
         self.kind = CurveKind(kind)
         if shooting.segments != 1:
@@ -307,6 +308,8 @@ class ShootingCurveProblem:
             out["plus_test"] = float(np.sign(np.real(np.prod(rest - 1.0))))
         if self.kind is CurveKind.NS:
             out["theta"] = float(d["theta"])
+        if self.kind is CurveKind.FOLD and "cusp" in self.detect:
+            out["cusp_test"] = self.cusp_test(z, p2)
         if self.kind is CurveKind.PD and "resonance" in self.detect:
             # at a 1:2 resonance the multiplier -1 is double with one eigenvector: its left and right null
             # vectors turn orthogonal (a Jordan block)
@@ -329,6 +332,13 @@ class ShootingCurveProblem:
                 f"arc opens or closes the multipliers jump with the contact force, and the curve does not continue "
                 f"across it")
 
+    def cusp_test(self, z, p2: float) -> float:
+        """``w^T phi_xx(v, v) / (|w| |v|^2)``, the quadratic coefficient of the fold's normal form: zero at a cusp
+        (Kuznetsov 2004, sec. 9.2; ``phi_xx(v, v) = (D_v M) v``, the derivative already in the Jacobian)."""
+        d = self._evaluate(np.asarray(z, float), float(p2), True)
+        v, w = d["v"], d["w"]
+        return float(np.real(-(d["gz"] @ v))) / (float(np.linalg.norm(w)) * float(v @ v))
+
     # ------------------------------------------------------------ the curve's events
     @property
     def end_kinds(self) -> tuple:
@@ -346,6 +356,8 @@ class ShootingCurveProblem:
             for key, kind, name in pairs[self.kind]:
                 evs.append(FunctionEvent(lambda pt, key=key: float(pt.data[key]), name=name, kind=kind,
                                          integer_valued=True))
+        if "cusp" in detect and self.kind is CurveKind.FOLD:
+            evs.append(FunctionEvent(lambda pt: float(pt.data["cusp_test"]), name="cusp", kind=SpecialKind.CUSP))
         if "resonance" in detect and self.kind is CurveKind.NS:
             for angle, name in RESONANCES:
                 evs.append(FunctionEvent(lambda pt, a=angle: float(pt.data["theta"]) - a,

@@ -1,11 +1,12 @@
-"""Fold, period-doubling and Neimark-Sacker curves by shooting, against central differences and scipy.
+"""Fold, period-doubling and Neimark-Sacker curves by shooting, against central differences, scipy and harmonic
+balance.
 
 The extended systems of contin.bifurcation.shooting_curve_system: their
 Jacobians against central differences of their residuals; the points of a
 traced curve against an independent monodromy (scipy's DOP853 with the
 variational equations), which must have the curve's critical multiplier;
 the damped Mathieu equation's period-doubling curve against brentq on
-scipy's monodromy.
+scipy's monodromy; the Duffing oscillator's cusp against converged harmonic balance's.
 """
 
 import math
@@ -24,7 +25,10 @@ from contin.model.catalog import build_model
 from contin.scene.build import build_model as build_scene_model
 from contin.scene.parse import scene_from_data
 from contin.timedomain.multiple_shooting import ShootingOptions, ShootingProblem
-from test_two_parameter import damped_mathieu_pd
+from contin.bifurcation.two_parameter import curve_from_point
+from contin.engine.continuation import continuation
+from contin.stability import orbit_state
+from test_two_parameter import damped_mathieu_pd, duffing
 
 MU, F = 0.1, 0.15  # forced van der Pol x'' - mu (1 - x^2) x' + x = F cos(w t)
 
@@ -119,3 +123,19 @@ def test_van_der_pols_neimark_sacker_curve_ends_at_a_1_1_resonance_which_scipy_c
     assert np.abs(state - x).max() < 1e-6
     # both multipliers +1: trace 2 and determinant 1 (smooth in the data, unlike the double eigenvalue)
     assert abs(np.trace(M) - 2.0) < 1e-6 and abs(np.linalg.det(M) - 1.0) < 1e-6
+
+
+def test_the_duffing_fold_curve_by_shooting_has_its_cusp_where_converged_harmonic_balance_has_it():
+    hb = duffing(9)  # the forced Duffing oscillator of test_two_parameter, its truncation converged
+    br = continuation(hb, hb.linear_solution(0.5), 0.5, (0.5, 3.0), ContinuationOptions(ds_max=0.1))
+    fold = br.points_of_kind("fold")[0]
+    ref = curve_from_point(hb, fold, "F", (0.0, 0.5), (0.5, 3.0), ContinuationOptions(ds=0.01, ds_max=0.05))
+    (cusp_hb,) = ref.points_of_kind("cusp")
+    sp = ShootingProblem(hb.model, "w", {}, ShootingOptions(steps_per_period=1024))
+    x0 = np.asarray(orbit_state(hb, fold.unknowns, fold.parameter, 0.0), float)
+    cp = ShootingCurveProblem(sp, "fold", "F", u_scale=1.0, p1_scale=2.5)
+    cur = trace_curve(cp, np.concatenate([x0, [fold.parameter]]), 0.5, (0.0, 0.5), (0.5, 3.0),
+                      ContinuationOptions(ds=0.01, ds_max=0.05), CurveOptions())
+    (cusp,) = cur.points_of_kind("cusp")
+    assert cusp.located
+    assert abs(cusp.p1 - cusp_hb.p1) < 1e-9 and abs(cusp.p2 - cusp_hb.p2) < 1e-9  # measured 2e-11, 1e-11
