@@ -33,8 +33,12 @@ Located on the curves by the engine's event mechanism:
   static force at which a period-doubling region exists). Not a bifurcation,
   but where a region begins or ends.
 
-Not detected: degenerate (generalised) period doubling and 1:2 resonance on
-period-doubling curves, and Bogdanov-Takens-like points of fold curves.
+Not detected on harmonic-balance curves: degenerate (generalised) period
+doubling, 1:2 resonance on period-doubling curves, Bogdanov-Takens-like points
+of fold curves. The systems by shooting
+(:mod:`contin.bifurcation.shooting_curve_system`) add Neimark-Sacker curves
+and the strong resonances (their ``curve_events``, ``end_kinds``,
+``end_note``); :func:`trace_curve` follows either kind of system.
 """
 
 from __future__ import annotations
