@@ -46,8 +46,8 @@ import numpy as np
 from contin.analyses.base import Analysis, RunContext, RunError, ScaleCheck
 from contin.analyses.bifurcation_curve_shooting import shooting_options, shooting_reference
 from contin.analyses.branch_recorder import BranchRecorder
-from contin.analyses.curve_files import (curve_progress, curve_summary, not_started, plot_curves, write_curve_points,
-                                         write_one_parameter_points, write_table)
+from contin.analyses.curve_files import (curve_progress, curve_shortfalls, curve_summary, not_started, on_curve, plot_curves,
+                                         point_checks, write_curve_points, write_one_parameter_points, write_table)
 from contin.analyses.frequency_response import build_problem, continuation_options, start_guess
 from contin.analyses.simulate import check_time_step
 from contin.analyses.shooting_curves import curve_rows, one_parameter_points, response_plan, run_shooting_curves
@@ -160,19 +160,6 @@ def _located_points(branch, kinds) -> list:
             continue
         out.append(sp)
     return out
-
-
-def _on_curve(curves, kind: str, p1: float, p2: float):
-    """``(curve id, p1 on the curve, distance)`` of the nearest curve of ``kind`` crossing ``p2``, or None."""
-    best = None
-    for cid, cur in enumerate(curves):
-        if cur.kind.value != kind or not len(cur):
-            continue
-        for q1, _ in cur.crossings(p2):
-            dist = abs(q1 - p1)
-            if best is None or dist < best[2]:
-                best = (cid, q1, dist)
-    return best
 
 
 @dataclass(frozen=True)
@@ -415,7 +402,7 @@ def _run(analysis: BifurcationCurve, plan: BifurcationCurvePlan, ctx: RunContext
             if ctx.stop_requested:
                 break
             kind = special_point_kind(sp).value
-            why = not_started(_on_curve(curves, kind, float(sp.parameter), p2_value), len(curves), a["max_curves"],
+            why = not_started(on_curve(curves, kind, float(sp.parameter), p2_value), len(curves), a["max_curves"],
                               1e-6 * scale1)
             if why is not None:
                 skipped.append({"kind": kind, p1: float(sp.parameter), **why})
@@ -440,8 +427,8 @@ def _run(analysis: BifurcationCurve, plan: BifurcationCurvePlan, ctx: RunContext
         ctx.timings["shooting"] = time.perf_counter() - t3
     finally:
         rec.close()
-    checks = write_one_parameter_points(ctx, _one_parameter_points([(0, p2_value, branch0)] + overlay, curves, kinds,
-                                                                   p1, p2), p1, p2)
+    entries = [(j, value, br, hb.nu) for j, value, br in [(0, p2_value, branch0)] + overlay]
+    checks = write_one_parameter_points(ctx, point_checks(entries, curves, kinds, p1, p2), p1, p2)
     ctx.interrupted = ctx.interrupted or ctx.stop_requested
     lines = [v for _, v, _ in overlay] + [p2_value]
     part = {
@@ -458,9 +445,8 @@ def _run(analysis: BifurcationCurve, plan: BifurcationCurvePlan, ctx: RunContext
         "one_parameter_points": len(checks),
         "max_distance_to_curves": max((c["distance"] for c in checks if c["distance"] is not None), default=None),
         "shooting": {k: v for k, v in shooting.items() if k != "points"},
-        "shortfalls": shortfalls(runs_info, p1, what="one-parameter run") + shortfalls(
-            [{**e, "branch": f"{cid} ({cur.kind.value}), {e['side']} side,"} for cid, cur in enumerate(curves)
-             for e in cur.ends], p2, what="curve"),
+        "shortfalls": shortfalls(runs_info, p1, what="one-parameter run") + curve_shortfalls(ctx, curves, skipped,
+                                                                                             p1, p2),
     }
     return analysis.outcome(ctx, part, shortfalls=part["shortfalls"], data=rec.run_data(ctx.summary),
                             draw=lambda: plot_curves(ctx, curves, checks, p1, p2, (lo, hi), (lo2, hi2), lines,
@@ -487,21 +473,6 @@ def _write_curves(ctx, curves, p1, p2, model) -> None:
     write_curve_points(ctx, curves, p1, p2)
 
 
-def _one_parameter_points(runs, curves, kinds, p1, p2) -> list:
-    checks = []
-    for j, value, br in runs:
-        for sp in br.special_points:
-            kind = special_point_kind(sp).value
-            if kind not in ("fold", "pd"):
-                continue
-            near = _on_curve(curves, kind, float(sp.parameter), value) if kind in kinds else None
-            checks.append({"branch": j, p2: value, "kind": kind, p1: float(sp.parameter), "located": bool(sp.located),
-                           "interval_lo": sp.bracket[0], "interval_hi": sp.bracket[1],
-                           "curve": None if near is None else near[0], f"curve_{p1}": None if near is None else near[1],
-                           "distance": None if near is None else near[2]})
-    return checks
-
-
 def _run_shooting(analysis: BifurcationCurve, plan: BifurcationCurvePlan, ctx: RunContext) -> Outcome:
     """``method: shooting`` (:mod:`contin.analyses.shooting_curves`): its stages, files and figure."""
     a = ctx.scene.analysis
@@ -525,9 +496,8 @@ def _run_shooting(analysis: BifurcationCurve, plan: BifurcationCurvePlan, ctx: R
         "starts_on_earlier_curves": skipped,
         "one_parameter_points": len(checks),
         "max_distance_to_curves": max((c["distance"] for c in checks if c["distance"] is not None), default=None),
-        "shortfalls": shortfalls(runs_info, p1, rec.failed_switches, what="one-parameter branch") + shortfalls(
-            [{**e, "branch": f"{cid} ({cur.kind.value}), {e['side']} side,"} for cid, cur in enumerate(curves)
-             for e in cur.ends], p2, what="curve") + shortfalls(unmatched, p1, what="curve"),
+        "shortfalls": shortfalls(runs_info, p1, rec.failed_switches, what="one-parameter branch")
+        + curve_shortfalls(ctx, curves, skipped, p1, p2) + shortfalls(unmatched, p1, what="curve"),
     }
     return analysis.outcome(ctx, part, shortfalls=part["shortfalls"], data=rec.run_data(ctx.summary),
                             draw=lambda: plot_curves(ctx, curves, checks, p1, p2, (lo, hi), (lo2, hi2), lines,

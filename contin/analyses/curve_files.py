@@ -8,17 +8,66 @@ one-parameter runs' points and their distance to the curves) and
 
 from __future__ import annotations
 
+from contin.bifurcation.two_parameter import special_point_kind
 from contin.output.labels import math
 from contin.output.plane_plot import two_parameter_diagram
+from contin.scene.registry import shortfalls
 
-__all__ = ["CODIM2_COUNTED", "CURVE_POINT_KINDS", "curve_progress", "curve_summary", "not_started", "plot_curves",
-           "write_curve_points", "write_one_parameter_points", "write_table"]
+__all__ = ["CODIM2_COUNTED", "CURVE_POINT_KINDS", "curve_progress", "curve_shortfalls", "curve_summary", "not_started", "on_curve",
+           "plot_curves", "point_checks", "write_curve_points", "write_one_parameter_points", "write_table"]
 
 #: codimension-two kinds counted in the summary and drawn on the diagram
 CODIM2_COUNTED = ("cusp", "fold_flip", "extremum", "r1", "r2", "r3", "r4", "flip_ns", "fold_ns")
 CURVE_POINT_KINDS = CODIM2_COUNTED + ("start", "end")
 #: the colours of the curves of subharmonic (nu > 1) solutions, apart from those of the harmonic ones
 SUBHARMONIC_COLORS = {"ns": "tab:cyan", "fold": "tab:orange", "pd": "tab:pink"}
+
+
+def on_curve(curves, kind: str, p1: float, p2: float, nu: int | None = None):
+    """``(curve id, p1 on the curve, distance)`` of the nearest curve of ``kind`` (and order ``nu``, when given)
+    crossing ``p2``, or None."""
+    best = None
+    for cid, cur in enumerate(curves):
+        if cur.kind.value != kind or (nu is not None and cur.nu != nu) or not len(cur):
+            continue
+        for q1, _ in cur.crossings(p2):
+            if best is None or abs(q1 - p1) < best[2]:
+                best = (cid, q1, abs(q1 - p1))
+    return best
+
+
+def point_checks(entries, curves, kinds, p1: str, p2: str, point_kinds=("fold", "pd"), with_nu: bool = False) -> list:
+    """The rows of ``one_parameter_points.csv``: each point of ``point_kinds`` of the one-parameter branches
+    ``entries`` (``(branch id, p2 value, branch, nu)``) with the nearest curve of its kind (and order, with
+    ``with_nu``) when ``kinds`` traces that kind, and the distance."""
+    out = []
+    for j, value, br, nu in entries:
+        for sp in br.special_points:
+            kind = special_point_kind(sp).value
+            if kind not in point_kinds:
+                continue
+            near = on_curve(curves, kind, float(sp.parameter), value, nu if with_nu else None) if kind in kinds \
+                else None
+            out.append({"branch": j, p2: value, "kind": kind, **({"nu": nu} if with_nu else {}),
+                        p1: float(sp.parameter), "located": bool(sp.located), "interval_lo": sp.bracket[0],
+                        "interval_hi": sp.bracket[1], "curve": None if near is None else near[0],
+                        f"curve_{p1}": None if near is None else near[1],
+                        "distance": None if near is None else near[2]})
+    return out
+
+
+def curve_shortfalls(ctx, curves, skipped, p1: str, p2: str) -> list[str]:
+    """What the curves left undone: the sides that gave up (as :func:`contin.scene.registry.shortfalls` tells
+    them), and the located points that started no curve because the default ``max_curves`` was reached (a cap
+    the scene did not set)."""
+    out = shortfalls([{**e, "branch": f"{cid} ({cur.kind.value}), {e['side']} side,"}
+                      for cid, cur in enumerate(curves) for e in cur.ends], p2, what="curve")
+    capped = [q for q in skipped if q.get("reason") == "max_curves"]
+    if capped and "max_curves" not in (ctx.scene.data.get("analysis") or {}):
+        out.append(f"{len(capped)} located point(s) started no curve ({p1} = "
+                   f"{', '.join(f'{q[p1]:.6g}' for q in capped)}): the default cap analysis.max_curves = "
+                   f"{ctx.scene.analysis['max_curves']} was reached")
+    return out
 
 
 def not_started(near, count: int, max_curves: int, tol: float) -> dict | None:

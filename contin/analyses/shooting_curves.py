@@ -28,7 +28,7 @@ import numpy as np
 
 from contin.analyses.base import RunError
 from contin.analyses.branch_recorder import BranchRecorder
-from contin.analyses.curve_files import curve_progress, not_started
+from contin.analyses.curve_files import curve_progress, not_started, on_curve, point_checks
 from contin.analyses.frequency_response import FrequencyResponse, start_guess
 from contin.analyses.shooting_rows import order_of, shooting_start
 from contin.bifurcation.shooting_curve_system import ShootingCurveProblem
@@ -134,18 +134,6 @@ def _located(results, problems: dict, kinds, near=None, scale: float = 1.0, miss
     return chosen
 
 
-def on_curve(curves, kind: str, nu: int, p1: float, p2: float):
-    """``(curve id, p1 on the curve, distance)`` of the nearest curve of ``kind`` and order ``nu`` crossing ``p2``."""
-    best = None
-    for cid, cur in enumerate(curves):
-        if cur.kind.value != kind or cur.nu != nu or not len(cur):
-            continue
-        for q1, _ in cur.crossings(p2):
-            if best is None or abs(q1 - p1) < best[2]:
-                best = (cid, q1, abs(q1 - p1))
-    return best
-
-
 def run_shooting_curves(plan, ctx):
     """The stages of the module docstring; returns ``(curves, runs, runs_info, skipped, rec, unmatched)``
     (``unmatched``: the values of ``curve_starts`` with no located point near them, as shortfall entries)."""
@@ -200,7 +188,7 @@ def run_shooting_curves(plan, ctx):
             if ctx.stop_requested:
                 break
             nu = order_of(problem)
-            why = not_started(on_curve(curves, kind, nu, float(sp.parameter), value), len(curves), a["max_curves"],
+            why = not_started(on_curve(curves, kind, float(sp.parameter), value, nu), len(curves), a["max_curves"],
                               1e-6 * (hi - lo))
             if why is not None:
                 skipped.append({"kind": kind, "nu": nu, p1: float(sp.parameter), p2: value, **why})
@@ -234,7 +222,7 @@ def run_shooting_curves(plan, ctx):
         ctx.timings["overlay"] = time.perf_counter() - t2
     finally:
         rec.close()
-    return curves, runs, runs_info, skipped + unmatched, rec, unmatched
+    return curves, runs, runs_info, skipped, rec, unmatched
 
 
 def curve_rows(rec, cur, cid: int, p1: str, p2: str):
@@ -251,18 +239,6 @@ def curve_rows(rec, cur, cid: int, p1: str, p2: str):
 
 def one_parameter_points(runs, curves, kinds, p1: str, p2: str) -> list:
     """Every fold, period doubling and Neimark-Sacker point of the one-parameter runs with its curve's distance."""
-    out = []
-    for index, value, results, first in runs:
-        for j, (br, meta) in enumerate(results, start=first):
-            for sp in br.special_points:
-                kind = special_point_kind(sp).value
-                if kind not in ("fold", "pd", "ns"):
-                    continue
-                nu = meta["nu"]
-                near = on_curve(curves, kind, nu, float(sp.parameter), value) if kind in kinds else None
-                out.append({"branch": j, p2: value, "kind": kind, "nu": nu, p1: float(sp.parameter),
-                            "located": bool(sp.located), "interval_lo": sp.bracket[0], "interval_hi": sp.bracket[1],
-                            "curve": None if near is None else near[0],
-                            f"curve_{p1}": None if near is None else near[1],
-                            "distance": None if near is None else near[2]})
-    return out
+    entries = [(j, value, br, meta["nu"]) for _, value, results, first in runs
+               for j, (br, meta) in enumerate(results, start=first)]
+    return point_checks(entries, curves, kinds, p1, p2, ("fold", "pd", "ns"), with_nu=True)

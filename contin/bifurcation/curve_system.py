@@ -76,7 +76,7 @@ from contin.engine.events import Event, PointInfo
 from contin.hb.derivatives import HBDerivatives, MatrixKind
 from contin.hb.problem import HarmonicBalance
 
-__all__ = ["CODIM2_KINDS", "CurveKind", "FlipTestEvent", "SingularityProblem", "as_curve_kind"]
+__all__ = ["CODIM2_KINDS", "CurveKind", "FlipTestEvent", "SingularityProblem", "as_curve_kind", "bordered_test"]
 
 
 class CurveKind(str, enum.Enum):
@@ -102,6 +102,31 @@ def as_curve_kind(kind) -> CurveKind:
 
 _MATRIX = {CurveKind.FOLD: MatrixKind.JACOBIAN, CurveKind.PD: MatrixKind.FLIP}
 CODIM2_KINDS = ("cusp", "fold_flip", "extremum", "resonance")
+
+
+def bordered_test(A: np.ndarray, b: np.ndarray, c: np.ndarray):
+    """``(v, g, w)`` of the bordered systems of the module docstring for the matrix ``A`` (k, k).
+
+    ``[[A, b], [c, 0]] [v; g] = [0; 1]`` and its conjugate transpose for ``w``; ``c`` is the bordering row
+    itself. Real or complex (``g`` complex then); one LU. Raises ``LinAlgError`` for a non-finite or exactly
+    singular bordered matrix.
+    """
+    k = A.shape[0]
+    dtype = complex if np.iscomplexobj(A) or np.iscomplexobj(b) or np.iscomplexobj(c) else float
+    B = np.zeros((k + 1, k + 1), dtype=dtype)
+    B[:k, :k] = A
+    B[:k, k] = b
+    B[k, :k] = c
+    if not np.all(np.isfinite(B)):
+        raise np.linalg.LinAlgError("non-finite matrix in the bordered test function")
+    lu = lu_factor(B, check_finite=False)
+    if np.any(np.diagonal(lu[0]) == 0.0):
+        raise np.linalg.LinAlgError("singular bordered matrix of the test function")
+    e = np.zeros(k + 1, dtype=dtype)
+    e[k] = 1.0
+    vg = lu_solve(lu, e, check_finite=False)
+    wh = lu_solve(lu, e, trans=2 if dtype is complex else 1, check_finite=False)
+    return vg[:k], vg[k], wh[:k]
 
 
 class SingularityProblem:
@@ -131,7 +156,7 @@ class SingularityProblem:
         self.hb = hb
         self.kind = as_curve_kind(kind)
         if self.kind not in _MATRIX:
-            raise ValueError(f"a {self.kind.value} curve by harmonic balance is not built: follow it by shooting "
+            raise ValueError(f"the {self.kind.value} curve by harmonic balance is not built: follow it by shooting "
                              f"(contin.bifurcation.shooting_curve_system)")
         self.matrix_kind = _MATRIX[self.kind]
         model = hb.model
@@ -206,23 +231,8 @@ class SingularityProblem:
         u, p1 = self.split(z)
         p = self.params(p1, p2)
         R, J, dR = self.der.linearize_at(u, p, (self.k1, self.k2))
-        Mx = self._matrix(u, p, J)
-        k = Mx.shape[0]
-        A = np.empty((k + 1, k + 1))
-        A[:k, :k] = Mx
-        A[:k, k] = self.b
-        A[k, :k] = self.c
-        A[k, k] = 0.0
-        if not np.all(np.isfinite(A)):
-            raise np.linalg.LinAlgError("non-finite matrix in the bordered test function")
-        lu = lu_factor(A, check_finite=False)
-        if np.any(np.diagonal(lu[0]) == 0.0):
-            raise np.linalg.LinAlgError("singular bordered matrix of the test function")
-        e = np.zeros(k + 1)
-        e[k] = 1.0
-        vg = lu_solve(lu, e, check_finite=False)
-        wg = lu_solve(lu, e, trans=1, check_finite=False)
-        v, g, w = vg[:k], float(vg[k]), wg[:k]
+        v, g, w = bordered_test(self._matrix(u, p, J), self.b, self.c)
+        g = float(g)
         S, S_u, S_p = self.der.bilinear(u, p, v, w, self.matrix_kind, (self.k1, self.k2))
         self.evaluations += 1
         self._cache = {"R": R, "J": J, "dR": dR, "v": v, "w": w, "g": g, "S": S, "S_u": S_u, "S_p": S_p,

@@ -51,9 +51,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.linalg import lu_factor, lu_solve
 
-from contin.bifurcation.curve_system import CurveKind
+from contin.bifurcation.curve_system import CurveKind, bordered_test
 from contin.engine.branch import SpecialKind
 from contin.engine.events import FunctionEvent
 from contin.timedomain.multiple_shooting import ShootingProblem
@@ -116,7 +115,6 @@ class ShootingCurveProblem:
         self.shooting = shooting.with_params({p2: self.p2_value})
         self._problems = {self.p2_value: self.shooting}
         self.n_state = 2 * model.n_dof
-        self.nu = shooting.nu
         self.m = self.n_state + (1 if self.kind is CurveKind.NS else 0)
         self.fd_step = float(fd_step)
         self.detect = tuple(detect)
@@ -124,7 +122,6 @@ class ShootingCurveProblem:
         self.b = self.c = None
         self._key = None
         self._cache: dict = {}
-        self.evaluations = 0
 
     # ------------------------------------------------------------ pieces
     def problem_at(self, p2: float) -> ShootingProblem:
@@ -152,26 +149,7 @@ class ShootingCurveProblem:
         return complex(math.cos(theta), math.sin(theta))
 
     def _monodromy(self, x, p1, p2):
-        end, Phi = self.problem_at(p2).flow_jacobian(x, p1)
-        return end, Phi
-
-    def _bordered(self, A):
-        k = A.shape[0]
-        dtype = complex if np.iscomplexobj(A) or np.iscomplexobj(self.b) else float
-        B = np.zeros((k + 1, k + 1), dtype=dtype)
-        B[:k, :k] = A
-        B[:k, k] = self.b
-        B[k, :k] = self.c
-        if not np.all(np.isfinite(B)):
-            raise np.linalg.LinAlgError("non-finite matrix in the bordered test function")
-        lu = lu_factor(B, check_finite=False)
-        if np.any(np.diagonal(lu[0]) == 0.0):
-            raise np.linalg.LinAlgError("singular bordered matrix of the test function")
-        e = np.zeros(k + 1, dtype=dtype)
-        e[k] = 1.0
-        vg = lu_solve(lu, e, check_finite=False)
-        wh = lu_solve(lu, e, trans=2 if dtype is complex else 1, check_finite=False)
-        return vg[:k], vg[k], wh[:k]
+        return self.problem_at(p2).flow_jacobian(x, p1)
 
     # ------------------------------------------------------------ borders
     def initialize_borders(self, z: np.ndarray, p2: float) -> np.ndarray:
@@ -215,8 +193,7 @@ class ShootingCurveProblem:
             end, M = self._monodromy(x, p1, p2)
             R, Jl = end - x, None
         mu = self.shift(theta)
-        v, g, w = self._bordered(M - mu * I)
-        self.evaluations += 1
+        v, g, w = bordered_test(M - mu * I, self.b, self.c)
         out = {"R": R, "M": M, "Jl": Jl, "v": v, "g": g, "w": w, "x": x, "p1": p1, "theta": theta, "gz": None}
         if derivatives:
             out.update(self._derivatives(x, theta, p1, float(p2), v, w, mu))
@@ -286,11 +263,6 @@ class ShootingCurveProblem:
         return np.concatenate(s)
 
     # ------------------------------------------------------------ test functions
-    def multipliers(self, z: np.ndarray, p2: float) -> np.ndarray:
-        """The orbit's multipliers at a curve point, by decreasing modulus."""
-        x, _, p1 = self.split(np.asarray(z, float))
-        return self.problem_at(p2).multipliers(x, p1)
-
     def monitor(self, z, p2, Jz=None, Jl=None) -> dict:
         """The test values: ``g``, the signs of ``det(M - I)`` and ``det(M + I)`` without the critical
         multipliers, and on ns curves the angle ``theta``."""
