@@ -132,8 +132,10 @@ class Analysis:
     4. :meth:`describe`: the lines ``contin check`` prints for the plan.
     5. Optionally :meth:`validate` (checks of the whole scene before the
        model is built), :meth:`demands` (its memory and work, refused
-       beyond the machine's before the plan) and :meth:`scale_checks` (the
-       problems whose ``unknown_scale`` is checked against their size).
+       beyond the machine's before the plan), :meth:`scale_checks` (the
+       problems whose ``unknown_scale`` is checked against their size) and
+       :meth:`compile_ahead` (time-domain problems whose kernels a second
+       process compiles while the run begins).
     6. Add one line to :data:`contin.scene.registry.ANALYSES` and a test in
        ``tests/analyses/``.
     """
@@ -173,6 +175,12 @@ class Analysis:
 
     def scale_checks(self, plan) -> list[ScaleCheck]:
         """The problems whose ``unknown_scale`` must match their size (checked after :meth:`plan`)."""
+        return []
+
+    def compile_ahead(self, plan) -> list:
+        """``(problem, parameter value)`` of the time-domain problems the run may integrate after its first part:
+        their kernels, when not yet cached, are compiled meanwhile in a second process (:mod:`contin.app.compile_ahead`;
+        a problem has ``kernels()``, ``residual`` and ``linearize``); none by default."""
         return []
 
     @staticmethod

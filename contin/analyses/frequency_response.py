@@ -469,6 +469,10 @@ class FrequencyResponse(Analysis):
     def plan(self, scene, model) -> FrequencyResponsePlan:
         return _plan(scene, model)
 
+    def compile_ahead(self, plan) -> list:
+        """The shooting problems of the starts that are not harmonic balance alone (``auto`` hands over late)."""
+        return [(shooting_problem(s.hb, s.shooting), s.sweep.start) for s in plan.starts if s.method != "hb"]
+
     def run(self, plan: FrequencyResponsePlan, ctx) -> Outcome:
         return _run(plan, ctx)
 

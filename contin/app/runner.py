@@ -28,6 +28,7 @@ from contin.output.labels import model_symbols
 from contin.output.results import write_json_atomic
 from contin.scene.parse import Scene, SceneError, model_frequency
 from contin.scene.build import build_model
+from contin.app import compile_ahead
 from contin.scene.registry import analysis, check_scene
 from contin.util.safe_files import open_regular
 from contin.analyses.base import RunContext, RunError
@@ -168,17 +169,22 @@ def _run(ctx: RunContext, plan, summary: dict, t0: float, resume_command: str | 
         for s in STOP_SIGNALS:
             if s == signal.SIGINT or signal.getsignal(s) is not signal.SIG_IGN:
                 previous[s] = signal.signal(s, on_signal)
+    ahead = []
     try:
         try:
             if outdir is not None:
                 write_json_atomic(outdir / "summary.json", summary)
-            outcome = analysis(scene.analysis["type"]).run(plan, ctx)
+            made = analysis(scene.analysis["type"])
+            ahead += compile_ahead.start(scene, made, plan)  # the run's late kernels, compiled meanwhile
+            outcome = made.run(plan, ctx)
             files = []
             if scene.output["plots"] and outcome.draw is not None and ctx.sink.writes:
                 tp = time.perf_counter()
                 files += outcome.draw()
                 ctx.timings["plots"] = time.perf_counter() - tp
         finally:
+            if ahead:
+                ctx.timings["compile_ahead_wait"] = compile_ahead.stop()
             for s, handler in previous.items():
                 signal.signal(s, handler)
             ctx.progress.close()

@@ -48,6 +48,7 @@ import types
 from pathlib import Path
 
 # the private-directory check and the cache directory are shared with numba's cache of contin's own kernels
+from contin.util import compile_ahead
 from contin.util.cachedir import accepted, candidate_dirs, check_private_dir, claim_source_dir, kernel_cache_dir
 
 __all__ = ["CODEGEN_VERSION", "check_private_dir", "kernel_cache_dir", "load_module", "module_name"]
@@ -109,6 +110,7 @@ def load_module(source: str) -> types.ModuleType:
         none.
     """
     name = module_name(source)
+    compile_ahead.wait_for(name)  # compiled in a second process now: wait, then load its cached code
     if name in _LOADED:
         return _LOADED[name]
     path = None

@@ -368,11 +368,14 @@ class ShootingProblem:
         return out
 
     def _variational(self):
-        if self.jacobian != "variational":
-            return None
-        if self._flow is None:
+        if self.jacobian == "variational" and self._flow is None:
             self._flow = VariationalFlow(self.model, steps_per_period=self.options.steps_per_period)
-        return self._flow
+        return self._flow if self.jacobian == "variational" else None
+
+    def kernels(self) -> list:
+        """``(module, function name)`` of the generated kernels its flows call (contin.app.compile_ahead)."""
+        flow = self._variational()
+        return [(self._cm.module, "integrate")] + ([(flow.module, "flow")] if flow is not None else [])
 
     def _segment(self, z, setup, k, sensitivity=None):
         """Segment ``k`` from ``z``: end state, its factors (K, 2n, 2n), the graze per switching function, the

@@ -34,7 +34,7 @@ from numba.core import caching, config
 
 from contin.util import cachedir
 
-__all__ = ["ContinCacheLocator", "NoPrivateCache", "install_locator", "njit"]
+__all__ = ["ContinCacheLocator", "NoPrivateCache", "disk_cached", "install_locator", "njit"]
 
 # the names numba gave these across versions (0.60: _CacheImpl; later: CacheImpl)
 _CacheImpl = getattr(caching, "CacheImpl", None) or caching._CacheImpl
@@ -147,3 +147,11 @@ def njit(*args, **kwargs):
         return disp
 
     return decorate
+
+
+def disk_cached(dispatcher) -> bool:
+    """Whether ``dispatcher`` (a kernel of :func:`njit`) has compiled code in the disk cache, or no disk cache at
+    all (then no other process could compile it for this one): what :mod:`contin.app.compile_ahead` asks."""
+    cache_file = getattr(getattr(dispatcher, "_cache", None), "_cache_file", None)
+    index = getattr(cache_file, "_index_path", None)
+    return index is None or os.path.exists(index)
