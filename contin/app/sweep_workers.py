@@ -171,7 +171,9 @@ def run_serial(options, todo, tasks, index, report, total, done, timings, warm):
 
 
 def _worker_env() -> dict:
-    return {"MPLBACKEND": "Agg", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+    # the workers fill the cores: no second process compiling a run's kernels ahead (contin.app.compile_ahead)
+    return {"MPLBACKEND": "Agg", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
+            "CONTIN_COMPILE_AHEAD": "0"}
 
 
 @contextlib.contextmanager
