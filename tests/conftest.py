@@ -10,6 +10,9 @@ import pytest
 from contin.util.blas import limit_blas_threads
 
 limit_blas_threads(1)
+# the test workers fill the cores: no second process compiling a run's kernels ahead (contin.app.compile_ahead,
+# whose tests set CONTIN_COMPILE_AHEAD themselves); the workers inherit it
+os.environ.setdefault("CONTIN_COMPILE_AHEAD", "0")
 
 # In CI (CI=true) the property tests draw the same examples on every run, so that a landing is judged on the
 # change, not on the draw; elsewhere they draw anew each run, and a failure found is kept in .hypothesis/.
