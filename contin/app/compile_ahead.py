@@ -1,7 +1,7 @@
 """Kernels compiled ahead: a run's late kernels compiled in a second process while its first part runs.
 
 On an empty cache a run spends most of its time letting numba compile, one
-kernel after the other in the one process (the main job: 63 s of 98 s).
+kernel after the other in the one process (docs/benchmarks.md, Compilation).
 numba holds the interpreter while it compiles, so a thread does not help; a
 second process does, on a machine with a second core. Before the analysis
 runs, :func:`start` asks it which time-domain problems it may integrate
@@ -85,8 +85,8 @@ def start(scene, made, plan) -> list[str]:
 
 
 def compile_multipliers() -> None:
-    """Compile the periodic Schur decomposition the shooting branches' multipliers need (8 s on an empty cache):
-    the run's work while it would wait for the child's variational flow."""
+    """Compile the periodic Schur decomposition the shooting branches' multipliers need: the run's work while it
+    would wait for the child's variational flow."""
     import numpy as np  # deferred: as the stability module, only where a run waits
 
     from contin.stability.periodic_schur import periodic_eigenvalues  # deferred: only where a run waits

@@ -3,8 +3,8 @@
 numba compiles a kernel in the process that first calls it, and holds the
 interpreter while it does: a run on an empty cache spends most of its time
 compiling, one kernel after the other, on one core. A run whose late part
-needs large kernels that are not yet cached (the main job's shooting flows:
-about 33 s of its 63 s of compilation) has them compiled in a second process
+needs large kernels that are not yet cached (the main job's shooting flows,
+half of its compilation: docs/benchmarks.md) has them compiled in a second process
 (:mod:`contin.app.compile_ahead`) while its first part runs. Both write and
 read the same private cache directory; numba writes its cache files
 atomically.
