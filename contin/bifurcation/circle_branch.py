@@ -43,10 +43,11 @@ from contin.engine.problem import solve_at
 from contin.timedomain.invariant_circle import (CircleOptions, InvariantCircleProblem, circle_lyapunov, circle_start,
                                                point_jacobians)
 from contin.timedomain.multiple_shooting import ShootingOptions, ShootingProblem
+from contin.timedomain.torus_check import check_circle
 
-__all__ = ["FLIP_SPREAD", "LOCKING_TOL", "LYAPUNOV_PERIODS", "MAX_DENOMINATOR", "CircleStabilityMonitor",
-           "CircleStart", "LOCKED_OFFSETS", "LockedOrbit", "circle_child_start", "classify_circle_end", "follow_circle",
-           "locked_orbits", "locked_starts", "run_circle"]
+__all__ = ["CHECK_PERIODS", "FLIP_SPREAD", "LOCKING_TOL", "LYAPUNOV_PERIODS", "MAX_DENOMINATOR",
+           "CircleStabilityMonitor", "CircleStart", "LOCKED_OFFSETS", "LockedOrbit", "circle_child_start",
+           "classify_circle_end", "follow_circle", "locked_orbits", "locked_starts", "run_circle"]
 
 #: a flip counts as the collapse where the circle is this small against its largest (elsewhere it would be the
 #: parametrisation turning, not the circle shrinking)
@@ -253,6 +254,8 @@ def locked_orbits(problem, u, lam: float, q: int, *, tol: float = 1e-10, max_ite
 #: periods of the circle map averaged for a point's Lyapunov exponents (products of interpolated Jacobians,
 #: no flow: a few microseconds each)
 LYAPUNOV_PERIODS = 4000
+#: forcing periods simulated off a circle whose exponents give no verdict
+CHECK_PERIODS = 400
 
 
 class CircleStabilityMonitor:
@@ -270,14 +273,23 @@ class CircleStabilityMonitor:
     ``stable``; ``n_unstable`` the normal exponents above zero;
     ``max_multiplier`` ``exp`` of the largest normal exponent (the growth of
     the fastest normal perturbation over a forcing period); and
-    ``normal_exponent`` with its ``normal_exponent_error``. An undecided
-    verdict is no verdict.
+    ``normal_exponent`` with its ``normal_exponent_error``. Where the
+    exponents give no verdict (the largest normal one within its error or
+    within the tangential one's modulus of zero: on a circle with corners
+    the tangential exponent, exactly zero for exact data, is often the
+    larger), a simulation started off the circle decides
+    (:func:`contin.timedomain.torus_check.check_circle`, ``simulation``
+    periods; 0: never), and ``max_multiplier`` is ``exp`` of its fitted rate,
+    taken at most 0 (at least 0) for a stable (unstable) verdict; still
+    undecided is no verdict.
     """
 
-    def __init__(self, problem, periods: int = LYAPUNOV_PERIODS):
+    def __init__(self, problem, periods: int = LYAPUNOV_PERIODS, simulation: int = CHECK_PERIODS):
         self.problem = problem
         self.periods = periods
+        self.simulation = int(simulation)
         self.undecided: list[float] = []  # parameter values without a verdict
+        self.simulated: list[float] = []  # those the simulation decided
 
     def __call__(self, u, lam, Ju=None, Jlam=None) -> dict:
         jac = point_jacobians(self.problem, u, lam, Ju, midpoints=True)
@@ -286,10 +298,18 @@ class CircleStabilityMonitor:
         error = abs(fine.largest_normal - coarse.largest_normal)
         stable = fine.stable if abs(fine.largest_normal) > error else None
         normal = np.delete(fine.exponents, fine.tangent)
+        unstable, largest = int(np.sum(normal > 0.0)), float(fine.largest_normal)
+        if stable is None and self.simulation:
+            check = check_circle(self.problem, u, lam, periods=self.simulation)
+            stable = check.stable
+            if stable is not None:  # its rate, on the side of its verdict
+                self.simulated.append(float(lam))
+                unstable = 0 if stable else max(unstable, 1)
+                largest = min(check.rate, 0.0) if stable else max(check.rate, 0.0)
         if stable is None:
             self.undecided.append(float(lam))
-        return {"evaluated": stable is not None, "stable": bool(stable), "n_unstable": int(np.sum(normal > 0.0)),
-                "max_multiplier": float(np.exp(fine.largest_normal)), "normal_exponent": float(fine.largest_normal),
+        return {"evaluated": stable is not None, "stable": bool(stable), "n_unstable": unstable,
+                "max_multiplier": float(np.exp(min(largest, 700.0))), "normal_exponent": float(fine.largest_normal),
                 "normal_exponent_error": float(error)}
 
 
@@ -357,6 +377,9 @@ def run_circle(start: CircleStart, lam_range, options: ContinuationOptions, para
                        monitors=monitors, callback=callback, checkpoint=checkpoint, resume=resume,
                        solve_start=start.solve_start)
     for mon in monitors:
+        if mon.simulated:
+            br.message = (f"{br.message}; stability by a simulation off the circle at {len(mon.simulated)} point(s) "
+                          "(the Lyapunov exponents within their error of zero)")
         if mon.undecided:
             br.message = (f"{br.message}; no stability verdict at {len(mon.undecided)} point(s) (the largest normal "
                           f"Lyapunov exponent within its error of zero; first at {parameter_name}="

@@ -277,4 +277,7 @@ def monodromy_result(mu: np.ndarray, period: float, options: StabilityOptions | 
 def log_exponents(mu: np.ndarray, period: float) -> np.ndarray:
     """Principal-branch exponents ``log(mu) / T`` (a zero multiplier gives ``-inf``)."""
     with np.errstate(divide="ignore"):
-        return np.log(mu.astype(complex)) / period
+        lg = np.log(mu.astype(complex))
+    out = np.empty_like(lg)
+    out.real, out.imag = lg.real / period, lg.imag / period  # parts apart: -inf / T in complex division is nan
+    return out

@@ -33,7 +33,7 @@ import numpy as np
 
 from contin.hb.torus import COMPONENTS
 
-__all__ = ["circle_line", "circle_measures", "circle_surface", "strongest_winding"]
+__all__ = ["circle_line", "circle_measures", "circle_surface", "circle_whirl", "strongest_winding"]
 
 
 def circle_surface(problem, u, lam: float) -> tuple[np.ndarray, np.ndarray, float]:
@@ -76,13 +76,45 @@ def strongest_winding(problem, u, lam: float, reach: int = 2) -> int:
     return best if problem.blocks(u)[1] >= 0.0 else -best
 
 
-def circle_line(X, theta1, rho: float, k1: int, k2: int) -> np.ndarray:
-    """The amplitude of the pair ``(k1, k2)`` (module docstring) of every column of ``X`` (N, S, m): shape (m,)."""
+def _line_coefficient(X, theta1, rho: float, k1: int, k2: int) -> np.ndarray:
+    """``c(k1, k2)`` (module docstring) of every column of ``X`` (N, S, m): complex, shape (m,)."""
     N = X.shape[0]
     phi = 2.0 * math.pi * np.arange(N) / N
     phase = np.exp(-1j * (k2 * phi[:, None] + (k1 + k2 * rho) * theta1[None, :]))  # (N, S)
-    c = np.einsum("js,jsm->m", phase, X) / (N * len(theta1))
+    return np.einsum("js,jsm->m", phase, X) / (N * len(theta1))
+
+
+def circle_line(X, theta1, rho: float, k1: int, k2: int) -> np.ndarray:
+    """The amplitude of the pair ``(k1, k2)`` (module docstring) of every column of ``X`` (N, S, m): shape (m,)."""
+    c = _line_coefficient(X, theta1, rho, k1, k2)
     return (1.0 if k1 == 0 and k2 == 0 else 2.0) * np.abs(c)
+
+
+def circle_whirl(problem, u, lam: float, ix: int, iy: int) -> dict:
+    """The whirl radii of a node pair ``(x, y)`` (dof indices ``ix``, ``iy``) on the torus.
+
+    ``z = x + i y`` is the sum over the lines of ``(c_x + i c_y) e^{i f t}`` and
+    ``(conj c_x + i conj c_y) e^{-i f t}``, ``f = k1 w + k2 w2`` and ``c`` the
+    line's coefficient (module docstring): the radius of the forward whirl at
+    ``+f`` is ``|c_x + i c_y|``, of the backward one at ``-f``
+    ``|conj c_x + i conj c_y|``, as :func:`contin.model.whirl.whirl_radii` of a
+    periodic orbit and the spectral lines of a simulated ``z``
+    (:func:`contin.timedomain.whirl_sweep.classify_whirl`).
+
+    Returns
+    -------
+    dict
+        ``forced`` (forward at ``+w``), ``self_excited`` (forward at ``+w2``), ``combination`` (backward at
+        ``w2 - w``, the line ``(1, -1)``) and ``ratio`` ``w2 / w``.
+    """
+    X, theta1, r = circle_surface(problem, u, lam)
+
+    def radius(k1: int, k2: int, forward: bool) -> float:
+        cx, cy = _line_coefficient(X[:, :, [ix, iy]], theta1, r, k1, k2)
+        return float(abs(cx + 1j * cy) if forward else abs(np.conj(cx) + 1j * np.conj(cy)))
+
+    return {"forced": radius(1, 0, True), "self_excited": radius(0, 1, True), "combination": radius(1, -1, False),
+            "ratio": float(r)}
 
 
 def _vertex(a: float, b: float, c: float) -> float:

@@ -14,6 +14,15 @@ quasi-periodic analogue of the largest Floquet multiplier).
 :func:`torus_distance` measures how far simulated states lie from the torus
 section at ``theta1 = Omega1 t`` (the closest point over ``theta2``): the
 error of the series.
+
+An invariant circle of the stroboscopic map (:mod:`contin.timedomain.invariant_circle`)
+is checked the same way but on its own: :func:`check_circle` starts one
+trajectory off the circle, along the normal of the circle at one of its
+points, and follows its distance to the circle once a forcing period
+(:func:`circle_distance`). The component along the circle is no distance,
+so the distance measures the normal directions alone: a check independent
+of the Lyapunov exponents computed from the map's Jacobians
+(:func:`contin.timedomain.invariant_circle.circle_lyapunov`).
 """
 
 from __future__ import annotations
@@ -25,12 +34,14 @@ import numpy as np
 
 from contin.timedomain.simulation import simulate
 
-__all__ = ["TorusVerdict", "torus_distance", "check_torus"]
+__all__ = ["CIRCLE_GROWTH", "TorusVerdict", "check_circle", "circle_distance", "torus_distance", "check_torus"]
 
 #: growth of the separation of two trajectories beyond which the torus repels
 GROWN_UNSTABLE = 1e3
 #: growth below which it attracts (a displacement along the torus is kept, and sheared by the flow)
 GROWN_STABLE = 30.0
+#: a circle's distance shrinking (growing) by this factor over the record is a verdict: stable (unstable)
+CIRCLE_GROWTH = 4.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -186,3 +197,90 @@ def check_torus(qp, u, lam: float, *, periods: float = 200.0, steps_per_period: 
         stable, msg = None, (f"undecided: a displacement of {perturbation:.0e} grew {np.max(tail):.3g} times "
                              f"(between {GROWN_STABLE:g} and {GROWN_UNSTABLE:g}) {what}")
     return TorusVerdict(stable, rate, math.exp(min(rate * T1, 700.0)), sep * perturbation, t, msg)
+
+
+def circle_distance(problem, u, states, fine: int = 16, newton: int = 3) -> np.ndarray:
+    """The distance of each state (K, 2n) to the invariant circle ``u`` of ``problem``: shape (K,).
+
+    The nearest of ``fine * N`` points of the circle's trigonometric interpolant
+    ``p(theta)``, then ``newton`` Newton steps on ``(p(theta) - z) . p'(theta) = 0``.
+    """
+    U, _ = problem.blocks(u)
+    N = problem.points
+    c = np.fft.fft(U, axis=0) / N  # p(theta) = Re sum_k c_k exp(i k theta), N odd: no Nyquist term
+    k = np.fft.fftfreq(N, 1.0 / N)
+    Z = np.atleast_2d(np.asarray(states, dtype=float))
+    grid = 2.0 * math.pi * np.arange(fine * N) / (fine * N)
+    P = np.real(np.exp(1j * np.outer(grid, k)) @ c)  # (M, 2n)
+    theta = grid[np.argmin(np.sum((Z[:, None, :] - P[None, :, :]) ** 2, axis=2), axis=1)]
+    for _ in range(newton):
+        E = np.exp(1j * np.outer(theta, k))
+        r = np.real(E @ c) - Z
+        d1, d2 = np.real(E @ (1j * k[:, None] * c)), np.real(E @ (-(k ** 2)[:, None] * c))
+        theta = theta - np.sum(r * d1, axis=1) / np.maximum(np.sum(d1 * d1 + r * d2, axis=1), 1e-300)
+    return np.linalg.norm(np.real(np.exp(1j * np.outer(theta, k)) @ c) - Z, axis=1)
+
+
+def check_circle(problem, u, lam: float, *, periods: int = 400, displacement: float = 5e-2) -> TorusVerdict:
+    """Simulate from a point displaced off an invariant circle; tell whether it returns (module docstring).
+
+    The trajectory starts at the circle's point ``u_0`` moved by ``displacement``
+    (relative to the circle's largest state) along the normal direction of the
+    circle there nearest the state's first component, with the integrator and
+    steps of the circle's own map. Its distance to the circle is measured once a
+    forcing period. The distance does not shrink or grow evenly (the normal
+    contraction varies along the circle and the faster normal directions die out
+    first), and where the circle attracts it settles at the circle's own error
+    against the flow: the rate fitted to its logarithm over the record is
+    reported (a bound on the largest normal exponent there), and the verdict
+    reads the end: stable where the distance over the last quarter of the record
+    (its median: passing a corner of the circle makes a spike) is below
+    ``1 / CIRCLE_GROWTH`` of that at the start, unstable where it grew
+    ``CIRCLE_GROWTH`` times (or the trajectory blew up: ``rate`` infinite), else
+    none.
+
+    Parameters
+    ----------
+    problem : InvariantCircleProblem
+    u : array_like, shape (problem.size,)
+        A converged circle.
+    lam : float
+    periods : int
+        Forcing periods simulated.
+    displacement : float
+        Relative to the circle's largest state.
+
+    Returns
+    -------
+    TorusVerdict
+        ``rate`` per forcing period (above), ``multiplier`` ``exp(rate)``, ``distance`` relative to the initial
+        one at the ``times`` (forcing periods).
+    """
+    if isinstance(periods, bool) or not isinstance(periods, (int, np.integer)) or periods < 4:
+        raise ValueError(f"periods: expected an integer of at least 4, got {periods!r}")
+    U, _ = problem.blocks(u)
+    n = problem.n
+    N = problem.points
+    freqs = np.fft.fftfreq(N, 1.0 / N)
+    tangent = np.real((1j * freqs) @ (np.fft.fft(U, axis=0) / N))  # u'(0) of the trigonometric interpolant
+    normal = np.eye(2 * n)[0] - tangent * tangent[0] / float(tangent @ tangent)
+    scale = float(np.max(np.abs(U))) or 1.0
+    z0 = U[0] + displacement * scale * normal / np.linalg.norm(normal)
+    S = problem.options.steps_per_period
+    try:
+        run = simulate(problem.model, problem.params_at(lam), z0[:n], z0[n:], periods=periods, steps_per_period=S,
+                       record_every=S)
+    except ArithmeticError as exc:  # the trajectory ran away from the circle to infinity
+        return TorusVerdict(False, math.inf, math.inf, np.ones(1), np.zeros(1),
+                            f"a displacement of {displacement:.0e} off the circle ran away: {exc}")
+    states = np.asarray(run.section, dtype=float)[:periods + 1]  # t = 0, T, ..., periods T
+    d = circle_distance(problem, u, states)
+    rel = d / d[0]
+    k = np.arange(len(d))
+    end = float(np.median(rel[-max(1, len(rel) // 4):]))  # the median: a corner of the circle passed is a spike
+    rate = float(np.polyfit(k, np.log(np.maximum(rel, 1e-300)), 1)[0])
+    what = (f"a displacement of {displacement:.0e} off the circle is {end:.3g} of itself over the last quarter of "
+            f"{periods} periods")
+    stable = True if end < 1.0 / CIRCLE_GROWTH else (False if end > CIRCLE_GROWTH else None)
+    return TorusVerdict(stable, rate, math.exp(min(rate, 700.0)), rel, k.astype(float),
+                        what if stable is not None else f"undecided: {what}")

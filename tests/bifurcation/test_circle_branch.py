@@ -15,23 +15,12 @@ from contin.model.catalog import build_model
 from contin.timedomain.invariant_circle import CircleOptions, InvariantCircleProblem, circle_start
 from contin.timedomain.shooting import ShootingOptions, periodic_orbit
 from contin.timedomain.simulation import simulate
-from van_der_pol_model import vdp_model
-
-#: the flow's Neimark-Sacker point (1024 RK4 steps a period), where |mu| = 1 +- 1e-6
-W_NS = 0.9512494581
-
+from van_der_pol_model import W_NS, vdp_circle_branch, vdp_model
 
 @pytest.fixture(scope="module")
 def down():
     """The circle branch from the Neimark-Sacker point down to w = 0.9."""
-    run = simulate(vdp_model(), {"w": 0.96}, np.zeros(1), np.zeros(1), periods=300, steps_per_period=1024,
-                   record_every=1024)
-    orbit = periodic_orbit(vdp_model(), {"w": 0.96}, run.section[-1], ShootingOptions(steps_per_period=1024))
-    orbit = periodic_orbit(vdp_model(), {"w": W_NS}, orbit.state, ShootingOptions(steps_per_period=1024))
-    prob, u0, tangent = circle_start(vdp_model(), "w", orbit.state, W_NS,
-                                     options=CircleOptions(points=21, steps_per_period=1024), eps=0.02)
-    br = follow_circle(prob, u0, W_NS, (0.9, 0.96), ContinuationOptions(ds=0.05), tangent=tangent)
-    return prob, br
+    return vdp_circle_branch(0.9)
 
 
 def test_the_branch_from_the_neimark_sacker_point_reaches_its_range_end(down):

@@ -473,3 +473,17 @@ def test_a_window_opened_by_a_collision_near_the_circle_is_not_stepped_over():
     half = 0.5 * (hi - lo) * np.sqrt(1 - a * a)
     pd = [p.parameter for p in br.points_of_kind("pd")]
     assert pd == pytest.approx([0.602 - half, 0.602 + half], abs=1e-10)
+
+
+def test_a_zero_multiplier_has_the_exponent_minus_infinity_and_no_nan():
+    """A multiplier of exactly zero (an impact that stops a dof: a zero row of a saltation matrix) has the
+    exponent -inf; complex division by the period would make its imaginary part nan."""
+    import warnings
+
+    from contin.stability.verdict import log_exponents
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        e = log_exponents(np.array([0.0, -1.0, 0.5 + 0.5j]), 2.0)
+    assert e[0].real == -np.inf and e[0].imag == 0.0
+    np.testing.assert_allclose(e[1:], np.log(np.array([-1.0, 0.5 + 0.5j])) / 2.0, rtol=1e-15)

@@ -18,7 +18,6 @@ from contin.timedomain.invariant_circle import (CircleOptions, InvariantCirclePr
                                                point_jacobians,
                                                shift_matrix)
 from contin.timedomain.shooting import ShootingOptions, periodic_orbit
-from contin.api.system import System
 from van_der_pol_model import F, MU, vdp_model
 
 
@@ -194,10 +193,7 @@ def test_the_exponents_from_the_points_jacobians_meet_liouville_without_a_flow(q
     assert ly.largest_normal == pytest.approx(divergence, abs=1.5e-4)
     # the same torus run backwards (mu -> -mu; the points with their velocities reversed, rho -> -rho) is the
     # same circle of the inverse map: unstable, its normal exponent the opposite (measured +0.526943)
-    back = System(dofs=["x"], parameters={"mu": -MU, "F": F, "w": w}, mass=[[1]], damping=[["-mu"]],
-                  stiffness=[[1]], forces=[{"dof": "x", "expr": "mu*x**2*x_dot"}],
-                  excitation=[{"dof": "x", "expr": "F*cos(tau)"}], frequency="w").model
-    rev = InvariantCircleProblem(back, "w", options=CircleOptions(points=N, steps_per_period=1024))
+    rev = InvariantCircleProblem(vdp_model(w=w, mu=-MU), "w", options=CircleOptions(points=N, steps_per_period=1024))
     U, rho = prob.blocks(res.x)
     U = U * np.array([1.0, -1.0])
     rev.set_anchor(U)

@@ -3,17 +3,18 @@
 The bearing rotor at f0 = 0.5 whirls quasi-periodically over w = 1.66-1.96 in the simulations of the
 paper's Fig. 3 (docs/tutorials/rotor.md). Here that torus is found as an invariant circle of the map over
 one revolution, fitted to a simulation at ``--start`` (:func:`contin.analyses.torus_start.circle_from_simulation`),
-and followed in plain steps of the speed: at each speed Newton at fixed ``w``
-(:func:`contin.engine.newton.solve_at_parameter`) from the line through the last two circles, the step
-halved where Newton fails and grown again after a success. Printed at each speed: the rotation number
+and followed in plain steps of the speed (:func:`contin.bifurcation.circle_steps.step_circle`: at each
+speed Newton at fixed ``w`` from the line through the last two circles, the step halved where Newton
+fails and grown again after a success). Printed at each speed: the rotation number
 ``rho``, the second frequency ``w2``, the disc's forced, self-excited and combination amplitudes in x
 (:func:`contin.timedomain.circle_measures.circle_measures`) and Newton's iterations; where the steps
-collapse, the nearest ``p/q`` (q <= 12) to ``rho``.
+collapse, the nearest ``p/q`` (q <= 12) to ``rho``, and what the last circle's linearisation says of
+the end (the smallest singular values, the tangent's ``w`` component: a smooth fold has both near zero).
 
-Plain steps cannot turn at a fold of the branch, but they step over the thin resonance tongues that a
-pseudo-arclength branch of the circle crawls into (docs/theory/quasi-periodic.md).
+Plain steps cannot turn at a fold of the branch, but they pass the corners and the thin resonance tongues
+that a pseudo-arclength branch of the circle crawls into (docs/theory/quasi-periodic.md).
 
-    python scripts/figures/rotor/rotor_torus_steps.py                       # N = 61, down then up from 1.9 (8 min)
+    python scripts/figures/rotor/rotor_torus_steps.py                       # N = 61, down then up from 1.9 (10 min)
     python scripts/figures/rotor/rotor_torus_steps.py --quick               # N = 31, one step each way
 """
 
@@ -21,11 +22,11 @@ from __future__ import annotations
 
 import argparse
 import time
-from fractions import Fraction
 
 import numpy as np
 
 from contin.analyses.torus_start import circle_from_simulation
+from contin.bifurcation.circle_steps import step_circle
 from contin.engine.newton import solve_at_parameter
 from contin.engine.options import ContinuationOptions
 from contin.model.catalog import build_model
@@ -35,28 +36,31 @@ from contin.timedomain.shooting import ShootingOptions, ShootingProblem
 
 def follow(problem, u, w, dw0, end, min_step, dofs):
     """Steps from the circle ``u`` at ``w`` towards ``end``; the rows printed, and the last speed reached."""
-    opts = ContinuationOptions(newton_tol=1e-8, newton_max_iter=12)
-    hist, dw = [(w, u)], dw0
-    while (end - w) * dw0 > 1e-12 and abs(dw) >= min_step:
-        wn = w + dw if (end - w - dw) * dw0 > 0 else end
-        (wa, ua), (wb, ub) = hist[-2] if len(hist) > 1 else hist[-1], hist[-1]
-        guess = ub if wb == wa else ub + (ub - ua) * (wn - wb) / (wb - wa)
-        r = solve_at_parameter(problem, guess, wn, opts)
-        if not r.converged:
-            dw /= 2.0
-            continue
-        w, u = wn, r.x
-        hist.append((w, u))
-        m = circle_measures(problem, u, w, dofs)
-        print(f"  {w:9.5f} {u[-1]:9.6f} {m['frequency2']:9.5f} {m['forced_x1']:8.4f} {m['free_x1']:8.4f} "
-              f"{m['comb_x1']:8.4f} {r.iterations:4d}", flush=True)
-        dw = float(np.sign(dw0)) * min(abs(dw) * 1.5, abs(dw0))
-    if (end - w) * dw0 > 1e-12:
-        rho = float(hist[-1][1][-1])
-        near = Fraction(rho).limit_denominator(12)
-        print(f"  the steps collapsed below {min_step:g} beyond w = {w:.5f}: rho = {rho:.6f}, "
-              f"{rho - float(near):+.1e} from {near.numerator}/{near.denominator}")
-    return w
+    def show(lam, x, iterations, m):
+        print(f"  {lam:9.5f} {x[-1]:9.6f} {m['frequency2']:9.5f} {m['forced_x1']:8.4f} {m['free_x1']:8.4f} "
+              f"{m['comb_x1']:8.4f} {iterations:4d}", flush=True)
+
+    steps = step_circle(problem, u, w, dw0, end, min_step=min_step,
+                        measure=lambda x, lam: circle_measures(problem, x, lam, dofs), callback=show)
+    if not steps.reached:
+        print(f"  {steps.message}")
+        wall(problem, steps.unknowns[-1], float(steps.parameter[-1]))
+    return float(steps.parameter[-1])
+
+
+def wall(problem, u, w):
+    """What the last circle's linearisation says of the end: a smooth fold in ``w`` has ``R_u`` singular and a
+    tangent of the branch with no ``w`` component; the unknowns scaled as a mean square over the points (the
+    largest state times sqrt(N)), ``rho`` and ``w`` by 1."""
+    _, Ju, Jw = problem.linearize(u, w)
+    U, _ = problem.blocks(u)
+    scale = np.r_[np.full(U.size, np.abs(U).max() * np.sqrt(problem.points)), 1.0, 1.0]
+    A = np.c_[Ju, Jw] * scale
+    _, sv, vt = np.linalg.svd(A)
+    tangent = vt[-1] / np.linalg.norm(vt[-1])
+    print(f"  at the last circle: smallest singular values {sv[-1]:.3g} of [R_u R_w] and "
+          f"{np.linalg.svd(A[:, :-1], compute_uv=False)[-1]:.3g} of R_u (scaled; the largest {sv[0]:.3g}); the "
+          f"tangent's w component {abs(tangent[-1]):.3f}, rho component {abs(tangent[-2]):.3f}")
 
 
 def main(argv=None) -> int:
