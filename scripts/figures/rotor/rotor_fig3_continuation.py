@@ -21,7 +21,7 @@ Drawn over the simulation sweep (``rotor_fig3_sweeps.csv`` of ``rotor_fig3.py -o
 ``rotor_fig3_continued_f0_<f0>.png``; the seconds of the continuation are printed beside those the
 sweep took (its rows' wall times; ``scripts/bench/bench_rotor_fig3.py`` times both in one run). The
 diagram's result directory (``OUTDIR/diagram``) and the tori's rows (``OUTDIR/torus_f0_<f0>.csv``)
-stay; ``--redraw`` draws the figure again from them. At f0 = 0.2 no torus is stable (``--fit`` with
+stay; ``--redraw`` draws the figure again from them. At f0 = 0.2 the sweep shows no torus (``--fit`` with
 no speed draws the branches alone).
 
     python scripts/figures/rotor/rotor_fig3_continuation.py --sweeps results/rotor_fig3   # f0 = 0.5, 6 min
