@@ -5,10 +5,10 @@ has corners where its points cross the switching surfaces of the flow map, and
 every crossing of a grid point puts a corner into the discretised branch: the
 branch turns by tens of degrees at corners close together in ``lam``, however
 short the step (the rotor's large torus: docs/theory/quasi-periodic.md). A
-pseudo-arclength branch, whose
-corrector and step control read the tangent, crawls there; a step at fixed
-``lam`` does not see the corners, as the circle at each ``lam`` is still the
-solution of a smooth Newton problem in ``U`` and ``rho``. Plain steps also step
+pseudo-arclength branch, whose corrector and step control read the tangent,
+crawls there; a step at fixed ``lam`` does not see the corners, as the circle
+at each ``lam`` is still the solution of a Newton problem in ``U`` and ``rho``
+with one solution nearby. Plain steps also step
 over the thin resonance tongues of large ``q`` that a discretised circle
 cannot cross smoothly (docs/theory/quasi-periodic.md). They cannot turn at a
 fold: where Newton fails at every step down to ``min_step``, the steps end and
