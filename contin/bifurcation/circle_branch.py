@@ -47,7 +47,7 @@ from contin.timedomain.torus_check import check_circle
 
 __all__ = ["CHECK_PERIODS", "FLIP_SPREAD", "LOCKING_TOL", "LYAPUNOV_PERIODS", "MAX_DENOMINATOR",
            "CircleStabilityMonitor", "CircleStart", "LOCKED_OFFSETS", "LockedOrbit", "circle_child_start",
-           "classify_circle_end", "follow_circle", "locked_orbits", "locked_starts", "run_circle"]
+           "circle_spread", "classify_circle_end", "follow_circle", "locked_orbits", "locked_starts", "run_circle"]
 
 #: a flip counts as the collapse where the circle is this small against its largest (elsewhere it would be the
 #: parametrisation turning, not the circle shrinking)
@@ -60,7 +60,8 @@ MAX_DENOMINATOR = 6
 _AS_ASKED = (BranchStatus.RANGE_END, BranchStatus.MAX_POINTS, BranchStatus.CLOSED_LOOP)
 
 
-def _spread(problem, u) -> float:
+def circle_spread(problem, u) -> float:
+    """A circle's size: the largest peak-to-peak range of a state component over its points."""
     U, _ = problem.blocks(u)
     return float(np.max(np.ptp(U, axis=0)))
 
@@ -101,7 +102,7 @@ def follow_circle(problem, u0, lam0: float, lam_range, options: ContinuationOpti
     flipped = []
 
     def monitor(u, lam, Ju=None, Jlam=None):
-        return {"circle_spread": _spread(problem, u)}
+        return {"circle_spread": circle_spread(problem, u)}
 
     def watch(branch: Branch, index: int):
         going = True if callback is None else callback(branch, index) is not False

@@ -38,6 +38,7 @@ from fractions import Fraction
 
 import numpy as np
 
+from contin.bifurcation.circle_branch import circle_spread
 from contin.engine.newton import solve_at_parameter
 from contin.engine.options import ContinuationOptions
 
@@ -111,7 +112,7 @@ def step_circle(problem, u0, lam0: float, step: float, end: float, *, min_step: 
     lams, us, its = [lam0], [np.asarray(u0, dtype=float)], [0]
     rows = [measure(us[0], lam0)] if measure is not None else []
     h, lam = step, lam0
-    largest = _spread(problem, us[0])
+    largest = circle_spread(problem, us[0])
     collapsed = lu = None
     while (end - lam) * step > 1e-12 * max(1.0, abs(end)) and abs(h) >= min_step:
         target = end if (end - lam - h) * step <= 0.0 else lam + h
@@ -124,7 +125,7 @@ def step_circle(problem, u0, lam0: float, step: float, end: float, *, min_step: 
         if not r.converged:
             h /= 2.0
             continue
-        spread = _spread(problem, r.x)
+        spread = circle_spread(problem, r.x)
         if spread < COLLAPSED * largest:  # as a failure: the step shrinks towards the point
             collapsed = (target, spread)
             h /= 2.0
@@ -153,7 +154,3 @@ def step_circle(problem, u0, lam0: float, step: float, end: float, *, min_step: 
                    f"rho = {rho:.6f}, {rho - float(near):+.1e} from {near}")
     return CircleSteps(np.asarray(lams), np.asarray(us), np.asarray(its, dtype=int), reached, message, rows)
 
-
-def _spread(problem, u) -> float:
-    U, _ = problem.blocks(u)
-    return float(np.max(np.ptp(U, axis=0)))

@@ -34,29 +34,10 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np
 
 from contin.api import run
-from contin.model.catalog import build_model
-from contin.timedomain.whirl_sweep import component_sweep
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "figures" / "rotor"))
-from rotor_fig3 import FULL  # noqa: E402
+from rotor_fig3 import FULL, run_sweeps  # noqa: E402
 from rotor_fig3_continuation import SCENES, torus_rows  # noqa: E402
-
-
-def sweep(speeds, transient: float, record: int, steps: int, run_up) -> dict:
-    """The up and down sweeps (after the run-up) of the disc's whirl components."""
-    model = build_model("bearing_rotor", {"f0": 0.5})
-    state = None
-    if run_up:
-        state = component_sweep(model, {"f0": 0.5}, run_up, transient_periods=transient, record_periods=record,
-                                steps_per_period=steps).final_state
-    out = {}
-    for name, ws in (("up", speeds), ("down", speeds[::-1])):
-        sw = component_sweep(model, {"f0": 0.5}, ws, transient_periods=transient, record_periods=record,
-                             steps_per_period=steps, x0=None if state is None else state[:model.n_dof],
-                             v0=None if state is None else state[model.n_dof:])
-        state = sw.final_state
-        out[name] = sw
-    return out
 
 
 def compare(sweeps: dict, rows: list[dict]) -> tuple[float, float, int, int]:
@@ -100,7 +81,8 @@ def main(argv=None) -> int:
           f"revolutions each; continuation: {'no diagram, ' if args.quick else 'the main job, '}"
           f"tori fitted at {', '.join(map(str, fits))}", flush=True)
     t0 = time.perf_counter()
-    sweeps = sweep(speeds, transient, record, FULL["steps"], run_up)
+    sweeps = {name: sw for name, sw in run_sweeps(0.5, speeds, transient, record, FULL["steps"], run_up)
+              if name != "run-up"}
     t_sweep = time.perf_counter() - t0
     print(f"sweep: {t_sweep:.1f} s", flush=True)
     t0 = time.perf_counter()

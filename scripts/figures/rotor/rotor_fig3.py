@@ -186,6 +186,22 @@ def sweeps_from_csv(path: Path) -> dict[float, dict[str, SimpleNamespace]]:
     return out
 
 
+def run_sweeps(f0: float, speeds, transient: float, record: int, steps: int, run_up=()):
+    """The bearing rotor at ``f0``: ``("run-up", sweep)`` over the ``run_up`` speeds from rest (when given), then
+    ``("up", sweep)`` over ``speeds`` and ``("down", sweep)`` back, each started from the last one's final state
+    (:func:`contin.timedomain.whirl_sweep.component_sweep`, ``transient`` + ``record`` revolutions a speed,
+    ``steps`` RK4 steps a revolution); a generator, so that a caller times and writes each as it ends."""
+    model = build_model("bearing_rotor", {"f0": f0})
+    state = None
+    parts = ([("run-up", tuple(run_up))] if len(run_up) else []) + [("up", speeds), ("down", speeds[::-1])]
+    for name, ws in parts:
+        sw = component_sweep(model, {"f0": f0}, ws, transient_periods=transient, record_periods=record,
+                             steps_per_period=steps, x0=None if state is None else state[:model.n_dof],
+                             v0=None if state is None else state[model.n_dof:])
+        state = sw.final_state
+        yield name, sw
+
+
 def report(f0: float, name: str, sw, seconds: float) -> None:
     """Print the speed intervals of each verdict and the range of p_f of one sweep."""
     ranges = verdict_ranges(sw)
@@ -263,25 +279,17 @@ def main(argv=None) -> int:
     t_all = time.perf_counter()
     try:
         for f0 in args.f0:
-            model = build_model("bearing_rotor", {"f0": f0})
             sweeps = {}
-            state = None
-            if run_up:
-                ru = component_sweep(model, {"f0": f0}, run_up, transient_periods=transient, record_periods=record,
-                                     steps_per_period=steps)
-                state = ru.final_state
-                print(f"f0 = {f0:g}, run-up: " + ", ".join(f"w = {w:g} {v}" for w, v in zip(ru.w, ru.verdict)))
-            for name, ws in (("up", speeds), ("down", speeds[::-1])):
+            t0 = time.perf_counter()
+            for name, sw in run_sweeps(f0, speeds, transient, record, steps, run_up):
+                if name == "run-up":
+                    print(f"f0 = {f0:g}, run-up: " + ", ".join(f"w = {w:g} {v}" for w, v in zip(sw.w, sw.verdict)))
+                else:
+                    sweeps[name] = sw
+                    for row in sw.to_rows():
+                        csv.write({"f0": f0, "direction": name, **row})
+                    report(f0, name, sw, time.perf_counter() - t0)
                 t0 = time.perf_counter()
-                sw = component_sweep(model, {"f0": f0}, ws, transient_periods=transient, record_periods=record,
-                                     steps_per_period=steps,
-                                     x0=None if state is None else state[:model.n_dof],
-                                     v0=None if state is None else state[model.n_dof:])
-                state = sw.final_state
-                sweeps[name] = sw
-                for row in sw.to_rows():
-                    csv.write({"f0": f0, "direction": name, **row})
-                report(f0, name, sw, time.perf_counter() - t0)
             names = figure(f0, sweeps, steps, out / f"rotor_fig3_f0_{f0:g}")
             print(f"  wrote {', '.join(names)}")
     finally:
