@@ -105,6 +105,7 @@ def _build(params: dict, effects: tuple, clip: bool = False) -> Model:
     if "contact" in effects:
         model.start = _homotopy_start
     model.observables = whirl_components
+    model.whirl_parts = dict(PARTS)
     model.observable_names = WHIRL_COLUMNS
     model.symbols = dict(SYMBOLS)
     return model
@@ -114,11 +115,15 @@ def _build(params: dict, effects: tuple, clip: bool = False) -> Model:
 SYMBOLS = {"w": r"\Omega", "ks2": r"k_{s2}", "ip": r"i_p", "kbn": r"k_{bn}", "cbn": r"c_{bn}", **WHIRL_SYMBOLS}
 
 
+#: the node pairs whose whirl the rows carry: the disc (x1, y1) and the bearing (x2, y2)
+PARTS = {"disc": (0, 1), "bearing": (2, 3)}
+
+
 def whirl_components(u: np.ndarray, n_dof: int, nu: int) -> dict:
     """Forward and backward whirl radii of the disc (x1, y1) and the bearing (x2, y2) at w/2 and at w
     (:func:`contin.model.whirl.whirl_radii`; zero at w/2 for ``nu = 1``, the zero-amplitude solution of the
     paper's Fig. 4)."""
-    return whirl_radii(u, n_dof, nu, {"disc": (0, 1), "bearing": (2, 3)})
+    return whirl_radii(u, n_dof, nu, PARTS)
 
 
 #: Harmonics of the homotopy in the contact stiffness (the start at full H follows by Newton).

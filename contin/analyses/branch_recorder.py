@@ -24,7 +24,7 @@ SPECIAL_EXTRA = ["interval_lo", "interval_hi", "located", "detail"]
 #: what a finished branch's ``info`` keeps in its checkpoint (what the summary reports of it)
 _END_INFO = ("unknown_scale", "parameter_scale", "lam_range", "min_rcond", "min_rcond_index", "max_condition",
              "max_condition_parameter", "last_condition", "n_rejected_steps", "n_newton_iterations", "n_backtracked",
-             "rescalings", "n_linearizations", "last_failure", "uncovered")
+             "rescalings", "n_linearizations", "last_failure", "uncovered", "continuation")
 
 
 def row_measures(dof_names, harmonic_columns: int, H: int, model=None) -> list[str]:
@@ -58,9 +58,10 @@ class BranchRecorder:
         # header -> the shooting problem of a resumed shooting branch (set by the analysis; None: rows keep states)
         self.shooting_problem = None
         self.observables = getattr(model, "observables", None)
+        self.whirl_parts = dict(getattr(model, "whirl_parts", None) or {})
         self.measures = row_measures(self.dof_names, harmonic_columns, H, model)
         if torus:  # quasi-periodic branches: their second frequency and main components
-            self.measures += torus_measure_names(self.dof_names)
+            self.measures += torus_measure_names(self.dof_names, self.whirl_parts)
         head = ["branch", "nu", parameter, "stable", "n_unstable", "max_multiplier"]
         self.branch_columns = head + self.measures + ["newton_iterations", "residual_norm"]
         self.special_columns = ["branch", "kind", parameter, "index"] + self.measures + SPECIAL_EXTRA
@@ -102,11 +103,12 @@ class BranchRecorder:
 
     def _measures(self, u, n, nu, problem=None, lam=None):
         if isinstance(problem, QuasiPeriodicBalance):
-            return torus_measures(problem, u, lam, self.dof_names, self.harmonic_columns)
+            return torus_measures(problem, u, lam, self.dof_names, self.harmonic_columns, self.whirl_parts)
         if is_circle(problem):
             from contin.timedomain.circle_measures import circle_measures  # deferred: the time domain
 
-            return circle_measures(problem, u, lam, self.dof_names, min(self.H, self.harmonic_columns))
+            return circle_measures(problem, u, lam, self.dof_names, min(self.H, self.harmonic_columns),
+                                   self.whirl_parts)
         out = point_measures(u, n, self.dof_names, self.harmonic_columns)
         if self.observables is not None:
             out.update(self.observables(u, n, nu))
@@ -267,6 +269,7 @@ class BranchRecorder:
                 if u_full is None:
                     raise ValueError(f"row {r} of the checkpoint holds the kept dofs only, and no problem expands it")
                 self._keep_solution(c, u_full, tangent, su, sl, kept, H)
+                c["torus"] = header.get("torus") is not None  # drawn as a torus, as when it was written
                 self.headers.setdefault(bid, header)
                 self.solutions[r] = {"branch": bid, "lam": lam, "u": u_full, "H": H, "nu": c["nu"]}
         sp = read_csv(self.special.path)

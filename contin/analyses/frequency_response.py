@@ -24,6 +24,7 @@ import numpy as np
 
 from contin.analyses.base import Analysis, RunError, ScaleCheck
 # the recorder's names are part of this analysis' interface (bifurcation_curve, convergence_plan use them)
+from contin.analyses.response_figure import draw_response
 from contin.analyses.branch_recorder import SPECIAL_EXTRA, BranchRecorder, row_measures  # noqa: F401
 from contin.analyses.simulate import check_time_step
 from contin.analyses.branch_summary import condition_summary as _condition_summary
@@ -45,11 +46,8 @@ from contin.hb.factory import harmonic_balance
 from contin.hb.problem import HarmonicBalance, HBOptions
 from contin.hb.torus import torus_measure_names
 from contin.output.checkpoint import keep_records, read_records, rebuild_branches, resumable_prefix
-from contin.output.dense import as_number, dense_branch, kept_indices, value_between
-from contin.output.labels import model_symbols
 from contin.output.outcome import Outcome
 from contin.output.model_figures import model_figures
-from contin.output.markers import CHANGES, SPECIAL
 from contin.output.results import truncate_to_valid_rows
 from contin.scene.budget import frequency_response_demands
 from contin.scene.parse import Scene, SceneError, check_parameter_values
@@ -61,7 +59,7 @@ from contin.scene.sweep_plan import SweepPlan, parameter_name, sweep_names, swee
 from contin.timedomain.simulation import SimulationError
 
 __all__ = ["FrequencyResponse", "FrequencyResponsePlan", "StartSetup", "BranchRecorder", "START_KEYS", "SCHEMA",
-           "build_problem", "engine_problem", "start_guess"]
+           "build_problem", "engine_problem", "start_guess", "start_scenes"]
 
 #: keys a further start (``analysis.starts``) may change; the others are shared
 START_KEYS = ("start", "start_from", "start_simulation", "subharmonic", "harmonics", "samples", "crossings", "both_ways",
@@ -91,7 +89,8 @@ SCHEMA = {
     "torus": Key("a mapping with keys among harmonics, harmonics2, samples, samples2 (integers or null), stability "
                  "('simulation' or 'none'), periods (a number > 0), steps_per_period (an integer >= 4), "
                  "locking_tol (a number in (0, 0.25)), points (an odd integer from 3 to 999: the invariant "
-                 "circle's points on a shooting branch)", torus_keys_ok, {}),
+                 "circle's points on a shooting branch), continuation ('arclength' or 'natural': a circle branch "
+                 "in natural steps of the parameter, from solution: torus)", torus_keys_ok, {}),
     # a start on a torus: the invariant circle a simulation settles on (contin.analyses.torus_start)
     "solution": string("periodic", ("periodic", "torus")),
     "max_branches": integer(8, 1),
@@ -219,7 +218,7 @@ def _restore(outdir, parameter: str) -> dict:
     return rebuild_branches(records, parameter)
 
 
-def _starts(scene):
+def start_scenes(scene):
     """The scene itself, then one scene per entry of ``analysis.starts`` (its keys override)."""
     yield "analysis", scene
     for i, extra in enumerate(scene.analysis["starts"]):
@@ -283,7 +282,7 @@ class FrequencyResponsePlan:
 
 def _plan(scene, model) -> FrequencyResponsePlan:
     setups = []
-    for i, (key, sc) in enumerate(_starts(scene)):
+    for i, (key, sc) in enumerate(start_scenes(scene)):
         a = sc.analysis
         hb = build_problem(sc, model)
         sweep = sweep_plan(sc, model, a, key)
@@ -332,7 +331,8 @@ def _wants_tori(scene) -> bool:
 
 def plot_measures(scene, model, hb) -> list[str]:
     """The columns ``output.measure`` can name: the row measures and stability's."""
-    torus = torus_measure_names(model.dof_names) if _wants_tori(scene) else []
+    torus = torus_measure_names(model.dof_names, getattr(model, "whirl_parts", None) or {}) if _wants_tori(scene) \
+        else []
     return row_measures(model.dof_names, scene.output["harmonic_columns"], hb.H, model) + torus + [
         "max_multiplier", "n_unstable"]
 
@@ -438,7 +438,7 @@ def _run(plan: FrequencyResponsePlan, ctx) -> Outcome:
     }
 
     def draw() -> list[str]:
-        return _plot(ctx, rec, hb) + model_figures(ctx.model, "frequency_response", hb.parameter, rec.curves,
+        return draw_response(ctx, rec, hb) + model_figures(ctx.model, "frequency_response", hb.parameter, rec.curves,
                                                    rec.special_list, ctx.outdir, ctx.scene.output)
 
     return Analysis.outcome(ctx, part, shortfalls=part["shortfalls"], data=rec.run_data(ctx.summary), draw=draw)
@@ -493,10 +493,18 @@ class FrequencyResponse(Analysis):
                                   f"{sh.steps_per_period} steps a period) at a grazing point it cannot pass"}
                          [plan.first.method])
         t = TorusSettings.from_dict(a.get("torus") or {}, hb.H)
-        if plan.first.method != "hb" and ("ns" in a["switch"] or a["solution"] == "torus"):
-            lines.append(f"  tori: invariant circles of {t.points} points ({sh.steps_per_period} steps a period); "
+        circles = [s for s in plan.starts if s.method != "hb" and ("ns" in s.scene.analysis["switch"]
+                                                                   or s.scene.analysis["solution"] == "torus")]
+        if circles:  # the first start with tori says how they are made
+            c = circles[0].scene.analysis
+            t = TorusSettings.from_dict(c.get("torus") or {}, hb.H)
+            fitted = sum(s.scene.analysis["solution"] == "torus" for s in plan.starts)
+            lines.append(f"  tori: invariant circles of {t.points} points ({circles[0].shooting.steps_per_period} "
+                         "steps a period); "
                          + ("stability by their Lyapunov exponents" if t.stability != "none" else "no stability")
-                         + ("; the first fitted to a simulation" if a["solution"] == "torus" else ""))
+                         + (f"; in natural steps of {hb.parameter}" if t.continuation.value == "natural" else "")
+                         + ("; the first fitted to a simulation" if a["solution"] == "torus" else "")
+                         + (f"; {fitted} fitted to simulations" if fitted and a["solution"] != "torus" else ""))
         elif "ns" in a["switch"]:
             o = t.options
             lines.append(f"  tori: H1={o.harmonics}, H2={o.harmonics2}, crossings {o.crossings}; stability "
@@ -515,78 +523,3 @@ class FrequencyResponse(Analysis):
             out.append(ScaleCheck(s.scale_key, s.options, s.problem.size, what,
                                   f"analysis.switch: [{', '.join(switch)}]" if switch else ""))
         return out
-
-
-def _plot(ctx, rec, hb):
-    out = ctx.scene.output
-    measure = out["measure"] or f"amp_{hb.model.dof_names[0]}"  # checked by check()
-    drawn = [(m, *diagram_branches(rec, m)) for m in out.get("panels") or [measure]]  # output.panels: stacked
-    from contin.output.panels import panel_diagram  # deferred: matplotlib, loaded only to draw
-
-    return panel_diagram(drawn, hb.parameter, ctx.outdir / "bifurcation_diagram", zoom=out.get("zoom"),
-                         units=out["units"], labels=out["labels"], symbols=model_symbols(hb.model),
-                         title=out["title"], formats=out["formats"], dpi=out["dpi"], style=out["style"])
-
-
-def diagram_branches(rec: BranchRecorder, measure: str) -> tuple[list, list]:
-    """The branches and special points of the diagram of ``measure`` (for
-    :func:`contin.output.plotting.draw_bifurcation_diagram`).
-
-    Each branch is drawn densely: between its stored points the solutions are
-    interpolated (:func:`contin.output.dense.dense_branch`) and ``measure`` is
-    evaluated on them as for the CSV columns; a column that is no function of
-    the solution (a multiplier) is drawn through the stored points. Each
-    special point is put on its branch, and a change of stability is drawn
-    at its located parameter. The two halves of a branch followed both ways
-    from one start form one group (one colour, one legend entry).
-
-    Returns
-    -------
-    branches : list of dict
-        ``x``, ``y``, ``stable``, ``nu``, ``id``, ``group``.
-    special : list of dict
-        ``x``, ``y``, ``kind``, ``branch``.
-    """
-    n = len(rec.dof_names)
-    branches, special = [], []
-    for bid, c in rec.curves.items():
-        x = np.asarray(c["x"], dtype=float)
-        y = np.array([as_number(r.get(measure)) for r in c["rows"]])
-        stable = None if all(v is None for v in c["stable"]) else list(c["stable"])
-        off = rec.offsets.get(bid, 0)
-        points = []
-        for s in rec.special_list:
-            if s["branch"] != bid or s["kind"] not in SPECIAL:
-                continue
-            j = int(s["_before"]) - off
-            sy = as_number(s.get(measure))
-            if not np.isfinite(sy):  # a multiplier: 1 where the stability changes, else read off the branch
-                sy = 1.0 if measure == "max_multiplier" and s["kind"] in CHANGES else \
-                    value_between(x, y, j, s[rec.parameter])
-            points.append({"x": float(s[rec.parameter]), "y": sy, "index": j, "changes": s["kind"] in CHANGES})
-            special.append({"x": float(s[rec.parameter]), "y": sy, "kind": s["kind"], "branch": bid,
-                            "located": bool(s.get("located", True))})
-        evaluate, U, directions = None, np.zeros((x.size, 0)), None
-        if (measure in rec.measures and len(c.get("u", ())) == x.size and x.size > 1
-                and c.get("method") != "shooting"):  # a function of u (a shooting row's extremes are sampled)
-            evaluate, U = _evaluator(rec, measure, c["nu"], rec.problems.get(bid)), np.array(c["u"])
-            if all(d is not None for d in c["direction"]):
-                directions = np.array(c["direction"])
-        kept = kept_indices(c.get("kept"), n, c.get("H") or 0) if c.get("kept") is not None else None
-        d = dense_branch(x, U, evaluate, directions=directions, kept=kept, scale=c.get("scale"), stable=stable,
-                         special=points, node_xy=(x, y))
-        # both halves of a branch followed both ways start at one point
-        group = ("start", c["nu"], float(f"{x[0]:.10g}"), float(f"{y[0]:.8g}")) if x.size else ("branch", bid)
-        branches.append({"x": d["x"], "y": d["y"], "stable": d["stable"], "nu": c["nu"], "id": bid, "group": group,
-                         "torus": bool(c.get("torus"))})
-    return branches, special
-
-
-def _evaluator(rec: BranchRecorder, measure: str, nu: int, problem=None):
-    """``evaluate(lam (K,), U (K, M)) -> (lam, measure (K,))`` with the function of the CSV columns."""
-    n = len(rec.dof_names)
-
-    def evaluate(lam, U):
-        return lam, np.array([as_number(rec._measures(u, n, nu, problem, lv).get(measure)) for u, lv in zip(U, lam)])
-
-    return evaluate

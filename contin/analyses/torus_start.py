@@ -31,7 +31,9 @@ MAX_MISFIT = 0.05
 def torus_keys_ok(v) -> bool:
     """Whether ``v`` is a valid ``analysis.torus`` mapping (its keys and their values' types and ranges)."""
     if not isinstance(v, dict) or set(v) - {"harmonics", "harmonics2", "samples", "samples2", "stability", "periods",
-                                           "steps_per_period", "locking_tol", "points"}:
+                                           "steps_per_period", "locking_tol", "points", "continuation"}:
+        return False
+    if v.get("continuation", "arclength") not in ("arclength", "natural"):
         return False
     if v.get("points") is not None and not (is_int(v["points"]) and 3 <= v["points"] <= 999 and v["points"] % 2):
         return False
@@ -45,8 +47,13 @@ def torus_keys_ok(v) -> bool:
 
 def check_torus_start(a: dict, key: str, method: str) -> None:
     """What a torus start needs, checked before anything is written: a simulation to start from and the
-    integrated flow (raises :class:`SceneError` naming the key)."""
+    integrated flow; natural steps only from such a start (raises :class:`SceneError` naming the key)."""
+    natural = (a.get("torus") or {}).get("continuation") == "natural"
     if a.get("solution") != "torus":
+        if natural:
+            raise SceneError(f"{key}.torus.continuation", "arclength for the tori born at Neimark-Sacker points "
+                                                          "(natural steps start from a torus fitted to a simulation: "
+                                                          "solution: torus)", "natural")
         return
     if a.get("start_from") != "simulation":
         raise SceneError(f"{key}.start_from", "simulation with solution: torus (the circle is fitted to the "

@@ -7,6 +7,7 @@ import numpy as np
 from contin.hb.measures import point_measures
 from contin.output.dense import dense_branch
 from contin.output.labels import axis_label
+from contin.output.markers import start_group
 from contin.output.plotting import CHANGES, draw_bifurcation_diagram
 
 __all__ = ["plot_result", "diagram_data"]
@@ -70,7 +71,8 @@ def diagram_data(result, measure: str) -> tuple[list, list]:
         d = dense_branch(x, U if evaluate is not None else np.zeros((x.size, 0)), evaluate, stable=stable,
                          special=points, node_xy=(x, y))
         # both halves of a branch followed both ways start at one point: one colour, one legend entry
-        group = ("start", b.nu, float(f"{x[0]:.10g}"), float(f"{y[0]:.8g}")) if x.size else ("branch", b.id)
+        group = start_group(b.nu, x[0], [b[c][0] for c in b.columns if c.startswith("amp_")]) if x.size \
+            else ("branch", b.id)
         curves.append({"x": d["x"], "y": d["y"], "stable": d["stable"], "nu": b.nu, "id": b.id, "group": group,
                        "torus": b.torus})
     return curves, special

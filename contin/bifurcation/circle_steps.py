@@ -39,10 +39,11 @@ from fractions import Fraction
 import numpy as np
 
 from contin.bifurcation.circle_branch import circle_spread
+from contin.engine.linalg import factorize
 from contin.engine.newton import solve_at_parameter
 from contin.engine.options import ContinuationOptions
 
-__all__ = ["COLLAPSED", "CircleSteps", "step_circle"]
+__all__ = ["COLLAPSED", "CircleStepper", "CircleSteps", "step_circle"]
 
 #: a circle this small against the largest of the steps (peak-to-peak range of a state component) has collapsed
 COLLAPSED = 1e-3
@@ -77,6 +78,114 @@ class CircleSteps:
     rows: list
 
 
+class CircleStepper:
+    """The loop of :func:`step_circle`, one step at a time, with the state that resumes it exactly.
+
+    ``lams`` and ``us`` hold the circles so far (the predictor reads the last
+    two); ``step`` is the next step, ``largest`` the largest circle so far.
+    The chord factorisation passed from circle to circle is kept with the point
+    its Jacobian was evaluated at (``lu_at``), so :meth:`restore` rebuilds it
+    and a resumed run takes the steps the uninterrupted one would have.
+    """
+
+    def __init__(self, problem, u0, lam0: float, step: float, end: float, *, min_step: float = 1e-5,
+                 max_step: float | None = None, options: ContinuationOptions | None = None):
+        step, lam0, end = float(step), float(lam0), float(end)
+        if step == 0.0 or (end - lam0) * step < 0.0:
+            raise ValueError(f"step_circle: step {step:g} must point from {lam0:g} towards {end:g}")
+        if not min_step > 0.0:
+            raise ValueError(f"step_circle: min_step must be positive, got {min_step!r}")
+        self.problem, self.end, self.min_step = problem, end, float(min_step)
+        self.max_step = abs(step) if max_step is None else float(max_step)
+        self.sign = float(np.sign(step))
+        self.opts = options or ContinuationOptions(newton_tol=1e-8, newton_max_iter=20)
+        self.lams, self.us = [lam0], [np.asarray(u0, dtype=float)]
+        self.step = step
+        self.largest = circle_spread(problem, self.us[0])
+        self.collapsed = None  # (lam, spread) of the last circle refused as collapsed
+        self.lu = self.lu_at = None  # the chord factorisation and (u, lam) where its Jacobian was evaluated
+        self.failures = 0
+
+    @property
+    def lam(self) -> float:
+        return self.lams[-1]
+
+    def going(self) -> bool:
+        """Whether another step is to be tried."""
+        return (self.end - self.lam) * self.sign > 1e-12 * max(1.0, abs(self.end)) and abs(self.step) >= self.min_step
+
+    def attempt(self):
+        """One step: the converged Newton result (the circle appended), or None (the step halved)."""
+        problem, lam = self.problem, self.lam
+        h = self.step
+        target = self.end if (self.end - lam - h) * self.sign <= 0.0 else lam + h
+        guess = self.us[-1]
+        if len(self.lams) > 1:
+            guess = self.us[-1] + (self.us[-1] - self.us[-2]) * (target - lam) / (lam - self.lams[-2])
+        seen = _Linearizations(problem)
+        # a lazy Jacobian: iterates by plain flows, the factorisation of the last circle's updates first
+        r = solve_at_parameter(seen, guess, target, self.opts, lu0=self.lu,
+                               residual=lambda x: problem.residual(x, target), jacobian_at_solution=False)
+        spread = circle_spread(problem, r.x) if r.converged else 0.0
+        if r.converged and spread < COLLAPSED * self.largest:  # as a failure: the step shrinks towards the point
+            self.collapsed = (target, spread)
+        if not r.converged or spread < COLLAPSED * self.largest:
+            self.step /= 2.0
+            self.failures += 1
+            return None
+        if r.lu is not self.lu:
+            self.lu, self.lu_at = r.lu, (None if r.lu is None else seen.last)
+        self.largest, self.collapsed = max(self.largest, spread), None
+        self.lams.append(target)
+        self.us.append(r.x)
+        self.step = self.sign * min(abs(h) * 1.5, self.max_step)
+        return r
+
+    def reached(self) -> bool:
+        return self.collapsed is None and not (self.end - self.lam) * self.sign > 1e-12 * max(1.0, abs(self.end))
+
+    def message(self) -> str:
+        """Where and why the steps stopped (module docstring)."""
+        name, lam = self.problem.parameter, self.lam
+        if self.collapsed is not None:
+            return (f"the circle collapses onto a periodic orbit between {name}={lam:.10g} and "
+                    f"{self.collapsed[0]:.10g} (size {self.collapsed[1]:.3g} there against {self.largest:.3g}): "
+                    "a Neimark-Sacker point")
+        if self.reached():
+            return f"reached {name}={self.end:.10g}"
+        rho = float(self.problem.blocks(self.us[-1])[1]) % 1.0
+        near = Fraction(rho).limit_denominator(NEAREST_DENOMINATOR)
+        return (f"Newton at fixed {name} failed at every step down to {self.min_step:g} beyond {name}={lam:.10g}: "
+                f"rho = {rho:.6f}, {rho - float(near):+.1e} from {near}")
+
+    def state(self) -> dict:
+        """What :meth:`restore` needs besides the circles (JSON-able but for arrays)."""
+        at = self.lu_at
+        return {"step": self.step, "largest": self.largest, "failures": self.failures,
+                "lu_u": None if at is None else at[0], "lu_lam": None if at is None else at[1]}
+
+    def restore(self, lams, us, state: dict) -> None:
+        """Go on from the circles ``lams``, ``us`` (the last two at least, where there are two) and ``state``."""
+        self.lams, self.us = [float(v) for v in lams], [np.asarray(u, dtype=float) for u in us]
+        self.step, self.largest = float(state["step"]), float(state["largest"])
+        self.failures = int(state["failures"])
+        self.lu = self.lu_at = None
+        if state["lu_u"] is not None:  # the same factorisation again: the same Jacobian, the same LAPACK call
+            u, lam = np.asarray(state["lu_u"], dtype=float), float(state["lu_lam"])
+            self.lu, self.lu_at = factorize(self.problem.linearize(u, lam)[1]), (u, lam)
+
+
+class _Linearizations:
+    """``problem`` with the point of its last ``linearize`` call kept (where the chord's Jacobian was taken)."""
+
+    def __init__(self, problem):
+        self.problem, self.last = problem, None
+
+    def linearize(self, u, lam):
+        self.last = (np.array(u, dtype=float), float(lam))
+        return self.problem.linearize(u, lam)
+
+
 def step_circle(problem, u0, lam0: float, step: float, end: float, *, min_step: float = 1e-5,
                 options: ContinuationOptions | None = None, measure=None, callback=None) -> CircleSteps:
     """Circles at ``lam0 + step``, ``+ 2 step``, ... up to ``end`` (module docstring).
@@ -103,54 +212,17 @@ def step_circle(problem, u0, lam0: float, step: float, end: float, *, min_step: 
     ValueError
         If ``step`` is zero or points away from ``end``, or ``min_step`` is not positive.
     """
-    step, lam0, end = float(step), float(lam0), float(end)
-    if step == 0.0 or (end - lam0) * step < 0.0:
-        raise ValueError(f"step_circle: step {step:g} must point from {lam0:g} towards {end:g}")
-    if not min_step > 0.0:
-        raise ValueError(f"step_circle: min_step must be positive, got {min_step!r}")
-    opts = options or ContinuationOptions(newton_tol=1e-8, newton_max_iter=20)
-    lams, us, its = [lam0], [np.asarray(u0, dtype=float)], [0]
-    rows = [measure(us[0], lam0)] if measure is not None else []
-    h, lam = step, lam0
-    largest = circle_spread(problem, us[0])
-    collapsed = lu = None
-    while (end - lam) * step > 1e-12 * max(1.0, abs(end)) and abs(h) >= min_step:
-        target = end if (end - lam - h) * step <= 0.0 else lam + h
-        guess = us[-1]
-        if len(lams) > 1:
-            guess = us[-1] + (us[-1] - us[-2]) * (target - lams[-1]) / (lams[-1] - lams[-2])
-        # a lazy Jacobian: iterates by plain flows, the factorisation of the last circle's updates first
-        r = solve_at_parameter(problem, guess, target, opts, lu0=lu, residual=lambda x: problem.residual(x, target),
-                               jacobian_at_solution=False)
-        if not r.converged:
-            h /= 2.0
+    stepper = CircleStepper(problem, u0, lam0, step, end, min_step=min_step, options=options)
+    its = [0]
+    rows = [measure(stepper.us[0], stepper.lam)] if measure is not None else []
+    while stepper.going():
+        r = stepper.attempt()
+        if r is None:
             continue
-        spread = circle_spread(problem, r.x)
-        if spread < COLLAPSED * largest:  # as a failure: the step shrinks towards the point
-            collapsed = (target, spread)
-            h /= 2.0
-            continue
-        largest, collapsed, lu = max(largest, spread), None, r.lu
-        lam = target
-        lams.append(lam)
-        us.append(r.x)
         its.append(r.iterations)
         if measure is not None:
-            rows.append(measure(r.x, lam))
+            rows.append(measure(r.x, stepper.lam))
         if callback is not None:
-            callback(lam, r.x, r.iterations, rows[-1] if rows else None)
-        h = float(np.sign(step)) * min(abs(h) * 1.5, abs(step))
-    reached = collapsed is None and not (end - lam) * step > 1e-12 * max(1.0, abs(end))
-    name = problem.parameter
-    if collapsed is not None:
-        message = (f"the circle collapses onto a periodic orbit between {name}={lam:.10g} and {collapsed[0]:.10g} "
-                   f"(size {collapsed[1]:.3g} there against {largest:.3g}): a Neimark-Sacker point")
-    elif reached:
-        message = f"reached {name}={end:.10g}"
-    else:
-        rho = float(problem.blocks(us[-1])[1]) % 1.0
-        near = Fraction(rho).limit_denominator(NEAREST_DENOMINATOR)
-        message = (f"Newton at fixed {name} failed at every step down to {min_step:g} beyond {name}={lam:.10g}: "
-                   f"rho = {rho:.6f}, {rho - float(near):+.1e} from {near}")
-    return CircleSteps(np.asarray(lams), np.asarray(us), np.asarray(its, dtype=int), reached, message, rows)
-
+            callback(stepper.lam, r.x, r.iterations, rows[-1] if rows else None)
+    return CircleSteps(np.asarray(stepper.lams), np.asarray(stepper.us), np.asarray(its, dtype=int),
+                       stepper.reached(), stepper.message(), rows)

@@ -19,7 +19,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from contin.bifurcation.switching import BranchStart, continuation_scales, switch_at
-from contin.bifurcation.torus_branch import TorusSettings, run_torus
+from contin.bifurcation.torus_branch import TorusContinuation, TorusSettings, run_torus
 from contin.bifurcation.torus_start import torus_start
 from contin.engine.branch import Branch, BranchStatus, SpecialKind, SpecialPoint
 from contin.engine.continuation import ContinuationOptions, continuation
@@ -319,7 +319,8 @@ def _run_circle(st, lam_range, options, name: str, settings: TorusSettings, call
         lambda problem, opts, mons, watch: _resume(previous, problem, lam_range, opts, name, [], mons, watch,
                                                    checkpoint))
     return run_circle(st, lam_range, options, name, stability=settings.stability != "none", callback=callback,
-                      checkpoint=checkpoint, resume=resume)
+                      checkpoint=checkpoint, resume=resume, natural=settings.continuation == TorusContinuation.NATURAL,
+                      previous=previous)
 
 
 def _locked_children(diagram, j: int, lam_range, options, stability, name: str, cb_for, ck_for, previous,

@@ -26,6 +26,7 @@ Any other failure keeps the engine's status and message.
 from __future__ import annotations
 
 import dataclasses
+import enum
 from fractions import Fraction
 from typing import Mapping
 
@@ -38,10 +39,17 @@ from contin.timedomain.integrator import SimulationError
 from contin.timedomain.torus_check import check_torus
 from contin.util.options import check_keys, field_names, from_mapping
 
-__all__ = ["TorusSettings", "TorusStabilityMonitor", "run_torus", "classify_end", "end_as_boundary"]
+__all__ = ["TorusContinuation", "TorusSettings", "TorusStabilityMonitor", "run_torus", "classify_end", "end_as_boundary"]
 
 #: a branch ending with the self-excited line below this fraction of its largest size has collapsed
 COLLAPSED = 1e-2
+
+
+class TorusContinuation(str, enum.Enum):
+    """How a circle branch is followed (:class:`TorusSettings`)."""
+
+    ARCLENGTH = "arclength"
+    NATURAL = "natural"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -68,6 +76,10 @@ class TorusSettings:
         Largest ``q`` of the locking ratios (harmonic balance).
     points : int
         ``N``, points of the invariant circle of a torus started on a shooting branch (odd, >= 3).
+    continuation : TorusContinuation or str
+        How a circle branch is followed: pseudo-arclength (the engine's, through folds) or natural steps in
+        the parameter (:mod:`contin.bifurcation.circle_natural`: no folds, but no crawl at the corners of a
+        system with contact either).
     """
 
     options: TorusOptions | None = None
@@ -77,8 +89,15 @@ class TorusSettings:
     locking_tol: float = 0.02
     max_denominator: int = 4
     points: int = 15
+    continuation: TorusContinuation = None
 
     def __post_init__(self):
+        value = TorusContinuation.ARCLENGTH if self.continuation is None else self.continuation
+        try:
+            object.__setattr__(self, "continuation", TorusContinuation(value))
+        except ValueError:
+            raise ValueError(f"TorusSettings.continuation must be one of "
+                             f"{[c.value for c in TorusContinuation]}, got {value!r}") from None
         if isinstance(self.points, bool) or not isinstance(self.points, int) or self.points < 3 or self.points % 2 == 0:
             raise ValueError(f"TorusSettings.points must be an odd integer >= 3 (the circle's points), "
                              f"got {self.points!r}")

@@ -45,6 +45,7 @@ from contin.hb.problem import HBOptions
 from contin.hb.qp_basis import QPBasis
 from contin.model.base import Model
 from contin.model.periodic import AllDofs
+from contin.model.whirl import TORUS_WHIRL
 
 __all__ = ["TorusOptions", "QuasiPeriodicBalance", "COMPONENTS", "torus_measure_names", "torus_measures"]
 
@@ -355,13 +356,15 @@ class QuasiPeriodicBalance(AllDofs):
 COMPONENTS = {"forced": (1, 0), "free": (0, 1), "comb": (1, -1)}
 
 
-def torus_measure_names(dof_names) -> list[str]:
-    """The columns only torus rows fill: the second frequency and the components of every dof."""
-    return ["frequency2"] + [f"{c}_{d}" for d in dof_names for c in COMPONENTS]
+def torus_measure_names(dof_names, whirl_parts=()) -> list[str]:
+    """The columns only torus rows fill: the second frequency, the components of every dof and the whirls of
+    the node pairs ``whirl_parts`` (names) at ``+w2`` and ``w2 - w`` (:data:`contin.model.whirl.TORUS_WHIRL`)."""
+    return (["frequency2"] + [f"{c}_{d}" for d in dof_names for c in COMPONENTS]
+            + [f"{c}_{part}" for part in whirl_parts for c in TORUS_WHIRL])
 
 
 def torus_measures(problem: QuasiPeriodicBalance, u: np.ndarray, lam: float, dof_names,
-                   harmonic_columns: int = 5) -> dict:
+                   harmonic_columns: int = 5, whirl_parts=None) -> dict:
     """Measures of a torus point, in the columns of a periodic one and the torus' own.
 
     ``amp``, ``max``, ``min`` are taken over a grid of four times the
@@ -370,7 +373,9 @@ def torus_measures(problem: QuasiPeriodicBalance, u: np.ndarray, lam: float, dof
     oscillating part (Parseval over the pairs); ``hK`` the amplitude of the
     pair ``(K, 0)``; ``frequency2`` is ``w2``; ``forced``, ``free`` and
     ``comb`` the amplitudes of the pairs ``(1, 0)``, ``(0, 1)`` and ``(1, -1)``
-    (frequencies ``w/nu``, ``w2`` and ``w/nu - w2``).
+    (frequencies ``w/nu``, ``w2`` and ``w/nu - w2``). With ``whirl_parts`` (part name -> dof indices
+    ``(x, y)``) the rotor's whirl columns of each part as
+    :func:`contin.timedomain.circle_measures.circle_measures` writes them (``nu = 1``).
     """
     U = problem.blocks(u)
     b = problem.basis
@@ -386,4 +391,12 @@ def torus_measures(problem: QuasiPeriodicBalance, u: np.ndarray, lam: float, dof
             out[f"h{k}_{d}"] = amps[b.pair(k, 0)[0], i]
         for c, (k1, k2) in COMPONENTS.items():
             out[f"{c}_{d}"] = amps[b.pair(k1, k2)[0], i] if b.H1 >= k1 else 0.0
+    w1, w2, nu = problem.frequency_at(lam) / problem.nu, float(u[-1]), problem.nu
+    for part, (ix, iy) in (whirl_parts or {}).items():
+        for label, k2 in (("half", nu), ("1", 2 * nu)):  # w/2 and w are the lines (k2/2, 0) of w/nu
+            k = k2 // 2
+            fwd, bwd = b.whirl(U, b.pair(k, 0)[0], w1, w2, ix, iy) if k2 % 2 == 0 and k <= b.H1 else (0.0, 0.0)
+            out.update({f"whirl_fwd_{label}_{part}": float(fwd), f"whirl_bwd_{label}_{part}": float(bwd)})
+        out[f"whirl_fwd_free_{part}"] = float(b.whirl(U, b.pair(0, 1)[0], w1, w2, ix, iy)[0])
+        out[f"whirl_bwd_comb_{part}"] = float(b.whirl(U, b.pair(1, -1)[0], w1, w2, ix, iy)[1])
     return out

@@ -447,6 +447,9 @@ class Model:
     #: ``branches.csv`` (named in ``observable_names``), e.g. whirl radii
     observables: object = None
     observable_names: tuple = ()
+    #: node pairs ``(x, y)`` (dof indices) by part name whose whirl radii the rows of a rotor carry
+    #: (:mod:`contin.model.whirl`; a torus' own whirls too)
+    whirl_parts: dict = field(default_factory=dict)
     #: optional ``start(hb, lam0) -> u0`` for models whose linear solution is no
     #: usable start (stiff contact); raises :class:`contin.bifurcation.start.HomotopyFailed`
     start: object = None

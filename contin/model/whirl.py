@@ -4,16 +4,24 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["WHIRL_COLUMNS", "WHIRL_SYMBOLS", "whirl_radii"]
+__all__ = ["TORUS_WHIRL", "WHIRL_COLUMNS", "WHIRL_SYMBOLS", "whirl_radii"]
 
 #: ``whirl_{fwd,bwd}_{half,1}_{disc,bearing}``: the radii at w/2 and at w of the disc and the bearing
 WHIRL_COLUMNS = tuple(f"whirl_{d}_{f}_{part}" for part in ("disc", "bearing") for f in ("half", "1")
                       for d in ("fwd", "bwd"))
 
+#: the whirls only a torus has, by column prefix: the self-excited forward whirl at ``+w2`` (the line
+#: ``(0, 1)``) and the combination, backward at ``w2 - w`` (the line ``(1, -1)``)
+TORUS_WHIRL = {"whirl_fwd_free": ((0, 1), True), "whirl_bwd_comb": ((1, -1), False)}
+
 #: how figures write the whirl columns (:mod:`contin.output.labels`)
-WHIRL_SYMBOLS = {f"whirl_{d}_{f}_{part}": f"{word} whirl of the {part} at ${speed}$"
-                 for d, word in (("fwd", "forward"), ("bwd", "backward"))
-                 for f, speed in (("half", r"\Omega/2"), ("1", r"\Omega")) for part in ("disc", "bearing")}
+WHIRL_SYMBOLS = {**{f"whirl_{d}_{f}_{part}": f"{word} whirl of the {part} at ${speed}$"
+                    for d, word in (("fwd", "forward"), ("bwd", "backward"))
+                    for f, speed in (("half", r"\Omega/2"), ("1", r"\Omega")) for part in ("disc", "bearing")},
+                 **{f"whirl_fwd_free_{part}": f"self-excited forward whirl of the {part} at $p_f$"
+                    for part in ("disc", "bearing")},
+                 **{f"whirl_bwd_comb_{part}": f"backward whirl of the {part} at $\\Omega - p_f$"
+                    for part in ("disc", "bearing")}}
 
 
 def whirl_radii(u: np.ndarray, n_dof: int, nu: int, parts: dict) -> dict:

@@ -91,9 +91,15 @@ def _checked(rec, path, lineno: int) -> dict:
                                 and len(rec["tangent"]) >= 1):
         raise CheckpointError(f"{where}: a point record with an integer row, a number lam and lists of numbers "
                               "u and tangent")
-    if kind == "engine" and isinstance(rec["state"], dict):
+    natural = kind == "engine" and isinstance(rec["state"], dict) and "natural" in rec["state"]
+    if kind == "engine" and isinstance(rec["state"], dict) and not natural:
         rec["state"].setdefault("step_control", None)  # written before the step control was a protocol: the default
-    if kind == "engine" and not rec.get("stale") and not (isinstance(rec["state"], dict) and all(k in rec["state"] for k in ENGINE_KEYS)):
+    if natural and not (all(k in rec["state"] for k in NATURAL_KEYS) and isinstance(rec["state"]["natural"], dict)
+                        and all(k in rec["state"]["natural"] for k in NATURAL_STEP_KEYS)):
+        raise CheckpointError(f"{where}: a natural-step record whose state has the keys {', '.join(NATURAL_KEYS)} "
+                              f"and natural: {', '.join(NATURAL_STEP_KEYS)}")
+    if kind == "engine" and not natural and not rec.get("stale") and not (
+            isinstance(rec["state"], dict) and all(k in rec["state"] for k in ENGINE_KEYS)):
         raise CheckpointError(f"{where}: an engine record whose state has the keys {', '.join(ENGINE_KEYS)}")
     if kind == "end" and rec["status"] not in {s.value for s in BranchStatus}:
         raise CheckpointError(f"{where}: an end record with a branch status, found {rec['status']!r}")
@@ -102,6 +108,9 @@ def _checked(rec, path, lineno: int) -> dict:
 
 #: what an engine state must hold
 ENGINE_KEYS = RESTART_KEYS
+#: what the state of a circle branch in natural steps holds (contin.bifurcation.circle_natural), and its steps'
+NATURAL_KEYS = ("points", "natural", "monitors")
+NATURAL_STEP_KEYS = ("step", "largest", "failures", "lu_u", "lu_lam")
 
 
 def _float(v: float):
@@ -378,6 +387,17 @@ def _checked_state(state: dict | None, branch: Branch, j: int) -> dict | None:
     if state is None:
         return None
     m = branch.n_unknowns
+    if "natural" in state:  # the stepper's: its step goes on, its factorisation's point has the branch's size
+        nat = state["natural"]
+        bad = [] if state["points"] == len(branch) else ["points"]
+        if not _positive(abs(nat["step"]) if isinstance(nat["step"], (int, float)) else None, finite=True):
+            bad.append(f"step = {nat['step']!r}")
+        if nat["lu_u"] is not None and (np.shape(nat["lu_u"]) != (m,) or not np.all(np.isfinite(nat["lu_u"]))):
+            bad.append("lu_u")
+        if bad:
+            raise CheckpointError(f"the natural-step state of branch {j} does not fit its {len(branch)} points "
+                                  f"({m} unknowns): {', '.join(bad)}")
+        return state
     shapes = {"x": m + 1, "t": m + 1, "t_prev": m + 1, "prev_x": m + 1, "x_start": m + 1, "t_start": m + 1,
               "su": m, "groups": m}
     bad = [k for k, n in shapes.items() if np.shape(state[k]) != (n,) or not np.all(np.isfinite(state[k]))]

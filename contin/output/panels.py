@@ -8,8 +8,8 @@ Each panel draws its branches and special points as the single diagram does
 (:func:`contin.output.plotting.draw_curves`); the special points carry one
 numbering over the whole figure (by parameter value, so a point has the same
 number in every panel) and one table beside the top right panel lists them.
-The window is shaded in the whole-range panels. The legend stands in the
-top left panel only.
+The window is shaded in the whole-range panels. The legend stands in one
+whole-range panel: the one where it hides the least of the curves.
 """
 
 from __future__ import annotations
@@ -141,6 +141,57 @@ def _visible(ax, points) -> list:
     return [sp for sp in points if x0 <= sp["x"] <= x1 and y0 <= sp["y"] <= y1]
 
 
+#: where a legend may stand in a panel, in the order of preference among equals
+_LEGEND_PLACES = ("upper left", "upper right", "lower left", "lower right", "center left", "center right",
+                  "upper center", "lower center")
+#: a special point's marker hidden under the legend counts as this much hidden curve (pixels)
+_MARKER_WEIGHT = 20.0
+
+
+def _hidden(ax, box) -> float:
+    """The length (pixels) of the curves of ``ax`` inside the display box ``(x0, y0, x1, y1)``, markers
+    counted as :data:`_MARKER_WEIGHT` each."""
+    x0, y0, x1, y1 = box
+    length = 0.0
+    for line in ax.get_lines():
+        xy = ax.transData.transform(np.asarray(line.get_xydata(), dtype=float))
+        xy = xy[np.all(np.isfinite(xy), axis=1)] if line.get_linestyle() in ("None", "none", "") else xy
+        if line.get_linestyle() in ("None", "none", "") or len(xy) < 2:
+            inside = (xy[:, 0] >= x0) & (xy[:, 0] <= x1) & (xy[:, 1] >= y0) & (xy[:, 1] <= y1)
+            length += _MARKER_WEIGHT * float(np.sum(inside))
+            continue
+        a, b = xy[:-1], xy[1:]
+        ok = np.all(np.isfinite(a), axis=1) & np.all(np.isfinite(b), axis=1)
+        for p, q in zip(a[ok], b[ok]):  # points a pixel or so apart along each segment
+            d = float(np.hypot(*(q - p)))
+            t = np.linspace(0.0, 1.0, int(min(d, 4000)) + 2)
+            x, y = p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1])
+            length += d * float(np.mean((x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)))
+    return length
+
+
+def _legend_panel(fig, column, entries):
+    """The panel of ``column`` (the whole-range panels, top first) and the place in it where the legend of
+    ``entries`` hides the least of the curves (:func:`_hidden`; the first of equals in :data:`_LEGEND_PLACES`
+    and from the top); the legend is put there."""
+    probe = column[0].legend(handles=entries, loc="upper right")
+    renderer = laid_out_renderer(fig)
+    lb, ab = probe.get_window_extent(renderer), column[0].get_window_extent(renderer)
+    w, h, pad = lb.width, lb.height, ab.x1 - lb.x1  # the legend's size and its gap to the frame
+    probe.remove()
+    best = None
+    for ax in column:
+        a = ax.get_window_extent(renderer)
+        for place in _LEGEND_PLACES:
+            x0 = {"left": a.x0 + pad, "right": a.x1 - pad - w}.get(place.split()[-1], 0.5 * (a.x0 + a.x1 - w))
+            y0 = {"upper": a.y1 - pad - h, "lower": a.y0 + pad}.get(place.split()[0], 0.5 * (a.y0 + a.y1 - h))
+            score = _hidden(ax, (x0, y0, x0 + w, y0 + h))
+            if best is None or score < best[0]:
+                best = (score, ax, place)
+    best[1].legend(handles=entries, loc=best[2])
+    return best[1]
+
+
 def draw_panels(fig, panels, parameter: str, *, zoom: ZoomWindow | None = None, units=None, labels=None,
                 symbols=None, title: str | None = None, table: bool = True, short_names: bool | None = None):
     """Draw stacked panels of several measures, and a zoom column, into ``fig``.
@@ -184,7 +235,7 @@ def draw_panels(fig, panels, parameter: str, *, zoom: ZoomWindow | None = None, 
             axes[r, c] = fig.add_subplot(grid[r, c], sharex=axes[0, c] if r else None)
     holder = fig.add_subplot(grid[:, cols])
     holder.axis("off")
-    legend = None
+    legend, entries = None, []
     drawn = []  # (ax, points, ms) of every panel
     # the characters a y label may take along one panel (the frame and the x axis take about an inch)
     room = max((fig.get_size_inches()[1] - 1.0) / rows * 72.0 / (0.55 * _label_points()), 8.0)
@@ -205,8 +256,7 @@ def draw_panels(fig, panels, parameter: str, *, zoom: ZoomWindow | None = None, 
                 ax.tick_params(labelbottom=False)
             if r == 0 and c == 0:
                 own = [h for h in ax.get_legend_handles_labels()[0] if h not in handles]
-                if handles or own:
-                    legend = ax.legend(handles=handles + own, loc="best")
+                entries = handles + own
             drawn.append((ax, points, ms))
     if zoom is not None:  # tie the column to the shading
         axes[0, 1].set_title("zoom on the shaded window", fontsize=matplotlib.rcParams["axes.labelsize"])
@@ -218,22 +268,24 @@ def draw_panels(fig, panels, parameter: str, *, zoom: ZoomWindow | None = None, 
         for sp in points:
             sp.setdefault("parameter", sp["x"])
             union.setdefault(sp["_k"], sp)
-    if not table or not union:
-        return axes
     # grazing points (a bouncing orbit has dozens) keep their markers, named in the legend, not numbered
     listed = sorted((sp for sp in union.values() if sp["kind"] not in UNNUMBERED),
                     key=lambda sp: (sp["parameter"], sp["_k"]))
+    if table and entries and len(listed) < len(union):
+        entries = entries + [Line2D([], [], label=kind_name(k), **{**point_marker(k, True), "linestyle": "none"})
+                             for k in dict.fromkeys(sp["kind"] for sp in union.values() if sp["kind"] in UNNUMBERED)]
+    home = axes[0, 0]
+    if entries:
+        home = _legend_panel(fig, axes[:, 0], entries)
+        legend = home.get_legend()
+    if not table or not union:
+        return axes
     number = {sp["_k"]: n + 1 for n, sp in enumerate(listed)}
     for i, (ax, points, ms) in enumerate(drawn):
         points = [sp for sp in points if sp["_k"] in number]
         drawn[i] = (ax, points, ms)
         for sp in points:
             sp["number"] = number[sp["_k"]]
-    if legend is not None and len(listed) < len(union):
-        graze = [sp for sp in union.values() if sp["kind"] in UNNUMBERED]
-        marks = [Line2D([], [], label=kind_name(k), **{**point_marker(k, True), "linestyle": "none"})
-                 for k in dict.fromkeys(sp["kind"] for sp in graze)]
-        legend = axes[0, 0].legend(handles=legend.legend_handles + marks, loc="best")
     if not listed:
         return axes
     if short_names is None:
@@ -244,7 +296,7 @@ def draw_panels(fig, panels, parameter: str, *, zoom: ZoomWindow | None = None, 
     for ax, points, ms in drawn:
         shown = _visible(ax, points)
         if shown:
-            place_numbers(ax, shown, legend if ax is axes[0, 0] else None, ms, numbering=_given_numbers,
+            place_numbers(ax, shown, legend if ax is home else None, ms, numbering=_given_numbers,
                            renderer=renderer)
     fill_table(rows_, listed, short_names)
     return axes

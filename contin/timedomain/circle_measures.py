@@ -107,14 +107,20 @@ def circle_whirl(problem, u, lam: float, ix: int, iy: int) -> dict:
         ``forced`` (forward at ``+w``), ``self_excited`` (forward at ``+w2``), ``combination`` (backward at
         ``w2 - w``, the line ``(1, -1)``) and ``ratio`` ``w2 / w``.
     """
-    X, theta1, r = circle_surface(problem, u, lam)
+    return _whirl(circle_surface(problem, u, lam), ix, iy)
+
+
+def _whirl(surface, ix: int, iy: int) -> dict:
+    """:func:`circle_whirl` from the circle's trajectories (:func:`circle_surface`), and the backward whirl at
+    ``-w`` (``forced_backward``)."""
+    X, theta1, r = surface
 
     def radius(k1: int, k2: int, forward: bool) -> float:
         cx, cy = _line_coefficient(X[:, :, [ix, iy]], theta1, r, k1, k2)
         return float(abs(cx + 1j * cy) if forward else abs(np.conj(cx) + 1j * np.conj(cy)))
 
     return {"forced": radius(1, 0, True), "self_excited": radius(0, 1, True), "combination": radius(1, -1, False),
-            "ratio": float(r)}
+            "forced_backward": radius(1, 0, False), "ratio": float(r)}
 
 
 def _vertex(a: float, b: float, c: float) -> float:
@@ -150,7 +156,7 @@ def _extremes(xi, finer: int = 8) -> tuple[float, float]:
     return out[0], out[1]
 
 
-def circle_measures(problem, u, lam: float, dof_names, harmonic_columns: int = 5) -> dict:
+def circle_measures(problem, u, lam: float, dof_names, harmonic_columns: int = 5, whirl_parts=None) -> dict:
     """A circle's row: the columns of a periodic row and the torus' own (module docstring).
 
     ``amp``, ``max``, ``min`` over the sampled trajectories and the angles between them (the circle's
@@ -158,9 +164,13 @@ def circle_measures(problem, u, lam: float, dof_names, harmonic_columns: int = 5
     the oscillating part over them (the torus average); ``h0`` the mean's modulus and
     ``hK`` the amplitude of the pair ``(K, 0)``, ``K <= harmonic_columns``;
     ``frequency2`` is ``w2 = |rho + winding| w``; ``forced``, ``free``, ``comb`` the lines
-    ``(1, 0)``, ``(0, 1)``, ``(1, -1)``.
+    ``(1, 0)``, ``(0, 1)``, ``(1, -1)``. With ``whirl_parts`` (part name -> dof indices ``(x, y)``) the rotor's
+    whirl columns of each part (:func:`circle_whirl`): ``whirl_{fwd,bwd}_1`` at ``+w`` and ``-w``,
+    ``whirl_{fwd,bwd}_half`` zero (a torus has no line at ``w/2``), ``whirl_fwd_free`` at ``+w2`` and
+    ``whirl_bwd_comb`` at ``w2 - w``.
     """
-    X, theta1, r = circle_surface(problem, u, lam)
+    surface = circle_surface(problem, u, lam)
+    X, theta1, r = surface
     x = X[:, :, :problem.n]
     mean = x.mean(axis=(0, 1))
     out = {"frequency2": float(r * problem.frequency_at(lam))}
@@ -174,4 +184,9 @@ def circle_measures(problem, u, lam: float, dof_names, harmonic_columns: int = 5
             out[f"h{k}_{d}"] = float(amp[i])
         for name, amp in lines.items():
             out[f"{name}_{d}"] = float(amp[i])
+    for part, (ix, iy) in (whirl_parts or {}).items():
+        wh = _whirl(surface, ix, iy)
+        out.update({f"whirl_fwd_1_{part}": wh["forced"], f"whirl_bwd_1_{part}": wh["forced_backward"],
+                    f"whirl_fwd_half_{part}": 0.0, f"whirl_bwd_half_{part}": 0.0,
+                    f"whirl_fwd_free_{part}": wh["self_excited"], f"whirl_bwd_comb_{part}": wh["combination"]})
     return out

@@ -108,6 +108,41 @@ def test_a_torus_start_from_simulation_reaches_the_balances_torus(tmp_path, runs
     assert rows["free_x"][i] == pytest.approx(ref["free_x"], abs=1e-7)
 
 
+def test_a_torus_start_in_natural_steps_reaches_the_balances_torus(tmp_path, runs):
+    """``torus: {continuation: natural}``: the same start followed in natural steps of w (contin.bifurcation.
+    circle_natural): at w = 0.8 the two-frequency balance's torus again, the steps as the scene sets them."""
+    _, d = runs
+    scene = tmp_path / "s.yaml"
+    scene.write_text(TORUS_START.replace("torus: {points: 21}", "torus: {points: 21, continuation: natural}\n"
+                                         "  continuation: {ds: 0.01, ds_max: 0.02, ds_min: 1.0e-3}"))
+    assert main(["run", str(scene), "-o", str(tmp_path / "out"), "-q"]) == 0
+    rows = read_csv(tmp_path / "out/branches.csv")
+    branches = json.loads((tmp_path / "out/summary.json").read_text())["analysis"]["branches"]
+    assert [b["status"] for b in branches] == ["range_end", "range_end"]
+    assert all(b["torus"]["continuation"] == "natural" for b in branches)
+    w = np.asarray(rows["w"])
+    assert np.all(np.abs(np.diff(w[rows["branch"] == 1])) <= 0.02 + 1e-12)
+    qb, qp = d.branches[1], d.problems[1]
+    ref = torus_measures(qp, qb.unknowns[-1], float(qb.parameter[-1]), ["x"], 5)
+    i = int(np.flatnonzero(w == 0.8)[0])
+    assert rows["frequency2"][i] == pytest.approx(ref["frequency2"], abs=1e-8)
+    assert rows["free_x"][i] == pytest.approx(ref["free_x"], abs=1e-7)
+
+
+def test_natural_steps_start_only_from_a_fitted_torus(tmp_path, capsys):
+    scene = tmp_path / "s.yaml"
+    scene.write_text((ROOT / "scenes/van_der_pol_circle.yaml").read_text().replace(
+        "torus: {points: 21}", "torus: {points: 21, continuation: natural}"))
+    assert main(["run", str(scene), "-o", str(tmp_path / "out"), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "analysis.torus.continuation" in err and "start from a torus fitted" in " ".join(err.split())
+    assert not (tmp_path / "out").exists()
+    scene.write_text(TORUS_START)
+    assert main(["run", str(scene), "-o", str(tmp_path / "out2"), "-q", "--set", "analysis.torus.continuation=nat"]) \
+        == 2
+    assert "analysis.torus" in capsys.readouterr().err and not (tmp_path / "out2").exists()
+
+
 @pytest.mark.parametrize("change, key, expected", [
     ("start_from: simulation", "analysis.start_from", "simulation with solution: torus"),
     ("method: shooting", "analysis.method", "shooting or auto with solution: torus"),
@@ -125,17 +160,19 @@ def test_a_torus_start_says_what_it_needs(tmp_path, capsys, change, key, expecte
 
 
 @pytest.mark.slow
-def test_a_torus_start_killed_midway_resumes_to_the_same_rows(tmp_path):
+@pytest.mark.parametrize("steps", ["arclength", "natural"])
+def test_a_torus_start_killed_midway_resumes_to_the_same_rows(tmp_path, steps):
     """Killed inside the first circle branch of a torus start: the resumed run fits the same circle again (the
-    same simulation, the same anchor), takes the branch up from its last point and ends with the rows of the
-    uninterrupted run."""
+    same simulation, the same anchor), takes the branch up from its last point (in natural steps: with the same
+    step and chord factorisation) and ends with the rows of the uninterrupted run."""
     import signal
     import subprocess
     import sys
     import time
 
     scene = tmp_path / "s.yaml"
-    scene.write_text(TORUS_START)
+    scene.write_text(TORUS_START if steps == "arclength" else TORUS_START.replace(
+        "torus: {points: 21}", "torus: {points: 21, continuation: natural}\n  continuation: {ds: 0.002, ds_max: 0.002}"))
     ref = tmp_path / "ref"
     assert main(["run", str(scene), "-o", str(ref), "-q"]) == 0
     out = tmp_path / "run"

@@ -23,7 +23,7 @@ from hypothesis import strategies as st
 from conftest import fuzz_examples
 
 import contin
-from contin.analyses.frequency_response import build_problem, engine_problem
+from contin.analyses.frequency_response import build_problem, engine_problem, start_scenes
 from contin.analyses.handover import GRAZING_TURN
 from contin.engine.branch import BranchBuilder, BranchStatus
 from contin.model.catalog import build_model
@@ -81,6 +81,10 @@ def scene_branches(name, scene_run):
     problems = {}
     for j, br in sorted(branches.items()):
         nu = int(br.info["subharmonic"])
+        if (br.info.get("torus") or {}).get("circle") and summary[j]["origin"] is None:  # fitted to a simulation
+            problems[j] = fitted_circle(scene, model, hb, float(br.parameter[0]))
+            yield j, problems[j], br
+            continue
         if (br.info.get("torus") or {}).get("circle"):  # an invariant circle: made again by its start, its anchor
             origin = summary[j]["origin"]
             parent = branches[summary[j]["parent"]]
@@ -108,6 +112,57 @@ def scene_branches(name, scene_run):
         yield j, engine_problem(scene, problem), br
 
 
+def fitted_circle(scene, model, hb, lam0: float):
+    """The circle problem of a ``solution: torus`` start at ``lam0``, fitted again to the same simulation (the
+    same anchor) as the run fitted it (contin.analyses.torus_start)."""
+    from contin.analyses.shooting_rows import ShootingSettings, shooting_problem
+    from contin.analyses.torus_start import circle_from_simulation
+
+    for _, sc in start_scenes(scene):
+        a = sc.analysis
+        if a.get("solution") == "torus" and a["start"] == lam0:
+            settings = ShootingSettings.from_dict(a.get("shooting"), "analysis.shooting")
+            return circle_from_simulation(shooting_problem(build_problem(sc, model), settings), a, lam0, hb.H)[0]
+    raise AssertionError(f"no torus start at {lam0}")
+
+
+def natural_steps_connected(name, j, problem, br) -> int:
+    """A branch in natural steps (circles at fixed parameter values) has no jump: between two stored circles the
+    circle at the midway parameter value (solved from their mean, else from the secant of the steps) has a rotation
+    number between theirs; where neither start converges, the step crossed a resonance ``p/q`` (``q <= 12``: a
+    tongue a step passes over). Neither the arclength report's tangents nor distances between the circles' points
+    tell a jump here: at the corners of a contact system's circles the null vectors of ``[R_u R_w]`` turn by up to
+    87 degrees against the secants, and the points slide along the circle (on rotor_fig3.yaml the midway circle
+    lies up to 1.3 steps from the mean of its neighbours, its rotation number between theirs)."""
+    from fractions import Fraction
+
+    from contin.engine.newton import solve_at_parameter
+    from contin.engine.options import ContinuationOptions
+
+    opts = ContinuationOptions(newton_tol=1e-8, newton_max_iter=20)
+    rho = [float(problem.blocks(u)[1]) for u in br.unknowns]
+    for i in range(len(br) - 1):
+        la, lb = float(br.parameter[i]), float(br.parameter[i + 1])
+        lam, a = 0.5 * (la + lb), br.unknowns[i]
+        guesses = [0.5 * (a + br.unknowns[i + 1])]
+        if i:
+            guesses.append(a + (a - br.unknowns[i - 1]) * (lam - la) / (la - float(br.parameter[i - 1])))
+        lo, hi = sorted(rho[i:i + 2])
+        for guess in guesses:
+            r = solve_at_parameter(problem, guess, lam, opts, residual=lambda x, lam=lam: problem.residual(x, lam),
+                                   jacobian_at_solution=False)
+            if r.converged:
+                mid = float(problem.blocks(r.x)[1])
+                margin = 0.1 * (hi - lo) + 1e-9
+                assert lo - margin <= mid <= hi + margin, \
+                    f"{name} branch {j}: the circle at {lam} turns by {mid}, its neighbours by {lo} and {hi}"
+                break
+        else:
+            near = [Fraction(p, q) for q in range(1, 13) for p in range(q + 1) if lo <= p / q <= hi]
+            assert near, f"{name} branch {j}: no circle at {lam} and no resonance of q <= 12 in [{lo}, {hi}]"
+    return len(br) - 1
+
+
 #: scenes whose shooting legs stall inside a grazing cascade (incomplete runs, tests/conftest.py FALLS_SHORT): the
 #: last of their tiny steps have no solution on the midpoint hyperplane, which this test asks for
 STALLED = {"rotor_f0_02.yaml": "its nu = 2 shooting legs stall within 1e-5 of their grazing points"}
@@ -121,6 +176,9 @@ def test_example_scene_branches_are_connected(name, scene_run):
         assert np.all(np.isfinite(br.unknowns)) and np.all(np.isfinite(br.parameter))
         # a shooting branch steps over grazing corners with turns up to GRAZING_TURN (a 3/2-power point of the
         # flow map), where secant and tangents part by as much: the test then guards against jumps only
+        if br.info.get("continuation") == "natural":
+            n += natural_steps_connected(name, j, problem, br)
+            continue
         turn = GRAZING_TURN + 30.0 if isinstance(problem, ShootingProblem) else 45.0
         rep = connection_report(problem, br, max_angle_deg=turn)
         assert rep["ok"], f"{name} branch {j}: {rep['failures'][:3]}"

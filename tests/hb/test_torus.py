@@ -123,3 +123,25 @@ def test_measures_of_a_known_torus():
     assert (out["forced_x"], out["free_x"], out["comb_x"]) == pytest.approx((0.6, 0.8, 0.0))
     assert out["rms_x"] == pytest.approx(np.sqrt((0.36 + 0.64) / 2))
     assert out["max_x"] == pytest.approx(1.4, rel=1e-3) and out["amp_x"] == pytest.approx(1.4, rel=1e-3)
+
+
+def test_whirl_columns_of_a_known_torus():
+    """The rotor's whirl columns of a torus z = x1 + i y1 = F e^{i theta1} + P e^{i theta2} + C e^{-i (theta1 -
+    theta2)} + B e^{-i theta1} written into the coefficients: forward at +w and +w2, backward at -w and w2 - w."""
+    rot = System.builtin("bearing_rotor", {"f0": 0.5}).model
+    qp = QuasiPeriodicBalance(rot, "w", TorusOptions(2, 2))
+    U = np.zeros((qp.basis.rows, 4))
+    F, P, C, B = 0.8 * np.exp(0.3j), 0.37 * np.exp(-1.1j), 0.05 * np.exp(2.0j), 0.02 * np.exp(0.7j)
+    for (m1, m2), A in (((1, 0), F), ((0, 1), P), ((-1, 1), C), ((-1, 0), B)):
+        j, sg = qp.basis.pair(m1, m2)  # A e^{i phi}, phi = sg * (the stored pair's phase)
+        U[2 * j - 1, 0] += A.real
+        U[2 * j, 0] -= sg * A.imag
+        U[2 * j - 1, 1] += A.imag
+        U[2 * j, 1] += sg * A.real
+    out = torus_measures(qp, np.append(U.ravel(), 0.9), 1.9, list(rot.dof_names), whirl_parts=rot.whirl_parts)
+    assert out["whirl_fwd_1_disc"] == pytest.approx(abs(F), rel=1e-13)
+    assert out["whirl_bwd_1_disc"] == pytest.approx(abs(B), rel=1e-13)
+    assert out["whirl_fwd_free_disc"] == pytest.approx(abs(P), rel=1e-13)
+    assert out["whirl_bwd_comb_disc"] == pytest.approx(abs(C), rel=1e-13)
+    assert out["whirl_fwd_half_disc"] == out["whirl_bwd_half_disc"] == 0.0
+    assert all(out[f"whirl_{c}_bearing"] == 0.0 for c in ("fwd_1", "bwd_1", "fwd_free", "bwd_comb"))

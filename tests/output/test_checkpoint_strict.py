@@ -119,3 +119,25 @@ def test_an_engine_state_whose_steps_are_not_positive_and_finite_is_refused(engi
         rebuild_branches(prefix, "w")
     state[key] = engine_records[-1]["state"][key]  # the state as it was is taken up
     assert rebuild_branches(resumable_prefix(records, 1 << 62)[0], "w")[0].info["restart"]["ds"] > 0
+
+
+@pytest.mark.parametrize("change, found", [(None, None), ({"step": 0.0}, "step = 0.0"), ({"step": math.nan}, "step"),
+                                           ({"lu_u": [1.0, 2.0]}, "lu_u")])
+def test_a_natural_step_state_is_checked_against_its_branch(engine_records, change, found):
+    """The state a circle branch in natural steps writes (contin.bifurcation.circle_natural): taken up when it
+    fits its branch, else refused naming what does not fit."""
+    import copy
+
+    from contin.output.checkpoint import rebuild_branches, resumable_prefix
+
+    records = copy.deepcopy(engine_records)
+    old = records[-1]["state"]
+    m = 3  # the branch's unknowns: H = 1, one dof
+    natural = {"step": -0.01, "largest": 1.0, "failures": 0, "lu_u": list(np.linspace(0.0, 1.0, m)), "lu_lam": 0.7}
+    records[-1]["state"] = {"points": old["points"], "natural": {**natural, **(change or {})}, "monitors": []}
+    prefix, _, _ = resumable_prefix(records, 1 << 62)
+    if found is None:
+        assert rebuild_branches(prefix, "w")[0].info["restart"]["natural"]["step"] == -0.01
+        return
+    with pytest.raises(CheckpointError, match=rf"natural-step state of branch 0 does not fit .*{found}"):
+        rebuild_branches(prefix, "w")

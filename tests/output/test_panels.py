@@ -61,7 +61,7 @@ def test_the_panels_share_the_parameter_axis_and_each_names_its_measure():
         xy = np.vstack([ln.get_xydata() for ln in lines])
         np.testing.assert_allclose(xy[:, 1], f(xy[:, 0]), rtol=1e-12)
         assert {ln.get_linestyle() for ln in lines} == {"-", "--"}
-    # the legend in the top panel only
+    # one legend: in the top panel, where it hides no curve
     assert axes[0, 0].get_legend() is not None and axes[1, 0].get_legend() is None
 
 
@@ -197,3 +197,21 @@ def test_grazing_points_are_marked_and_named_in_the_legend_but_neither_numbered_
     assert "grazing" in legend
     stars = [ln for ax in axes.ravel() for ln in ax.lines if ln.get_marker() == "*"]
     assert len(stars) == 3 * 4  # in both panels of the whole range and of the window (which holds them)
+
+
+def test_the_legend_stands_where_it_hides_the_least_of_the_curves():
+    """A top panel filled by curves everywhere, a lower one with a single diagonal: the legend goes to the lower
+    panel, in a corner the diagonal does not cross."""
+    x = np.linspace(0.0, 2.0, 201)
+    stable = [bool(v < 1.0) for v in x]
+    full = [{"x": x, "y": np.full_like(x, c), "stable": stable, "nu": 1, "id": 0, "group": "a"}
+            for c in np.linspace(0.0, 1.0, 41)]
+    diagonal = [{"x": x, "y": x, "stable": stable, "nu": 1, "id": 0, "group": "a"}]
+    fig = _figure((7.6, 6.1))
+    axes = draw_panels(fig, [("amp_x", full, []), ("rms_x", diagonal, [])], "w", table=False)
+    assert axes[0, 0].get_legend() is None and axes[1, 0].get_legend() is not None
+    fig.draw_without_rendering()
+    box = axes[1, 0].get_legend().get_window_extent()
+    t = np.linspace(0.0, 2.0, 2001)
+    xy = axes[1, 0].transData.transform(np.column_stack([t, t]))
+    assert not np.any((xy[:, 0] > box.x0) & (xy[:, 0] < box.x1) & (xy[:, 1] > box.y0) & (xy[:, 1] < box.y1))

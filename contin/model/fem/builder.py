@@ -346,6 +346,7 @@ def fe_rotor_model(rotor: RotorMatrices, contact: Contact | None = None, unbalan
     if parts:
         cols = tuple(c for c in WHIRL_COLUMNS if c.rsplit("_", 1)[1] in parts)
         model.observables = functools.partial(whirl_radii, parts=parts)
+        model.whirl_parts = dict(parts)
         model.observable_names = cols
     model.symbols = {SPEED: r"\Omega", "kbn": r"k_{bn}", "cbn": r"c_{bn}", "f0": r"f_0", **WHIRL_SYMBOLS}
     model.fe = FEInfo(units, basis, freqs, tuple(rotor.dof_names), d)

@@ -1,0 +1,207 @@
+"""A circle branch in natural-parameter steps, stored as an engine branch (``torus: {continuation: natural}``).
+
+The circles come from :class:`~contin.bifurcation.circle_steps.CircleStepper`
+(Newton at fixed ``lam``, the step halved where it fails); every one is
+stored as a point of a :class:`~contin.engine.branch.Branch`, with the
+monitors' values (the circle's size ``circle_spread`` and its stability),
+the secant as its tangent and the secant's length as its arclength, so
+that rows, special points, checkpoints and figures treat it as any branch.
+The steps are ``continuation.ds`` (the first), at most ``ds_max`` and at
+least ``ds_min``, in the options' ``direction``; Newton's iterations are
+``newton_max_iter``, at least :data:`MIN_NEWTON_ITER` (the chord updates
+of the lazy Jacobian count).
+
+Ends: the range's end (``range_end``); a circle that collapses onto its
+periodic orbit (``boundary`` with an unlocated ``ns`` point: a
+Neimark-Sacker point); Newton failing at every step down to ``ds_min``
+with the rotation number at ``p/q`` of small ``q`` (``boundary`` with a
+``locking`` point, :func:`~contin.bifurcation.circle_branch.classify_circle_end`),
+or elsewhere (``step_too_small``: a fold of the torus, which natural steps
+cannot turn, or its breakdown; the run is incomplete). After each stored
+circle ``checkpoint(branch, state)`` receives :func:`natural_state`'s
+record; a resumed branch goes on from its last two circles and the same
+chord factorisation, as the uninterrupted run would.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from contin.bifurcation.circle_branch import circle_spread, classify_circle_end
+from contin.bifurcation.circle_steps import CircleStepper
+from contin.bifurcation.torus_branch import end_as_boundary
+from contin.engine.branch import Branch, BranchBuilder, BranchStatus, SpecialKind
+from contin.engine.newton import NUMERICAL_ERRORS, solve_at_parameter
+from contin.engine.options import ContinuationOptions
+
+__all__ = ["MIN_NEWTON_ITER", "follow_circle_steps"]
+
+#: the fewest Newton updates a step is given (chord updates are cheap and many)
+MIN_NEWTON_ITER = 20
+
+
+def follow_circle_steps(problem, u0, lam0: float, lam_range, options: ContinuationOptions, *, monitors=(),
+                        callback=None, checkpoint=None, previous: Branch | None = None, solve_start: bool = False,
+                        parameter_name: str | None = None) -> Branch:
+    """Trace the circle branch from ``u0`` at ``lam0`` in natural steps (module docstring).
+
+    Parameters
+    ----------
+    problem : InvariantCircleProblem
+    u0 : array_like, shape (problem.size,)
+    lam0 : float
+    lam_range : (float, float)
+    options : ContinuationOptions
+        ``ds``, ``ds_min``, ``ds_max``, ``direction``, ``newton_tol``, ``newton_max_iter``, ``max_points``.
+    monitors : sequence of callable
+        ``monitor(u, lam, Ju, Jlam) -> dict`` at every stored circle (``Ju``, ``Jlam`` None).
+    callback : callable, optional
+        ``callback(branch, index)`` after each stored circle; False stops the branch (``interrupted``).
+    checkpoint : callable, optional
+        ``checkpoint(branch, state)`` after each stored circle and at the end (``state`` then holds only the
+        monitors'), as the engine's.
+    previous : Branch, optional
+        The same branch of an interrupted run: a finished one is returned as it is, an unfinished one goes on
+        from ``previous.info["restart"]``.
+    solve_start : bool
+        Correct ``u0`` at ``lam0`` first (a fitted guess).
+    parameter_name : str, optional
+
+    Returns
+    -------
+    Branch
+        ``point_data["circle_spread"]`` at every point; ``info["continuation"] == "natural"``.
+    """
+    name = parameter_name or problem.parameter
+    lo, hi = (float(v) for v in lam_range)
+    mons = [lambda u, lam, Ju=None, Jlam=None: {"circle_spread": circle_spread(problem, u)}, *monitors]
+    if previous is not None and previous.status is not BranchStatus.INTERRUPTED:
+        _restore_monitors(mons, previous.info.get("monitor_states"))
+        return previous
+    opts = options.replace(newton_max_iter=max(options.newton_max_iter, MIN_NEWTON_ITER))
+    end = hi if options.direction > 0 else lo
+    first = options.direction * min(options.ds, options.ds_max)
+    if previous is not None:
+        state = previous.info.pop("restart")
+        builder = BranchBuilder(name, problem.size, branch=previous)
+        previous.status, previous.message = BranchStatus.RUNNING, ""
+        stepper = CircleStepper(problem, previous.unknowns[-1], float(previous.parameter[-1]), first, end,
+                                min_step=options.ds_min, max_step=options.ds_max, options=opts)
+        stepper.restore(previous.parameter[-2:], previous.unknowns[-2:], state["natural"])
+        _restore_monitors(mons, state.get("monitors"))
+    else:
+        builder = BranchBuilder(name, problem.size)
+        # no scales: the steps are in the parameter alone (the header of the branch's first row records these)
+        builder.branch.info.update(unknown_scale=np.ones(problem.size), parameter_scale=1.0, continuation="natural",
+                                   lam_range=(lo, hi))
+        u, iterations, res = np.asarray(u0, dtype=float), 0, float("nan")
+        if solve_start:
+            try:
+                r = solve_at_parameter(problem, u, lam0, opts)
+            except NUMERICAL_ERRORS as exc:
+                r = None
+                why = f"{type(exc).__name__}: {exc}"
+            if r is None or not r.converged:
+                return builder.finish(BranchStatus.START_FAILED, f"no circle at {name}={lam0:.10g}: "
+                                      + (why if r is None else r.message))
+            u, iterations, res = r.x, r.iterations, r.residual_norm
+        if not (end - lam0) * options.direction > 0.0:
+            builder.append_point(u, lam0, _start_tangent(problem.size, options.direction), 0.0, iterations, 0.0,
+                                 _finite(res, problem, u, lam0), _data(mons, u, lam0))
+            return _finish(builder.branch, problem, f"the start {name}={lam0:.10g} is the range's end", True)
+        stepper = CircleStepper(problem, u, lam0, first, end, min_step=options.ds_min, max_step=options.ds_max,
+                                options=opts)
+        builder.append_point(u, lam0, _start_tangent(problem.size, options.direction), 0.0, iterations, 0.0,
+                             _finite(res, problem, u, lam0), _data(mons, u, lam0))
+        if not _after(builder.branch, callback, checkpoint, stepper, mons):
+            return builder.branch
+    branch = builder.branch
+    while stepper.going():
+        if len(branch) >= options.point_cap:
+            capped = options.max_points is not None
+            branch.status = BranchStatus.MAX_POINTS if capped else BranchStatus.DEFAULT_MAX_POINTS
+            branch.message = (f"stored {'max_points=' if capped else 'the default cap of '}{options.point_cap} "
+                              f"points; last at {name}={stepper.lam:.10g}"
+                              + ("" if capped else ": raise max_points (continuation.max_points in a scene)"))
+            break
+        try:
+            r = stepper.attempt()
+        except NUMERICAL_ERRORS:  # an evaluation that failed is a failed step
+            stepper.step /= 2.0
+            stepper.failures += 1
+            continue
+        if r is None:
+            continue
+        du = stepper.us[-1] - stepper.us[-2]
+        dlam = stepper.lams[-1] - stepper.lams[-2]
+        secant = np.append(du, dlam)
+        builder.append_point(r.x, stepper.lam, secant / float(np.linalg.norm(secant)), float(branch.arclength[-1])
+                             + float(np.linalg.norm(secant)), r.iterations, abs(dlam), r.residual_norm,
+                             _data(mons, r.x, stepper.lam))
+        if not _after(branch, callback, checkpoint, stepper, mons):
+            return branch
+    else:
+        _finish(branch, problem, stepper.message(), stepper.reached(), stepper)
+    branch.info.update(lam_range=(lo, hi), n_newton_iterations=int(np.sum(branch.newton_iterations)),
+                       n_rejected_steps=stepper.failures, continuation="natural")
+    if checkpoint is not None:
+        checkpoint(branch, {"monitors": [_state_of(m) for m in mons]})
+    return branch
+
+
+def _finish(branch: Branch, problem, message: str, reached: bool, stepper: CircleStepper | None = None) -> Branch:
+    """The end: the range's, a collapse (an ``ns`` point), a locking or a failure (module docstring)."""
+    if reached:
+        branch.status, branch.message = BranchStatus.RANGE_END, message
+        return branch
+    branch.status, branch.message = BranchStatus.STEP_TOO_SMALL, message
+    if stepper is not None and stepper.collapsed is not None:
+        i = len(branch) - 1
+        end_as_boundary(branch, SpecialKind.NS, float(stepper.collapsed[0]), branch.unknowns[i], i,
+                        {"circle_spread": float(stepper.collapsed[1])}, "the torus collapses onto its periodic orbit",
+                        "circle end")
+        return branch
+    classify_circle_end(branch, problem)
+    return branch
+
+
+def _after(branch: Branch, callback, checkpoint, stepper: CircleStepper, mons) -> bool:
+    """The callback and the checkpoint after a stored circle; False where the callback stops the branch."""
+    index = len(branch) - 1
+    if callback is not None and callback(branch, index) is False:
+        branch.status = BranchStatus.INTERRUPTED
+        branch.message = f"stopped by the callback at {branch.parameter_name}={float(branch.parameter[index]):.10g}"
+        return False
+    if checkpoint is not None:
+        checkpoint(branch, {"points": len(branch), "natural": stepper.state(),
+                            "monitors": [_state_of(m) for m in mons]})
+    return True
+
+
+def _data(mons, u, lam: float) -> dict:
+    out = {}
+    for mon in mons:
+        out.update(mon(u, lam, None, None))
+    return out
+
+
+def _start_tangent(m: int, direction: int) -> np.ndarray:
+    """The first circle's tangent: the parameter's direction."""
+    t = np.zeros(m + 1)
+    t[-1] = float(direction)
+    return t
+
+
+def _finite(res: float, problem, u, lam: float) -> float:
+    """The residual's norm at a start that was not corrected (its own evaluation)."""
+    return res if np.isfinite(res) else float(np.max(np.abs(problem.residual(u, lam))))
+
+
+def _state_of(mon):
+    return mon.state() if hasattr(mon, "state") else None
+
+
+def _restore_monitors(mons, states) -> None:
+    for mon, st in zip(mons, states or ()):
+        if st is not None and hasattr(mon, "restore"):
+            mon.restore(st)
