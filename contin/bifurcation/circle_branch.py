@@ -47,7 +47,7 @@ from contin.timedomain.torus_check import check_circle
 
 __all__ = ["CHECK_PERIODS", "FLIP_SPREAD", "LOCKING_TOL", "LYAPUNOV_PERIODS", "MAX_DENOMINATOR",
            "CircleStabilityMonitor", "CircleStart", "LOCKED_OFFSETS", "LockedOrbit", "circle_child_start",
-           "circle_spread", "classify_circle_end", "follow_circle", "locked_orbits", "locked_starts", "run_circle"]
+           "circle_spread", "classify_circle_end", "follow_circle", "locked_orbits", "locked_starts"]
 
 #: a flip counts as the collapse where the circle is this small against its largest (elsewhere it would be the
 #: parametrisation turning, not the circle shrinking)
@@ -358,46 +358,6 @@ def circle_child_start(shooting, lam: float, unknowns, points: int) -> CircleSta
     problem, u0, tangent = circle_start(shooting.model, shooting.parameter, z, float(lam), shooting.base, opts,
                                         eps=CircleStart.eps)
     return CircleStart(problem, u0, float(lam), tangent)
-
-
-def run_circle(start: CircleStart, lam_range, options: ContinuationOptions, parameter_name: str, *,
-               stability: bool = True, callback=None, checkpoint=None, resume=None, natural: bool = False,
-               previous: Branch | None = None) -> Branch:
-    """Trace the circle branch from ``start`` with its stability (:class:`CircleStabilityMonitor`) and its ends
-    told (:func:`follow_circle`; with ``natural``, in natural steps of the parameter:
-    :func:`contin.bifurcation.circle_natural.follow_circle_steps`, which takes up ``previous``, the same
-    branch of an interrupted run, where ``resume`` takes up an arclength one).
-
-    Returns
-    -------
-    Branch
-        Its ``info["torus"]`` says the discretisation: ``{"circle": True, "points", "steps_per_period",
-        "winding", "continuation"}``.
-    """
-    from contin.bifurcation.circle_natural import follow_circle_steps  # deferred: it builds on this module
-
-    problem = start.problem
-    monitors = [CircleStabilityMonitor(problem)] if stability else []
-    opts = options.replace(unknown_scale=None, parameter_scale=None)
-    if natural:
-        br = follow_circle_steps(problem, start.u, start.lam, lam_range, opts, monitors=monitors, callback=callback,
-                                 checkpoint=checkpoint, previous=previous, solve_start=start.solve_start,
-                                 parameter_name=parameter_name)
-    else:
-        br = follow_circle(problem, start.u, start.lam, lam_range, opts, tangent=start.tangent,
-                           parameter_name=parameter_name, monitors=monitors, callback=callback, checkpoint=checkpoint,
-                           resume=resume, solve_start=start.solve_start)
-    for mon in monitors:
-        if mon.simulated:
-            br.message = (f"{br.message}; stability by a simulation off the circle at {len(mon.simulated)} point(s) "
-                          "(the Lyapunov exponents within their error of zero)")
-        if mon.undecided:
-            br.message = (f"{br.message}; no stability verdict at {len(mon.undecided)} point(s) (the largest normal "
-                          f"Lyapunov exponent within its error of zero; first at {parameter_name}="
-                          f"{mon.undecided[0]:.10g})")
-    br.info["torus"] = {"circle": True, "points": problem.points, "steps_per_period": problem.options.steps_per_period,
-                        "winding": int(problem.winding), "continuation": "natural" if natural else "arclength"}
-    return br
 
 
 #: how far into the tongue the orbits of a locked circle are sought, in turn (relative to ``max(1, |lam|)``)

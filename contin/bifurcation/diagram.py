@@ -313,7 +313,7 @@ def _circle_child(prob, sp: SpecialPoint, torus: TorusSettings | None, diagram, 
 
 def _run_circle(st, lam_range, options, name: str, settings: TorusSettings, callback, checkpoint, previous):
     """The circle branch from ``st``, or the same branch of an interrupted run taken up (``previous``)."""
-    from contin.bifurcation.circle_branch import run_circle  # deferred: the time domain
+    from contin.bifurcation.circle_run import run_circle  # deferred: the time domain
 
     resume = None if previous is None else (
         lambda problem, opts, mons, watch: _resume(previous, problem, lam_range, opts, name, [], mons, watch,
