@@ -17,7 +17,11 @@ Neimark-Sacker point); Newton failing at every step down to ``ds_min``
 with the rotation number at ``p/q`` of small ``q`` (``boundary`` with a
 ``locking`` point, :func:`~contin.bifurcation.circle_branch.classify_circle_end`),
 or elsewhere (``step_too_small``: a fold of the torus, which natural steps
-cannot turn, or its breakdown; the run is incomplete). After each stored
+cannot turn, or its breakdown; the run is incomplete). Where the stability
+verdicts of two neighbouring circles differ, an unlocated ``stability`` point
+between them says so: a bifurcation of the torus, or a step across a fold
+of tori onto its other half (both tori exist on one side of the fold, and a
+step from one half may land on the other, which natural steps cannot tell). After each stored
 circle ``checkpoint(branch, state)`` receives :func:`natural_state`'s
 record; a resumed branch goes on from its last two circles and the same
 chord factorisation, as the uninterrupted run would.
@@ -30,7 +34,7 @@ import numpy as np
 from contin.bifurcation.circle_branch import circle_spread, classify_circle_end
 from contin.bifurcation.circle_steps import CircleStepper
 from contin.bifurcation.torus_branch import end_as_boundary
-from contin.engine.branch import Branch, BranchBuilder, BranchStatus, SpecialKind
+from contin.engine.branch import Branch, BranchBuilder, BranchStatus, SpecialKind, SpecialPoint
 from contin.engine.newton import NUMERICAL_ERRORS, solve_at_parameter
 from contin.engine.options import ContinuationOptions
 
@@ -138,6 +142,7 @@ def follow_circle_steps(problem, u0, lam0: float, lam_range, options: Continuati
         builder.append_point(r.x, stepper.lam, secant / float(np.linalg.norm(secant)), float(branch.arclength[-1])
                              + float(np.linalg.norm(secant)), r.iterations, abs(dlam), r.residual_norm,
                              _data(mons, r.x, stepper.lam))
+        _stability_change(branch)
         if not _after(branch, callback, checkpoint, stepper, mons):
             return branch
     else:
@@ -147,6 +152,26 @@ def follow_circle_steps(problem, u0, lam0: float, lam_range, options: Continuati
     if checkpoint is not None:
         checkpoint(branch, {"monitors": [_state_of(m) for m in mons]})
     return branch
+
+
+def _stability_change(branch: Branch) -> None:
+    """An unlocated ``stability`` point between the last two circles where their verdicts differ (both given):
+    a bifurcation of the torus, or, near a fold of tori, a step that landed on the fold's other half, which
+    natural steps cannot tell apart (docs/theory/quasi-periodic.md)."""
+    pd, i = branch.point_data, len(branch) - 1
+    if i < 1 or "stable" not in pd or not (pd["evaluated"][i] and pd["evaluated"][i - 1]):
+        return
+    before, now = bool(pd["stable"][i - 1]), bool(pd["stable"][i])
+    if before == now:
+        return
+    a, b = float(branch.parameter[i - 1]), float(branch.parameter[i])
+    branch.special_points.append(SpecialPoint(
+        kind=SpecialKind.STABILITY, parameter=0.5 * (a + b), unknowns=np.array(branch.unknowns[i]), interval=(a, b),
+        index=i - 1, s=float(branch.arclength[i]), located=False,
+        data={"from": "stable" if before else "unstable", "to": "stable" if now else "unstable"},
+        message=f"the torus is {'stable' if before else 'unstable'} at {branch.parameter_name}={a:.10g} and "
+                f"{'stable' if now else 'unstable'} at {b:.10g}: a bifurcation of the torus between, or a step "
+                "across a fold of tori onto its other half", event="circle stability"))
 
 
 def _finish(branch: Branch, problem, message: str, reached: bool, stepper: CircleStepper | None = None) -> Branch:

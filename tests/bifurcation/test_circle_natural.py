@@ -95,3 +95,20 @@ def test_the_settings_name_the_way_a_circle_branch_is_followed():
     assert TorusSettings.from_dict({"continuation": "natural"}, 5).continuation is TorusContinuation.NATURAL
     with pytest.raises(ValueError, match=r"TorusSettings.continuation must be one of \['arclength', 'natural'\]"):
         TorusSettings(continuation="parameter")
+
+
+def test_a_change_of_stability_between_two_circles_is_a_special_point(circle):
+    """Where two neighbouring circles' verdicts differ (here a monitor that says so below w = 0.931), an unlocated
+    ``stability`` point brackets the change."""
+    prob, u, _ = circle
+
+    def verdict(x, lam, Ju=None, Jlam=None):
+        return {"evaluated": True, "stable": bool(lam > 0.931), "n_unstable": int(lam <= 0.931),
+                "max_multiplier": 1.0}
+
+    nat = follow_circle_steps(prob, u, 0.94, (0.92, 0.96), DOWN, monitors=[verdict])
+    (sp,) = nat.special_points
+    assert sp.kind is SpecialKind.STABILITY and not sp.located and sp.data == {"from": "stable", "to": "unstable"}
+    a, b = sp.interval
+    assert b < 0.931 < a and a - b <= 0.005 + 1e-12 and sp.index == int(np.flatnonzero(nat.parameter == a)[0])
+    assert "a step across a fold of tori" in sp.message

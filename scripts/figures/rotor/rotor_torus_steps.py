@@ -16,6 +16,12 @@ that a pseudo-arclength branch of the circle crawls into (docs/theory/quasi-peri
 
     python scripts/figures/rotor/rotor_torus_steps.py                       # N = 61, down then up from 1.9 (10 min)
     python scripts/figures/rotor/rotor_torus_steps.py --quick               # N = 31, one step each way
+    python scripts/figures/rotor/rotor_torus_steps.py --from-ns --points 31 # the unstable torus, 1 min
+
+``--from-ns`` starts instead from the torus born at the harmonic orbit's Neimark-Sacker point near 1.8508
+(the orbit by shooting from a simulation at 1.84, the circle branch by arclength down to ``--ns-to``, as
+``scenes/rotor_torus.yaml``) and steps it down to ``--range``'s first value, the normal Lyapunov exponent
+printed at every circle (unstable: positive).
 """
 
 from __future__ import annotations
@@ -26,6 +32,7 @@ import time
 import numpy as np
 
 from contin.analyses.torus_start import circle_from_simulation
+from contin.bifurcation.circle_branch import CircleStabilityMonitor
 from contin.bifurcation.circle_steps import step_circle
 from contin.engine.newton import solve_at_parameter
 from contin.engine.options import ContinuationOptions
@@ -34,11 +41,13 @@ from contin.timedomain.circle_measures import circle_measures
 from contin.timedomain.shooting import ShootingOptions, ShootingProblem
 
 
-def follow(problem, u, w, dw0, end, min_step, dofs):
-    """Steps from the circle ``u`` at ``w`` towards ``end``; the rows printed, and the last speed reached."""
+def follow(problem, u, w, dw0, end, min_step, dofs, monitor=None):
+    """Steps from the circle ``u`` at ``w`` towards ``end``; the rows printed (with ``monitor``, a
+    :class:`CircleStabilityMonitor`, the normal Lyapunov exponent), and the last speed reached."""
     def show(lam, x, iterations, m):
+        exp = "" if monitor is None else f" {monitor(x, lam)['normal_exponent']:+10.4f}"
         print(f"  {lam:9.5f} {x[-1]:9.6f} {m['frequency2']:9.5f} {m['forced_x1']:8.4f} {m['free_x1']:8.4f} "
-              f"{m['comb_x1']:8.4f} {iterations:4d}", flush=True)
+              f"{m['comb_x1']:8.4f} {iterations:4d}{exp}", flush=True)
 
     steps = step_circle(problem, u, w, dw0, end, min_step=min_step,
                         measure=lambda x, lam: circle_measures(problem, x, lam, dofs), callback=show)
@@ -63,6 +72,29 @@ def wall(problem, u, w):
           f"tangent's w component {abs(tangent[-1]):.3f}, rho component {abs(tangent[-2]):.3f}")
 
 
+def from_ns(points: int, steps: int, to: float):
+    """The circle problem of the torus born at the Neimark-Sacker point near 1.8508 and its circle at ``to``:
+    the harmonic orbit by shooting from a simulation at 1.84, followed up with its multipliers, the circle
+    branch from the point followed down by arclength to ``to`` (:func:`contin.bifurcation.diagram.follow`)."""
+    from contin.bifurcation.diagram import follow as follow_diagram  # deferred: this mode only
+    from contin.bifurcation.torus_branch import TorusSettings  # deferred: as above
+    from contin.timedomain.shooting import periodic_orbit  # deferred: as above
+    from contin.timedomain.simulation import simulate  # deferred: as above
+
+    model = build_model("bearing_rotor", {"f0": 0.5, "w": 1.84})
+    opts = ShootingOptions(steps_per_period=steps)
+    run = simulate(model, {"w": 1.84}, None, None, periods=400, steps_per_period=1024, record_every=1024)
+    orbit = periodic_orbit(model, {"w": 1.84}, run.final_state, opts)
+    shooting = ShootingProblem(model, "w", options=opts)
+    d = follow_diagram(shooting, orbit.state, 1.84, (to, 1.9), {"ds": 0.01, "newton_tol": 1e-9},
+                       stability={"method": "floquet"}, switch=("ns",), torus=TorusSettings(points=points))
+    j = next(i for i, b in enumerate(d.branches) if b.info.get("torus"))
+    br = d.branches[j]
+    print(f"torus from the Neimark-Sacker point at w = {br.parameter[0]:.6f} by arclength down to "
+          f"w = {br.parameter[-1]:.5f} ({len(br)} circles, {br.status.value})")
+    return model, d.problems[j], br.unknowns[-1], float(br.parameter[-1])
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--points", type=int, default=61, help="N, points of the circle (odd)")
@@ -71,10 +103,20 @@ def main(argv=None) -> int:
     ap.add_argument("--range", type=float, nargs=2, default=(1.6, 2.1), help="speeds to go to, down and up")
     ap.add_argument("--step", type=float, default=0.01, help="largest step in w")
     ap.add_argument("--quick", action="store_true", help="N = 31, one step each way")
+    ap.add_argument("--from-ns", action="store_true", help="the torus born at the Neimark-Sacker point, down")
+    ap.add_argument("--ns-to", type=float, default=1.79, help="where its arclength branch hands over to the steps")
     args = ap.parse_args(argv)
     min_step = 1e-5
     if args.quick:
         args.points, args.range, min_step = 31, (args.start - 0.01, args.start + 0.01), 2e-3
+    if args.from_ns:
+        t0 = time.perf_counter()
+        model, problem, u, w = from_ns(args.points, args.steps, args.ns_to)
+        monitor = CircleStabilityMonitor(problem, simulation=0)
+        print(f"  {'w':>9} {'rho':>9} {'w2':>9} {'forced':>8} {'free':>8} {'comb':>8} {'its':>4} {'normal exp':>10}")
+        reached = follow(problem, u, w, -args.step, args.range[0], 1e-3, model.dof_names, monitor)
+        print(f"circle found down to w = {reached:.5f} in {time.perf_counter() - t0:.0f} s")
+        return 0
     model = build_model("bearing_rotor", {"f0": 0.5, "w": args.start})
     shooting = ShootingProblem(model, "w", options=ShootingOptions(steps_per_period=args.steps))
     t0 = time.perf_counter()
