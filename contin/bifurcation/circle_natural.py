@@ -86,7 +86,9 @@ def follow_circle_steps(problem, u0, lam0: float, lam_range, options: Continuati
     end = hi if options.direction > 0 else lo
     first = options.direction * min(options.ds, options.ds_max)
     if previous is not None:
-        state = previous.info.pop("restart")
+        state = previous.info.pop("restart", None)
+        if state is None or not len(previous):
+            raise ValueError("resume: a circle branch without the state of its last circle")
         builder = BranchBuilder(name, problem.size, branch=previous)
         previous.status, previous.message = BranchStatus.RUNNING, ""
         stepper = CircleStepper(problem, previous.unknowns[-1], float(previous.parameter[-1]), first, end,
@@ -109,10 +111,7 @@ def follow_circle_steps(problem, u0, lam0: float, lam_range, options: Continuati
                 return builder.finish(BranchStatus.START_FAILED, f"no circle at {name}={lam0:.10g}: "
                                       + (why if r is None else r.message))
             u, iterations, res = r.x, r.iterations, r.residual_norm
-        if not (end - lam0) * options.direction > 0.0:
-            builder.append_point(u, lam0, _start_tangent(problem.size, options.direction), 0.0, iterations, 0.0,
-                                 _finite(res, problem, u, lam0), _data(mons, u, lam0))
-            return _finish(builder.branch, problem, f"the start {name}={lam0:.10g} is the range's end", True)
+        # a start at the range's end it goes to: one circle, the range's end reached
         stepper = CircleStepper(problem, u, lam0, first, end, min_step=options.ds_min, max_step=options.ds_max,
                                 options=opts)
         builder.append_point(u, lam0, _start_tangent(problem.size, options.direction), 0.0, iterations, 0.0,

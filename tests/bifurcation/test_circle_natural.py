@@ -112,3 +112,13 @@ def test_a_change_of_stability_between_two_circles_is_a_special_point(circle):
     a, b = sp.interval
     assert b < 0.931 < a and a - b <= 0.005 + 1e-12 and sp.index == int(np.flatnonzero(nat.parameter == a)[0])
     assert "a step across a fold of tori" in sp.message
+
+
+def test_a_start_at_the_end_of_the_range_is_one_circle_and_a_missing_state_is_refused(circle):
+    prob, u, _ = circle
+    one = follow_circle_steps(prob, u, 0.94, (0.94, 0.96), DOWN)
+    assert one.status is BranchStatus.RANGE_END and len(one) == 1 and one.message == "reached w=0.94"
+    cut = follow_circle_steps(prob, u, 0.94, (0.92, 0.96), DOWN.replace(max_points=2))
+    cut.status = BranchStatus.INTERRUPTED  # as if killed, but no state kept
+    with pytest.raises(ValueError, match="a circle branch without the state of its last circle"):
+        follow_circle_steps(prob, u, 0.94, (0.92, 0.96), DOWN, previous=cut)
