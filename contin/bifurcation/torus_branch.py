@@ -39,7 +39,8 @@ from contin.timedomain.integrator import SimulationError
 from contin.timedomain.torus_check import check_torus
 from contin.util.options import check_keys, field_names, from_mapping
 
-__all__ = ["TorusContinuation", "TorusSettings", "TorusStabilityMonitor", "run_torus", "classify_end", "end_as_boundary"]
+__all__ = ["TorusContinuation", "TorusSettings", "TorusStabilityMonitor", "run_torus", "classify_end",
+           "end_as_boundary"]
 
 #: a branch ending with the self-excited line below this fraction of its largest size has collapsed
 COLLAPSED = 1e-2

@@ -171,8 +171,8 @@ def test_a_torus_start_killed_midway_resumes_to_the_same_rows(tmp_path, steps):
     import time
 
     scene = tmp_path / "s.yaml"
-    scene.write_text(TORUS_START if steps == "arclength" else TORUS_START.replace(
-        "torus: {points: 21}", "torus: {points: 21, continuation: natural}\n  continuation: {ds: 0.002, ds_max: 0.002}"))
+    natural = "torus: {points: 21, continuation: natural}\n  continuation: {ds: 0.002, ds_max: 0.002}"
+    scene.write_text(TORUS_START if steps == "arclength" else TORUS_START.replace("torus: {points: 21}", natural))
     ref = tmp_path / "ref"
     assert main(["run", str(scene), "-o", str(ref), "-q"]) == 0
     out = tmp_path / "run"
