@@ -21,10 +21,11 @@ cannot turn, or its breakdown; the run is incomplete). Where the stability
 verdicts of two neighbouring circles differ, an unlocated ``stability`` point
 between them says so: a bifurcation of the torus, or a step across a fold
 of tori onto its other half (both tori exist on one side of the fold, and a
-step from one half may land on the other, which natural steps cannot tell). After each stored
-circle ``checkpoint(branch, state)`` receives :func:`natural_state`'s
-record; a resumed branch goes on from its last two circles and the same
-chord factorisation, as the uninterrupted run would.
+step from one half may land on the other, which natural steps cannot
+tell). After each stored circle ``checkpoint(branch, state)`` receives
+``{"points", "natural": CircleStepper.state(), "monitors"}``; a resumed
+branch goes on from its last two circles and the same chord
+factorisation, as the uninterrupted run would.
 """
 
 from __future__ import annotations
