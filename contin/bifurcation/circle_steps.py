@@ -26,7 +26,8 @@ Newton fails and grown by half again after a success, up to the first step.
 Newton's Jacobian is lazy (:func:`contin.engine.newton.newton`): the iterates
 are evaluated by plain flows, and chord steps with the factorisation of the
 last circle's updates go on while they contract; a variational flow per point
-only where an update factorises. (Giving up a Newton solve after a few updates
+only where an update factorises; a solve whose residual grows to :data:`DIVERGED`
+times its first is given up. (Giving up a Newton solve after a few updates
 without progress saves time at the ends but stops steps that a few more
 updates would finish: the residual has corners too.)
 """
@@ -43,12 +44,15 @@ from contin.engine.linalg import factorize
 from contin.engine.newton import solve_at_parameter
 from contin.engine.options import ContinuationOptions
 
-__all__ = ["COLLAPSED", "CircleStepper", "CircleSteps", "step_circle"]
+__all__ = ["COLLAPSED", "DIVERGED", "CircleStepper", "CircleSteps", "step_circle"]
 
 #: a circle this small against the largest of the steps (peak-to-peak range of a state component) has collapsed
 COLLAPSED = 1e-3
 #: the denominators considered for the rational nearest ``rho`` where the steps end
 NEAREST_DENOMINATOR = 12
+#: a step's Newton is given up once its residual exceeds this factor times the first one: the steps that fail
+#: diverge far beyond it, those that converge stay well within it (docs/theory/quasi-periodic.md)
+DIVERGED = 100.0
 
 
 @dataclasses.dataclass
@@ -125,7 +129,8 @@ class CircleStepper:
         seen = _Linearizations(problem)
         # a lazy Jacobian: iterates by plain flows, the factorisation of the last circle's updates first
         r = solve_at_parameter(seen, guess, target, self.opts, lu0=self.lu,
-                               residual=lambda x: problem.residual(x, target), jacobian_at_solution=False)
+                               residual=lambda x: problem.residual(x, target), jacobian_at_solution=False,
+                               divergence_factor=DIVERGED)
         spread = circle_spread(problem, r.x) if r.converged else 0.0
         if r.converged and spread < COLLAPSED * self.largest:  # as a failure: the step shrinks towards the point
             self.collapsed = (target, spread)
