@@ -38,6 +38,7 @@ from contin.bifurcation.torus_branch import end_as_boundary
 from contin.engine.branch import Branch, BranchBuilder, BranchStatus, SpecialKind, SpecialPoint
 from contin.engine.newton import NUMERICAL_ERRORS, solve_at_parameter
 from contin.engine.options import ContinuationOptions
+from contin.engine.problem import evaluate_monitors
 
 __all__ = ["MIN_NEWTON_ITER", "follow_circle_steps"]
 
@@ -116,7 +117,7 @@ def follow_circle_steps(problem, u0, lam0: float, lam_range, options: Continuati
         stepper = CircleStepper(problem, u, lam0, first, end, min_step=options.ds_min, max_step=options.ds_max,
                                 options=opts)
         builder.append_point(u, lam0, _start_tangent(problem.size, options.direction), 0.0, iterations, 0.0,
-                             _finite(res, problem, u, lam0), _data(mons, u, lam0))
+                             _finite(res, problem, u, lam0), evaluate_monitors(mons, u, lam0, None, None))
         if not _after(builder.branch, callback, checkpoint, stepper, mons):
             return builder.branch
     branch = builder.branch
@@ -141,7 +142,7 @@ def follow_circle_steps(problem, u0, lam0: float, lam_range, options: Continuati
         secant = np.append(du, dlam)
         builder.append_point(r.x, stepper.lam, secant / float(np.linalg.norm(secant)), float(branch.arclength[-1])
                              + float(np.linalg.norm(secant)), r.iterations, abs(dlam), r.residual_norm,
-                             _data(mons, r.x, stepper.lam))
+                             evaluate_monitors(mons, r.x, stepper.lam, None, None))
         _stability_change(branch)
         if not _after(branch, callback, checkpoint, stepper, mons):
             return branch
@@ -201,13 +202,6 @@ def _after(branch: Branch, callback, checkpoint, stepper: CircleStepper, mons) -
         checkpoint(branch, {"points": len(branch), "natural": stepper.state(),
                             "monitors": [_state_of(m) for m in mons]})
     return True
-
-
-def _data(mons, u, lam: float) -> dict:
-    out = {}
-    for mon in mons:
-        out.update(mon(u, lam, None, None))
-    return out
 
 
 def _start_tangent(m: int, direction: int) -> np.ndarray:

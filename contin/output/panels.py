@@ -155,8 +155,7 @@ def _hidden(ax, box) -> float:
     length = 0.0
     for line in ax.get_lines():
         xy = ax.transData.transform(np.asarray(line.get_xydata(), dtype=float))
-        xy = xy[np.all(np.isfinite(xy), axis=1)] if line.get_linestyle() in ("None", "none", "") else xy
-        if line.get_linestyle() in ("None", "none", "") or len(xy) < 2:
+        if line.get_linestyle() in ("None", "none", "") or len(xy) < 2:  # markers (NaN compares False: outside)
             inside = (xy[:, 0] >= x0) & (xy[:, 0] <= x1) & (xy[:, 1] >= y0) & (xy[:, 1] <= y1)
             length += _MARKER_WEIGHT * float(np.sum(inside))
             continue
