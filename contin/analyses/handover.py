@@ -20,6 +20,7 @@ import numpy as np
 
 from contin.analyses.shooting_rows import is_shooting, shooting_problem, unknowns_from_state
 from contin.bifurcation.end_check import barrier_point
+from contin.bifurcation.grazing_steps import GRAZING_TURN, through_grazing
 from contin.engine.branch import BranchStatus
 from contin.stability import orbit_state
 
@@ -71,9 +72,8 @@ def hand_over(results: list, first: int, setup, rec, ctx, previous: dict, lam_ra
             continue
         u0, lam, direction = start
         su = setup.options.unknown_scale
-        opts = setup.options.replace(direction=direction, max_angle_deg=max(setup.options.max_angle_deg, GRAZING_TURN),
-                                     stall_points=max(setup.options.stall_points, GRAZING_STALL),
-                                     unknown_scale=su if su is None or np.ndim(su) == 0 else None)
+        opts = through_grazing(setup.options.replace(direction=direction,
+                                                     unknown_scale=su if su is None or np.ndim(su) == 0 else None))
         j = len(out)
         new = setup.follow(sp, u0, lam, lam_range, opts, rec, ctx, previous, first_id=j, both_ways=False)
         if not new:
@@ -88,12 +88,6 @@ def hand_over(results: list, first: int, setup, rec, ctx, previous: dict, lam_ra
     return out
 
 
-#: the turn (degrees) a step of a shooting branch may take: at a grazing point of a soft contact the flow map is
-#: C^1 with a 3/2-power term, so the tangent turns fast over a short arc (the chord test still guards the steps)
-GRAZING_TURN = 60.0
-#: the stored points a shooting branch may take to advance ``ds_max`` before it counts as a crawl: through a
-#: cascade of grazing corners (a bouncing bearing) it advances slowly but steadily, far above ds_min
-GRAZING_STALL = 200
 #: how many stored points before the grazing point a handover tries, nearest first
 HANDOVER_BACK = (2, 4, 8, 16, 32)
 #: the shooting orbit corrected at a harmonic-balance point must lie this close to it (relative to the orbit)

@@ -99,6 +99,7 @@ def stability_setup(analysis: dict, hb):
                              "method": "shooting" if is_shooting(prob) or is_circle(prob) else "hb",
                              "parent": br.info.get("parent"),
                              "torus": br.info.get("torus"),
+                             **({"end": br.info["end"]} if "end" in br.info else {}),
                              "origin": None if org is None else {k: org[k] for k in ("kind", "parameter", "located",
                                                                                      "note") if k in org}}))
         return out

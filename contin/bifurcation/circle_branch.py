@@ -18,7 +18,10 @@ map:
   of small ``q``: the torus carries periodic orbits of ``q`` forcing periods
   (an Arnold tongue), and a circle discretised by points of a grid no longer
   determines the rotation number; status ``boundary`` and a ``locking``
-  special point naming ``p/q``. :func:`locked_orbits` finds the periodic
+  special point naming ``p/q``. Steps that fail short of the tongue, where
+  the rotation number still heads for ``p/q`` as the square root of the
+  distance to its edge, lock at that edge extrapolated
+  (:func:`locking_ahead`). :func:`locked_orbits` finds the periodic
   orbits of ``q`` forcing periods there, by multiple shooting (one segment a
   forcing period) started from the circle's points, and tells the rotation
   ``p/q`` each one makes around the circle; :func:`locked_starts` makes them
@@ -45,9 +48,10 @@ from contin.timedomain.invariant_circle import (CircleOptions, InvariantCirclePr
 from contin.timedomain.multiple_shooting import ShootingOptions, ShootingProblem
 from contin.timedomain.torus_check import check_circle
 
-__all__ = ["CHECK_PERIODS", "FLIP_SPREAD", "LOCKING_TOL", "LYAPUNOV_PERIODS", "MAX_DENOMINATOR",
-           "CircleStabilityMonitor", "CircleStart", "LOCKED_OFFSETS", "LockedOrbit", "circle_child_start",
-           "circle_spread", "classify_circle_end", "follow_circle", "locked_orbits", "locked_starts"]
+__all__ = ["CHECK_PERIODS", "FLIP_SPREAD", "LOCKING_FIT", "LOCKING_REACH", "LOCKING_SHAPE", "LOCKING_TOL",
+           "LYAPUNOV_PERIODS", "MAX_DENOMINATOR", "CircleStabilityMonitor", "CircleStart", "LOCKED_OFFSETS",
+           "LockedOrbit", "circle_child_start", "circle_spread", "classify_circle_end", "follow_circle",
+           "locked_orbits", "locked_starts", "locking_ahead"]
 
 #: a flip counts as the collapse where the circle is this small against its largest (elsewhere it would be the
 #: parametrisation turning, not the circle shrinking)
@@ -151,13 +155,67 @@ def classify_circle_end(branch: Branch, problem, max_denominator: int = MAX_DENO
         why = (f"the torus shrinks onto the periodic orbit at a Neimark-Sacker point near {name}={lam:.10g}, "
                f"where the parameter turns (circle spread {spread[i]:.3g} there, {spread.max():.3g} at most; "
                f"the circles beyond retrace the branch turned by half a turn)")
-    elif branch.status is not BranchStatus.INTERRUPTED and abs(rho - float(f)) < locking_tol:
+    elif branch.status is BranchStatus.INTERRUPTED:
+        return
+    elif abs(rho - float(f)) < locking_tol:
         kind = SpecialKind.LOCKING
         why = (f"the torus locks: its rotation number {rho:.6g} sits at {f} at {name}={lam:.10g} (periodic "
                f"orbits of {f.denominator} forcing periods on it)")
     else:
+        ahead = locking_ahead(branch, problem, max_denominator)
+        if ahead is None:
+            return
+        f, edge = ahead
+        end_as_boundary(branch, SpecialKind.LOCKING, edge, u, i,
+                        {"rotation_number": rho, "rational": str(f), "predicted": edge},
+                        f"the torus locks: its rotation number {rho:.6g} approaches {f} as the square root of the "
+                        f"distance to {name}={edge:.10g} (extrapolated from its last {LOCKING_FIT} circles), where "
+                        f"periodic orbits of {f.denominator} forcing periods appear on it", "circle end")
         return
     end_as_boundary(branch, kind, lam, u, i, {"rotation_number": rho, "rational": str(f)}, why, "circle end")
+
+
+#: circles of a branch's end that :func:`locking_ahead` extrapolates
+LOCKING_FIT = 3
+#: how far beyond the last circle (relative to ``max(1, |lam|)``) an extrapolated locking is taken: as far as
+#: :func:`locked_starts` looks for the locked orbits
+LOCKING_REACH = 2e-3
+#: the earlier circles' squared distances must lie within this factor of the extrapolated line
+#: (docs/theory/quasi-periodic.md: the rotor's torus that locks onto its subharmonic)
+LOCKING_SHAPE = 1.5
+
+
+def locking_ahead(branch: Branch, problem, max_denominator: int = MAX_DENOMINATOR):
+    """``(p/q, lam_c)`` where a circle branch's end heads for a locking just beyond its last circle, else None.
+
+    At the edge of an Arnold tongue two periodic orbits of ``q`` forcing periods appear on the torus in a
+    saddle-node, and the rotation number approaches ``p/q`` as the square root of the distance to it,
+    ``(rho - p/q)^2 ~ c (lam_c - lam)`` (the passage through the saddle-node's bottleneck, whose time grows as
+    ``1 / sqrt(lam_c - lam)``: Pikovsky, Rosenblum & Kurths, *Synchronization*, Cambridge 2001, sec. 7.1;
+    Strogatz, *Nonlinear Dynamics and Chaos*, sec. 4.3). Steps of the parameter fail before it, where the
+    circle's points bunch in the bottleneck. From the last :data:`LOCKING_FIT` circles: ``p/q`` the rational
+    of ``q <= max_denominator`` nearest the last rotation number, approached monotonically; ``lam_c`` the zero
+    of the line through the last two values of ``(rho - p/q)^2``, taken where it lies ahead within
+    :data:`LOCKING_REACH` and the earlier circle lies on the line within :data:`LOCKING_SHAPE` (the law holds as
+    the tongue is approached, not far from it; a rotation number that jumps at the last circle does not).
+    """
+    if len(branch) < LOCKING_FIT:
+        return None
+    lam = np.asarray(branch.parameter[-LOCKING_FIT:], dtype=float)
+    rho = np.array([float(problem.blocks(u)[1]) % 1.0 for u in branch.unknowns[-LOCKING_FIT:]])
+    f = Fraction(float(rho[-1])).limit_denominator(max_denominator)
+    d2 = (rho - float(f)) ** 2
+    way = np.sign(lam[-1] - lam[-2])
+    if way == 0 or not (np.all(np.diff(lam) * way > 0) and np.all(np.diff(d2) < 0)):
+        return None
+    slope = (d2[-1] - d2[-2]) / (lam[-1] - lam[-2])
+    lam_c = float(lam[-1] - d2[-1] / slope)
+    if not 0.0 < (lam_c - lam[-1]) * way <= LOCKING_REACH * max(1.0, abs(float(lam[-1]))):
+        return None
+    line = slope * (lam[:-2] - lam_c)
+    if not np.all((line > d2[:-2] / LOCKING_SHAPE) & (line < LOCKING_SHAPE * d2[:-2])):
+        return None
+    return f, lam_c
 
 
 @dataclasses.dataclass(frozen=True)
@@ -367,8 +425,9 @@ LOCKED_OFFSETS = (1e-4, 3e-4, 5.6e-4, 1e-3, 2e-3)
 def locked_starts(problem, branch: Branch, starts: int = 11) -> list:
     """First points of the branches of periodic orbits at a circle branch's locking end.
 
-    A little past the last circle, into the tongue (:data:`LOCKED_OFFSETS` in
-    turn, until some are found), :func:`locked_orbits` finds the orbits of
+    At an extrapolated edge of the tongue (:func:`locking_ahead`) and a little
+    past it, then a little past the last circle, into the tongue
+    (:data:`LOCKED_OFFSETS` in turn, until some are found), :func:`locked_orbits` finds the orbits of
     ``q`` forcing periods from ``starts`` of its points; each one starts a
     branch of multiple shooting with ``q`` segments (its problem), its tangent
     the null vector of ``[dR/du dR/dlam]`` pointing on into the tongue.
@@ -384,8 +443,13 @@ def locked_starts(problem, branch: Branch, starts: int = 11) -> list:
     q = Fraction(str(locks[-1].data["rational"])).denominator
     last = float(branch.parameter[-1])
     ahead = float(np.sign(last - float(branch.parameter[0]))) or 1.0  # the branch's way (its last steps zigzag)
-    for offset in LOCKED_OFFSETS:
-        lam = last + ahead * offset * max(1.0, abs(last))
+    # a locking extrapolated ahead of the last circle (locking_ahead) is sought there first
+    edge = locks[-1].data.get("predicted")
+    lams = [] if edge is None else [edge + ahead * offset * max(1.0, abs(edge))
+                                    for offset in (0.0,) + LOCKED_OFFSETS[:3]]
+    lams += [last + ahead * offset * max(1.0, abs(last)) for offset in LOCKED_OFFSETS]
+    orbits = []
+    for lam in lams:
         orbits = locked_orbits(problem, branch.unknowns[-1], lam, q, starts=starts, max_iter=20)
         if orbits:
             break
@@ -395,5 +459,5 @@ def locked_starts(problem, branch: Branch, starts: int = 11) -> list:
         tangent = np.linalg.svd(np.c_[Ju, Jlam])[2][-1]
         tangent *= np.sign(tangent[-1] * ahead) or 1.0
         out.append(BranchStart(o.problem, np.asarray(o.unknowns), lam, tangent, SpecialKind.LOCKING, tangent[:-1],
-                               offset, 1, (np.asarray(o.unknowns), lam)))
+                               abs(lam - last), 1, (np.asarray(o.unknowns), lam)))
     return out

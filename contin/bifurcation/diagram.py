@@ -18,6 +18,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
+from contin.bifurcation.grazing_steps import through_grazing
 from contin.bifurcation.switching import BranchStart, continuation_scales, switch_at
 from contin.bifurcation.torus_branch import TorusContinuation, TorusSettings, run_torus
 from contin.bifurcation.torus_start import torus_start
@@ -348,14 +349,23 @@ def _locked_children(diagram, j: int, lam_range, options, stability, name: str, 
             return False
         if not lam_range[0] <= st.lam <= lam_range[1]:
             continue
+        br.info["end"] = "locking"  # the torus goes on as its locked orbits' branches: an end as asked
         k = len(diagram)
         su, sl = continuation_scales(None, options, st.u)
-        child, mon = _run(st, lam_range, options, stability, name, su, sl, cb_for(k, st.problem),
-                          ck_for(k, st.problem), previous.get(k))
+        child, mon = _run(st, lam_range, _orbit_options(options, st.problem), stability, name, su, sl,
+                          cb_for(k, st.problem), ck_for(k, st.problem), previous.get(k))
         if mon is not None:
             _record_stability(child, mon)
         diagram.add(child, st, j, lock, mon, br.info.get("depth", 1) + 1)
     return True
+
+
+def _orbit_options(options: ContinuationOptions, problem) -> ContinuationOptions:
+    """The continuation options of a locked torus's orbit branch: the torus's, whose ``ds_min`` ends the steps of
+    circles, with the engine's ``ds_min`` and, for a model with contacts, the step limits through grazing
+    corners (:func:`~contin.bifurcation.grazing_steps.through_grazing`)."""
+    opts = options.replace(ds_min=min(options.ds_min, ContinuationOptions().ds_min))
+    return through_grazing(opts) if getattr(problem, "n_switch", 0) else opts
 
 
 def _shooting_pd(prob, sp: SpecialPoint, failed: list) -> list:

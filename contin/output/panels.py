@@ -146,6 +146,8 @@ _LEGEND_PLACES = ("upper left", "upper right", "lower left", "lower right", "cen
                   "upper center", "lower center")
 #: a special point's marker hidden under the legend counts as this much hidden curve (pixels)
 _MARKER_WEIGHT = 20.0
+#: the gap (points) between the special points' table and a legend put under it
+_LEGEND_GAP = 24.0
 
 
 def _hidden(ax, box) -> float:
@@ -172,7 +174,7 @@ def _hidden(ax, box) -> float:
 def _legend_panel(fig, column, entries):
     """The panel of ``column`` (the whole-range panels, top first) and the place in it where the legend of
     ``entries`` hides the least of the curves (:func:`_hidden`; the first of equals in :data:`_LEGEND_PLACES`
-    and from the top); the legend is put there."""
+    and from the top); the legend is put there. Returns the panel and the length hidden."""
     probe = column[0].legend(handles=entries, loc="upper right")
     renderer = laid_out_renderer(fig)
     lb, ab = probe.get_window_extent(renderer), column[0].get_window_extent(renderer)
@@ -188,7 +190,24 @@ def _legend_panel(fig, column, entries):
             if best is None or score < best[0]:
                 best = (score, ax, place)
     best[1].legend(handles=entries, loc=best[2])
-    return best[1]
+    return best[1], best[0]
+
+
+def _legend_below_table(fig, holder, rows, entries) -> bool:
+    """Put the legend of ``entries`` under the special points' table (``rows``, beside ``holder``) where the
+    figure has room for it there; True if it was put there."""
+    renderer = laid_out_renderer(fig)
+    bottom = min(text.get_window_extent(renderer).y0 for _, name, _ in rows for text in (name,))
+    left = holder.get_window_extent(renderer).x1
+    to_fig = fig.transFigure.inverted()
+    x, y = to_fig.transform((left, bottom - 0.5 * _LEGEND_GAP * fig.dpi / 72.0))
+    legend = fig.legend(handles=entries, loc="upper left", bbox_to_anchor=(x, y), bbox_transform=fig.transFigure,
+                        frameon=False)
+    box, frame = legend.get_window_extent(renderer), fig.bbox
+    if box.y0 >= frame.y0 and box.x1 <= frame.x1:
+        return True
+    legend.remove()
+    return False
 
 
 def draw_panels(fig, panels, parameter: str, *, zoom: ZoomWindow | None = None, units=None, labels=None,
@@ -273,24 +292,29 @@ def draw_panels(fig, panels, parameter: str, *, zoom: ZoomWindow | None = None, 
     if table and entries and len(listed) < len(union):
         entries = entries + [Line2D([], [], label=kind_name(k), **{**point_marker(k, True), "linestyle": "none"})
                              for k in dict.fromkeys(sp["kind"] for sp in union.values() if sp["kind"] in UNNUMBERED)]
-    home = axes[0, 0]
+    numbered = table and union and listed
+    if numbered:
+        number = {sp["_k"]: n + 1 for n, sp in enumerate(listed)}
+        for i, (ax, points, ms) in enumerate(drawn):
+            points = [sp for sp in points if sp["_k"] in number]
+            drawn[i] = (ax, points, ms)
+            for sp in points:
+                sp["number"] = number[sp["_k"]]
+        if short_names is None:
+            short_names = fig.get_size_inches()[0] < 5.0
+        # the table first (it narrows the axes), then the legend and the numbers from the final layout, then the
+        # table's rows
+        rows_ = special_table(holder, listed, parameter, symbols, short_names, units)
+    home, legend = axes[0, 0], None
     if entries:
-        home = _legend_panel(fig, axes[:, 0], entries)
+        home, hidden = _legend_panel(fig, axes[:, 0], entries)
         legend = home.get_legend()
-    if not table or not union:
+        # where every place in the panels hides some curve, under the table if the figure has room there
+        if hidden > 0 and numbered and _legend_below_table(fig, holder, rows_, entries):
+            legend.remove()
+            home, legend = None, None
+    if not numbered:
         return axes
-    number = {sp["_k"]: n + 1 for n, sp in enumerate(listed)}
-    for i, (ax, points, ms) in enumerate(drawn):
-        points = [sp for sp in points if sp["_k"] in number]
-        drawn[i] = (ax, points, ms)
-        for sp in points:
-            sp["number"] = number[sp["_k"]]
-    if not listed:
-        return axes
-    if short_names is None:
-        short_names = fig.get_size_inches()[0] < 5.0
-    # the table first (it narrows the axes), then the numbers from the final layout, then the table's rows
-    rows_ = special_table(holder, listed, parameter, symbols, short_names, units)
     renderer = laid_out_renderer(fig)  # the final layout (the numbers take no room in it): run once for every panel
     for ax, points, ms in drawn:
         shown = _visible(ax, points)

@@ -64,6 +64,48 @@ def test_a_stalled_branch_at_a_small_rational_rotation_number_is_locking():
     assert br.status is BranchStatus.STEP_TOO_SMALL
 
 
+def _fake_branch(prob, points, spread=4.0):
+    """A circle branch ending ``step_too_small`` through ``points`` ``(lam, rho)`` (the circles are stand-ins)."""
+    b = BranchBuilder("w", prob.size)
+    for k, (lam, rho) in enumerate(points):
+        u = prob.unknowns(np.full((prob.points, 2), 1.0) + np.arange(prob.points)[:, None], rho)
+        b.append_point(u, lam, np.r_[np.zeros(prob.size), 1.0], k * 1e-3, 3, 1e-3, 1e-12, {"circle_spread": spread})
+    return b.finish(BranchStatus.STEP_TOO_SMALL, "step size fell below ds_min")
+
+
+def _square_root_law(lams, lam_c, c, rational=0.5, below=True):
+    """``(lam, rho)`` with ``(rho - p/q)^2 = c |lam_c - lam|``: the approach to a tongue's edge."""
+    return [(lam, rational + (-1 if below else 1) * np.sqrt(c * abs(lam_c - lam))) for lam in lams]
+
+
+@pytest.mark.parametrize("way", [1, -1])
+def test_a_rotation_number_heading_for_a_rational_as_a_square_root_locks_ahead(way):
+    """The steps fail 1e-3 before the tongue's edge, 4.5e-3 from 1/2 (beyond the tolerance of a locking at the
+    last circle): the line through the last two squared distances puts the edge at lam_c, exactly for the law."""
+    from contin.bifurcation.circle_branch import locking_ahead
+
+    prob = InvariantCircleProblem(vdp_model(), "w", options=CircleOptions(points=5, steps_per_period=64))
+    lam_c = 1.0 + way * 1e-3
+    pts = _square_root_law([1.0 - way * 4e-3, 1.0 - way * 2e-3, 1.0], lam_c, 0.02025)
+    br = _fake_branch(prob, pts)
+    f, found = locking_ahead(br, prob)
+    assert f == Fraction(1, 2) and found == pytest.approx(lam_c, abs=1e-12)
+    classify_circle_end(br, prob)
+    assert br.status is BranchStatus.BOUNDARY and "as the square root of the distance to w=" in br.message
+    lock = br.special_points[-1]
+    assert lock.kind is SpecialKind.LOCKING and lock.parameter == pytest.approx(lam_c, abs=1e-12)
+    assert lock.data["predicted"] == lock.parameter and lock.data["rational"] == "1/2"
+    # too far ahead, or a jump at the last circle (the earlier one 1.75 times above the line), or not closing
+    # in: the engine's end stands
+    for pts in (_square_root_law([1.0 - way * 4e-3, 1.0 - way * 2e-3, 1.0], 1.0 + way * 0.01, 0.002),
+                [(1.0 - way * 4e-3, 0.480), (1.0 - way * 2e-3, 0.481), (1.0, 0.4955)],
+                [(1.0 - way * 4e-3, 0.4955), (1.0 - way * 2e-3, 0.4931), (1.0, 0.490)]):
+        br = _fake_branch(prob, pts)
+        assert locking_ahead(br, prob) is None
+        classify_circle_end(br, prob)
+        assert br.status is BranchStatus.STEP_TOO_SMALL
+
+
 def test_locked_orbits_finds_the_period_two_orbit_of_a_ring_and_its_half_turn():
     """The damped Mathieu-Duffing oscillator in its principal tongue (x'' + 0.05 x' + (1/4 + 0.2 cos t) x + x^3 = 0)
     has a stable orbit of two forcing periods whose states at t = kT alternate z, -z (the equation is symmetric
@@ -198,4 +240,17 @@ def test_a_locked_circle_starts_the_branches_of_its_orbits():
     assert len(d) == 2 and d.parents[1] == 0 and d.branches[1].info["origin"]["kind"] == "locking"
     child, orbit = d.branches[1], d.problems[1]
     assert len(child) == 8 and child.parameter[-1] < st.lam  # on into the tongue
+
+    # a branch whose steps stopped short of the tongue (4.5e-3 from 1/2, the edge extrapolated to w = 0.999):
+    # the orbit is sought at the edge first
+    b = BranchBuilder("w", prob.size)
+    for k, (w, rho) in enumerate(_square_root_law([1.004, 1.002, 1.0], 0.999, 0.02025)):
+        b.append_point(prob.unknowns(U, rho), w, np.r_[np.zeros(prob.size), -1.0], k * 1e-3, 3, 1e-3, 1e-12,
+                       {"circle_spread": 0.1})
+    br = b.finish(BranchStatus.STEP_TOO_SMALL, "step size fell below ds_min")
+    classify_circle_end(br, prob)
+    assert br.special_points[-1].kind is SpecialKind.LOCKING and "predicted" in br.special_points[-1].data
+    (st,) = locked_starts(prob, br)
+    assert st.lam == pytest.approx(0.999, abs=1e-12) and st.eps == pytest.approx(1e-3, abs=1e-12)
+    np.testing.assert_allclose(st.u.reshape(2, 2)[1], -st.u.reshape(2, 2)[0], atol=1e-8)
     assert all(np.abs(orbit.residual(u, w)).max() < 1e-8 for u, w in zip(child.unknowns, child.parameter))

@@ -73,3 +73,27 @@ def test_cycles_tells_a_cycle_from_slow_convergence():
     assert cycles([1.0, 0.5, 0.8, 0.4, 0.9])
     assert not cycles([1.0, 0.9, 0.8, 0.7, 0.6])
     assert not cycles([1.0, 2.0, 0.5])
+
+
+class Cycling:
+    """``u^3 - 2u + 2 = 0`` (any ``lam``): Newton from ``u = 0`` cycles between 0 and 1 (residuals 2, 1, 2, ...)."""
+
+    def __init__(self, jacobian_cost):
+        self.jacobian_cost = jacobian_cost
+
+    def residual(self, u, lam):
+        return np.array([u[0] ** 3 - 2.0 * u[0] + 2.0])
+
+    def linearize(self, u, lam):
+        return self.residual(u, lam), np.array([[3.0 * u[0] ** 2 - 2.0]]), np.zeros(1)
+
+
+@pytest.mark.parametrize("cost, retried", [(1.0, 1), (10.0, 0)])
+def test_a_cycling_corrector_is_retried_with_halving_unless_its_jacobian_is_lazy(cost, retried):
+    c = Corrector(ContinuationOptions(), "lambda", 1)
+    c.sp = ScaledProblem(Cycling(cost), 1, np.ones(1), 1.0)
+    assert c.sp.lazy is (cost >= 3.0)
+    first = c.fixed_solve(0.0, np.zeros(1))
+    assert c.n_backtracked == retried
+    if not retried:  # the plain solve's cycle is the result: the step is retried shorter by the engine
+        assert not first.converged and cycles(first.residual_history)

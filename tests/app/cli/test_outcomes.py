@@ -49,10 +49,16 @@ def test_shortfalls_name_every_branch_that_gave_up_and_every_switch_without_a_br
             {"branch": 1, "nu": 2, "points": 7, "status": "step_too_small", "message": "ds fell",
              "uncovered": [2.1, 2.6]},
             {"branch": 2, "nu": 2, "points": 9, "status": "turned_back", "message": "turned", "uncovered": [2.2, 2.6]},
-            {"branch": 3, "nu": 2, "points": 5, "status": "boundary", "message": "grazing", "uncovered": None}]
+            {"branch": 3, "nu": 2, "points": 5, "status": "boundary", "message": "grazing", "uncovered": None},
+            # a torus that locked and goes on as its orbits' branches; one that locked with none
+            {"branch": 4, "nu": 1, "points": 4, "status": "boundary", "message": "locks", "uncovered": [2.14, 2.6],
+             "end": "locking"},
+            {"branch": 5, "nu": 1, "points": 4, "status": "boundary", "message": "locks", "uncovered": [2.15, 2.6],
+             "method": "shooting"}]
     failed = [{"parent": 0, "kind": "pd", "parameter": 2.2, "side": -1, "message": "no first point"}]
     out = shortfalls(info, "w", failed)
     assert out == ["branch 1 (nu=2) ended step_too_small after 7 points: ds fell; w in [2.1, 2.6] not covered",
+                   "branch 5 (nu=1) stopped at a point it cannot pass (locks); w in [2.15, 2.6] not covered",
                    "no branch switched from branch 0 at its pd point w=2.2 (side -1): no first point"]
 
 
