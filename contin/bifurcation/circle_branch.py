@@ -49,9 +49,9 @@ from contin.timedomain.multiple_shooting import ShootingOptions, ShootingProblem
 from contin.timedomain.torus_check import check_circle
 
 __all__ = ["CHECK_PERIODS", "FLIP_SPREAD", "LOCKING_FIT", "LOCKING_REACH", "LOCKING_SHAPE", "LOCKING_TOL",
-           "LYAPUNOV_PERIODS", "MAX_DENOMINATOR", "CircleStabilityMonitor", "CircleStart", "LOCKED_OFFSETS",
-           "LockedOrbit", "circle_child_start", "circle_spread", "classify_circle_end", "follow_circle",
-           "locked_orbits", "locked_starts", "locking_ahead"]
+           "LYAPUNOV_PERIODS", "MAX_DENOMINATOR", "PAIR_MULTIPLIER", "CircleStabilityMonitor", "CircleStart",
+           "LOCKED_OFFSETS", "LockedOrbit", "circle_child_start", "circle_spread", "classify_circle_end",
+           "follow_circle", "locked_orbits", "locked_starts", "locking_ahead"]
 
 #: a flip counts as the collapse where the circle is this small against its largest (elsewhere it would be the
 #: parametrisation turning, not the circle shrinking)
@@ -430,7 +430,10 @@ def locked_starts(problem, branch: Branch, starts: int = 11) -> list:
     (:data:`LOCKED_OFFSETS` in turn, until some are found), :func:`locked_orbits` finds the orbits of
     ``q`` forcing periods from ``starts`` of its points; each one starts a
     branch of multiple shooting with ``q`` segments (its problem), its tangent
-    the null vector of ``[dR/du dR/dlam]`` pointing on into the tongue.
+    the null vector of ``[dR/du dR/dlam]`` pointing on into the tongue. Where
+    they are the node and the saddle born together at the tongue's edge, the
+    node starts two branches instead, one on into the tongue and one back to
+    the edge, where it folds (the edge, located) onto the saddle's branch.
 
     Returns
     -------
@@ -453,11 +456,45 @@ def locked_starts(problem, branch: Branch, starts: int = 11) -> list:
         orbits = locked_orbits(problem, branch.unknowns[-1], lam, q, starts=starts, max_iter=20)
         if orbits:
             break
+    # the two orbits born together at the tongue's edge: the node's branch goes on into the tongue and back
+    # out to the edge, where it folds onto the saddle's (the edge located as that fold)
+    pair = _saddle_node_pair(orbits)
+    plan = [(pair[0], ahead), (pair[0], -ahead)] if pair else [(o, ahead) for o in orbits]
     out = []
-    for o in orbits:
+    for o, way in plan:
         _, Ju, Jlam = o.problem.linearize(o.unknowns, lam)
         tangent = np.linalg.svd(np.c_[Ju, Jlam])[2][-1]
-        tangent *= np.sign(tangent[-1] * ahead) or 1.0
+        tangent *= np.sign(tangent[-1] * way) or 1.0
         out.append(BranchStart(o.problem, np.asarray(o.unknowns), lam, tangent, SpecialKind.LOCKING, tangent[:-1],
-                               abs(lam - last), 1, (np.asarray(o.unknowns), lam)))
+                               abs(lam - last), int(way * ahead), (np.asarray(o.unknowns), lam)))
     return out
+
+
+#: a locked orbit's multiplier this close to +1 is the one of the saddle-node it was born in
+PAIR_MULTIPLIER = 0.1
+
+
+def _saddle_node_pair(orbits) -> tuple | None:
+    """``(node, saddle)`` where ``orbits`` are the two born in one saddle-node at a tongue's edge, else None: the
+    saddle with one multiplier outside the unit circle, real and within :data:`PAIR_MULTIPLIER` of +1, the node
+    with none outside and a real one within :data:`PAIR_MULTIPLIER` of +1."""
+    if len(orbits) != 2:
+        return None
+
+    def near_one(mu):
+        return (np.abs(mu.imag) < 1e-9) & (np.abs(mu.real - 1.0) < PAIR_MULTIPLIER)
+
+    kinds = []
+    for o in orbits:
+        mu = np.asarray(o.multipliers, dtype=complex)
+        outside = np.abs(mu) > 1.0
+        if not outside.any() and near_one(mu).any():
+            kinds.append("node")
+        elif outside.sum() == 1 and near_one(mu[outside]).all():
+            kinds.append("saddle")
+        else:
+            return None
+    if sorted(kinds) != ["node", "saddle"]:
+        return None
+    node = kinds.index("node")
+    return orbits[node], orbits[1 - node]

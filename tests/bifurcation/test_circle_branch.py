@@ -106,6 +106,22 @@ def test_a_rotation_number_heading_for_a_rational_as_a_square_root_locks_ahead(w
         assert br.status is BranchStatus.STEP_TOO_SMALL
 
 
+def test_the_node_and_the_saddle_born_at_a_tongues_edge_are_told_by_their_multipliers():
+    """The rotor's two orbits of two periods 1e-3 into its 1:2 tongue (multipliers as measured there, rounded):
+    the node with all inside the unit circle and 0.952 near +1, the saddle with 1.078 alone outside."""
+    from types import SimpleNamespace
+
+    from contin.bifurcation.circle_branch import _saddle_node_pair
+
+    saddle = SimpleNamespace(multipliers=np.array([1.0782, 0.96497, 0.38565 + 0.86715j, 0.38565 - 0.86715j, 2e-3]))
+    node = SimpleNamespace(multipliers=np.array([0.32606 + 0.93142j, 0.32606 - 0.93142j, 0.95184, 0.89635, -2e-3]))
+    assert _saddle_node_pair([saddle, node]) == (node, saddle)
+    far = SimpleNamespace(multipliers=np.array([1.5, 0.5, 0.1]))  # unstable, but not near the saddle-node
+    two_nodes = [node, SimpleNamespace(multipliers=np.array([0.97, 0.2]))]
+    for orbits in ([far, node], two_nodes, [node], [saddle, node, node]):
+        assert _saddle_node_pair(orbits) is None
+
+
 def test_locked_orbits_finds_the_period_two_orbit_of_a_ring_and_its_half_turn():
     """The damped Mathieu-Duffing oscillator in its principal tongue (x'' + 0.05 x' + (1/4 + 0.2 cos t) x + x^3 = 0)
     has a stable orbit of two forcing periods whose states at t = kT alternate z, -z (the equation is symmetric
@@ -194,7 +210,7 @@ def test_orbits_of_fewer_periods_are_not_taken_for_a_locking():
     assert len(ones) == 1 and np.max(np.abs(ones[0].unknowns - z)) < 1e-6
 
 
-def test_a_locked_circle_starts_the_branches_of_its_orbits():
+def test_a_locked_circle_starts_the_branches_of_its_orbits(monkeypatch):
     """A circle branch of the damped Mathieu-Duffing oscillator that ends locked at 1/2 (the ring of the test
     above, its end told by classify_circle_end): locked_starts gives the first point of the orbit of two periods
     (the trivial orbit, of one period, is left out), on its multiple shooting of two segments, with a tangent
@@ -253,4 +269,17 @@ def test_a_locked_circle_starts_the_branches_of_its_orbits():
     (st,) = locked_starts(prob, br)
     assert st.lam == pytest.approx(0.999, abs=1e-12) and st.eps == pytest.approx(1e-3, abs=1e-12)
     np.testing.assert_allclose(st.u.reshape(2, 2)[1], -st.u.reshape(2, 2)[0], atol=1e-8)
+
+    # where the orbits found are a node and a saddle born together at the edge (their multipliers made so
+    # here), the node's branch is started twice: on into the tongue and back to the edge
+    import contin.bifurcation.circle_branch as cb
+
+    found = cb.locked_orbits(prob, br.unknowns[-1], 0.999, 2)
+    o = [f for f in found if np.max(np.abs(f.unknowns)) > 1e-6][0]
+    node = cb.LockedOrbit(o.problem, o.unknowns, o.rotation, o.distance, np.array([0.95, 0.5]))
+    saddle = cb.LockedOrbit(o.problem, -o.unknowns, o.rotation, o.distance, np.array([1.07, 0.5]))
+    monkeypatch.setattr(cb, "locked_orbits", lambda *a, **k: [saddle, node])
+    into, back = locked_starts(prob, br)
+    assert np.array_equal(into.u, node.unknowns) and np.array_equal(back.u, node.unknowns)
+    assert into.tangent[-1] < 0.0 < back.tangent[-1] and (into.side, back.side) == (1, -1)
     assert all(np.abs(orbit.residual(u, w)).max() < 1e-8 for u, w in zip(child.unknowns, child.parameter))
