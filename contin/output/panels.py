@@ -146,19 +146,24 @@ _LEGEND_PLACES = ("upper left", "upper right", "lower left", "lower right", "cen
                   "upper center", "lower center")
 #: a special point's marker hidden under the legend counts as this much hidden curve (pixels)
 _MARKER_WEIGHT = 20.0
+#: the room (points) around a legend where a special point's marker counts as hidden: its number's label
+#: would have to go elsewhere, often far, with a long leader line
+_LABEL_ROOM = 14.0
 #: the gap (points) between the special points' table and a legend put under it
 _LEGEND_GAP = 24.0
 
 
 def _hidden(ax, box) -> float:
     """The length (pixels) of the curves of ``ax`` inside the display box ``(x0, y0, x1, y1)``, markers
-    counted as :data:`_MARKER_WEIGHT` each."""
+    counted as :data:`_MARKER_WEIGHT` each within :data:`_LABEL_ROOM` of it (their number labels need the room)."""
     x0, y0, x1, y1 = box
+    room = _LABEL_ROOM * ax.figure.dpi / 72.0
     length = 0.0
     for line in ax.get_lines():
         xy = ax.transData.transform(np.asarray(line.get_xydata(), dtype=float))
         if line.get_linestyle() in ("None", "none", "") or len(xy) < 2:  # markers (NaN compares False: outside)
-            inside = (xy[:, 0] >= x0) & (xy[:, 0] <= x1) & (xy[:, 1] >= y0) & (xy[:, 1] <= y1)
+            inside = ((xy[:, 0] >= x0 - room) & (xy[:, 0] <= x1 + room) & (xy[:, 1] >= y0 - room)
+                      & (xy[:, 1] <= y1 + room))
             length += _MARKER_WEIGHT * float(np.sum(inside))
             continue
         a, b = xy[:-1], xy[1:]
@@ -195,16 +200,14 @@ def _legend_panel(fig, column, entries):
 
 def _legend_below_table(fig, holder, rows, entries) -> bool:
     """Put the legend of ``entries`` under the special points' table (``rows``, beside ``holder``) where the
-    figure has room for it there; True if it was put there."""
+    figure has room for it there (the layout widens the table's column for a wider legend); True if it was put
+    there."""
     renderer = laid_out_renderer(fig)
-    bottom = min(text.get_window_extent(renderer).y0 for _, name, _ in rows for text in (name,))
-    left = holder.get_window_extent(renderer).x1
-    to_fig = fig.transFigure.inverted()
-    x, y = to_fig.transform((left, bottom - 0.5 * _LEGEND_GAP * fig.dpi / 72.0))
-    legend = fig.legend(handles=entries, loc="upper left", bbox_to_anchor=(x, y), bbox_transform=fig.transFigure,
-                        frameon=False)
-    box, frame = legend.get_window_extent(renderer), fig.bbox
-    if box.y0 >= frame.y0 and box.x1 <= frame.x1:
+    bottom = min(name.get_window_extent(renderer).y0 for _, name, _ in rows)
+    frame = holder.get_window_extent(renderer)
+    y = (bottom - _LEGEND_GAP * fig.dpi / 72.0 - frame.y0) / frame.height
+    legend = holder.legend(handles=entries, loc="upper left", bbox_to_anchor=(1.0, y), frameon=False)
+    if legend.get_window_extent(laid_out_renderer(fig)).y0 >= fig.bbox.y0:
         return True
     legend.remove()
     return False

@@ -87,16 +87,18 @@ def _groups(branches) -> list:
     labels = []
     for g in out:
         br = branches[g[0]]
+        ids = list(dict.fromkeys(str(branches[i].get("id", i)) for i in g))
+        which = f" (branch {ids[0]})" if len(ids) == 1 else f" (branches {', '.join(ids)})"
         if "label" in br:
             labels.append(br["label"] or None)
         elif br.get("torus"):
             shared = sum(bool(branches[h[0]].get("torus")) for h in out) > 1
-            labels.append("quasi-periodic" + (f" (branch {br.get('id', g[0])})" if shared else ""))
+            labels.append("quasi-periodic" + (which if shared else ""))
         elif br.get("nu") is None:
             labels.append(f"branch {br.get('id', g[0])}")
         else:
             shared = sum(branches[h[0]].get("nu") == br["nu"] and not branches[h[0]].get("torus") for h in out) > 1
-            labels.append(branch_label(br["nu"]) + (f" (branch {br.get('id', g[0])})" if shared else ""))
+            labels.append(branch_label(br["nu"]) + (which if shared else ""))
     return list(zip(labels, out))
 
 
