@@ -36,9 +36,6 @@ SECANT_MONOTONE = 1e-3
 NEWTON_STALL = 3
 #: Step halvings of the retry of a cycling corrector.
 BACKTRACK_HALVINGS = 4
-#: Whether a cycling corrector with a lazy Jacobian (shooting) is retried with step halving: seldom
-#: worth its flows, which a shorter step spends better (docs/benchmarks.md).
-RETRY_LAZY = False
 
 #: Newton updates of a solve expected to fail where there is no solution (beyond a barrier), and
 #: its stall limit.
@@ -198,14 +195,15 @@ class Corrector:
         a failure. A lazy Jacobian (shooting) is not retried: its residual is
         the flow map, piecewise smooth only where the step crosses a grazing
         corner, which a shorter step passes (the engine's corner step) and
-        halved updates seldom do (:data:`RETRY_LAZY`).
+        halved updates seldom do, at the cost of more flows
+        (docs/benchmarks.md).
         """
         opt = self.opt
         res = newton(fun_and_jac, guess, opt.newton_tol, opt.newton_max_iter, stall=NEWTON_STALL, **kw)
         self.n_newton += res.iterations
         if res.converged or res.singular or not cycles(res.residual_history):
             return res
-        if "residual" in kw and not RETRY_LAZY:
+        if "residual" in kw:  # a lazy Jacobian
             return res
         self.n_backtracked += 1
         res = newton(fun_and_jac, guess, opt.newton_tol, opt.newton_max_iter, backtrack=BACKTRACK_HALVINGS,

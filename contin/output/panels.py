@@ -295,7 +295,7 @@ def draw_panels(fig, panels, parameter: str, *, zoom: ZoomWindow | None = None, 
     if table and entries and len(listed) < len(union):
         entries = entries + [Line2D([], [], label=kind_name(k), **{**point_marker(k, True), "linestyle": "none"})
                              for k in dict.fromkeys(sp["kind"] for sp in union.values() if sp["kind"] in UNNUMBERED)]
-    numbered = table and union and listed
+    numbered = bool(table and union and listed)
     if numbered:
         number = {sp["_k"]: n + 1 for n, sp in enumerate(listed)}
         for i, (ax, points, ms) in enumerate(drawn):
