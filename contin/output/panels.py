@@ -179,7 +179,8 @@ def _hidden(ax, box) -> float:
 def _legend_panel(fig, column, entries):
     """The panel of ``column`` (the whole-range panels, top first) and the place in it where the legend of
     ``entries`` hides the least of the curves (:func:`_hidden`; the first of equals in :data:`_LEGEND_PLACES`
-    and from the top); the legend is put there. Returns the panel and the length hidden."""
+    and from the top); the legend is put there. Returns the panel, the length hidden and the renderer of the
+    layout (a legend inside a panel leaves it as it is)."""
     probe = column[0].legend(handles=entries, loc="upper right")
     renderer = laid_out_renderer(fig)
     lb, ab = probe.get_window_extent(renderer), column[0].get_window_extent(renderer)
@@ -195,22 +196,22 @@ def _legend_panel(fig, column, entries):
             if best is None or score < best[0]:
                 best = (score, ax, place)
     best[1].legend(handles=entries, loc=best[2])
-    return best[1], best[0]
+    return best[1], best[0], renderer
 
 
-def _legend_below_table(fig, holder, rows, entries) -> bool:
-    """Put the legend of ``entries`` under the special points' table (``rows``, beside ``holder``) where the
-    figure has room for it there (the layout widens the table's column for a wider legend); True if it was put
-    there."""
-    renderer = laid_out_renderer(fig)
+def _legend_below_table(fig, holder, rows, entries, renderer):
+    """Put the legend of ``entries`` under the special points' table (``rows``, beside ``holder``; ``renderer``
+    of the figure's layout as it stands) where the figure has room for it there (the layout widens the table's
+    column for a wider legend); the renderer of the new layout if it was put there, else None."""
     bottom = min(name.get_window_extent(renderer).y0 for _, name, _ in rows)
     frame = holder.get_window_extent(renderer)
     y = (bottom - _LEGEND_GAP * fig.dpi / 72.0 - frame.y0) / frame.height
     legend = holder.legend(handles=entries, loc="upper left", bbox_to_anchor=(1.0, y), frameon=False)
-    if legend.get_window_extent(laid_out_renderer(fig)).y0 >= fig.bbox.y0:
-        return True
+    renderer = laid_out_renderer(fig)
+    if legend.get_window_extent(renderer).y0 >= fig.bbox.y0:
+        return renderer
     legend.remove()
-    return False
+    return None
 
 
 def draw_panels(fig, panels, parameter: str, *, zoom: ZoomWindow | None = None, units=None, labels=None,
@@ -308,17 +309,20 @@ def draw_panels(fig, panels, parameter: str, *, zoom: ZoomWindow | None = None, 
         # the table first (it narrows the axes), then the legend and the numbers from the final layout, then the
         # table's rows
         rows_ = special_table(holder, listed, parameter, symbols, short_names, units)
-    home, legend = axes[0, 0], None
+    home, legend, renderer = axes[0, 0], None, None
     if entries:
-        home, hidden = _legend_panel(fig, axes[:, 0], entries)
+        home, hidden, laid_out = _legend_panel(fig, axes[:, 0], entries)
         legend = home.get_legend()
         # where every place in the panels hides some curve, under the table if the figure has room there
-        if hidden > 0 and numbered and _legend_below_table(fig, holder, rows_, entries):
-            legend.remove()
-            home, legend = None, None
+        if hidden > 0 and numbered:
+            renderer = _legend_below_table(fig, holder, rows_, entries, laid_out)
+            if renderer is not None:
+                legend.remove()
+                home, legend = None, None
     if not numbered:
         return axes
-    renderer = laid_out_renderer(fig)  # the final layout (the numbers take no room in it): run once for every panel
+    if renderer is None:  # the final layout (the numbers take no room in it): run once for every panel
+        renderer = laid_out_renderer(fig)
     for ax, points, ms in drawn:
         shown = _visible(ax, points)
         if shown:
