@@ -20,11 +20,11 @@ import numpy as np
 
 from contin.analyses.shooting_rows import is_shooting, shooting_problem, unknowns_from_state
 from contin.bifurcation.end_check import barrier_point
-from contin.bifurcation.grazing_steps import GRAZING_TURN, through_grazing
+from contin.bifurcation.grazing_steps import through_grazing
 from contin.engine.branch import BranchStatus
 from contin.stability import orbit_state
 
-__all__ = ["GRAZING_TURN", "HANDOVER_AGREEMENT", "HANDOVER_BACK", "boundary_gap", "hand_over", "handover_start"]
+__all__ = ["HANDOVER_AGREEMENT", "HANDOVER_BACK", "boundary_gap", "hand_over", "handover_start"]
 
 
 def _direction(branch) -> int:

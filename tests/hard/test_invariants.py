@@ -24,7 +24,7 @@ from conftest import fuzz_examples
 
 import contin
 from contin.analyses.frequency_response import build_problem, engine_problem, start_scenes
-from contin.analyses.handover import GRAZING_TURN
+from contin.bifurcation.grazing_steps import GRAZING_TURN
 from contin.engine.branch import BranchBuilder, BranchStatus
 from contin.model.catalog import build_model
 from contin.output.checkpoint import read_records, rebuild_branches
