@@ -34,7 +34,8 @@ from contin.analyses.shooting_rows import order_of, shooting_start
 from contin.bifurcation.shooting_curve_system import ShootingCurveProblem
 from contin.bifurcation.two_parameter import special_point_kind, trace_curve
 from contin.scene.parse import scene_from_data
-from contin.timedomain.multiple_shooting import ShootingOptions, ShootingProblem
+from contin.timedomain.multiple_shooting import ShootingProblem
+from contin.timedomain.shooting_options import ShootingOptions
 from contin.timedomain.simulation import SimulationError
 
 __all__ = ["response_plan", "run_shooting_curves", "curve_start"]

@@ -171,9 +171,10 @@ def run_serial(options, todo, tasks, index, report, total, done, timings, warm):
 
 
 def _worker_env() -> dict:
-    # the workers fill the cores: no second process compiling a run's kernels ahead (contin.app.compile_ahead)
+    # the workers fill the cores: no second process compiling a run's kernels ahead (contin.app.compile_ahead),
+    # and one thread for the flows (contin.util.workers)
     return {"MPLBACKEND": "Agg", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
-            "CONTIN_COMPILE_AHEAD": "0"}
+            "CONTIN_COMPILE_AHEAD": "0", "CONTIN_THREADS": "1"}
 
 
 @contextlib.contextmanager

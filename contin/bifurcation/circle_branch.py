@@ -45,7 +45,8 @@ from contin.engine.continuation import ContinuationOptions, continuation
 from contin.engine.problem import solve_at
 from contin.timedomain.invariant_circle import (CircleOptions, InvariantCircleProblem, circle_lyapunov, circle_start,
                                                point_jacobians)
-from contin.timedomain.multiple_shooting import ShootingOptions, ShootingProblem
+from contin.timedomain.multiple_shooting import ShootingProblem
+from contin.timedomain.shooting_options import ShootingOptions
 from contin.timedomain.torus_check import check_circle
 
 __all__ = ["CHECK_PERIODS", "FLIP_SPREAD", "LOCKING_FIT", "LOCKING_REACH", "LOCKING_SHAPE", "LOCKING_TOL",

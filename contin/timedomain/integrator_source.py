@@ -21,7 +21,7 @@ INTEGRATOR = '''
 @njit(cache=True, error_model="numpy", inline="always")
 def _step(y, tau0, dtau, hs, p, Minv, C, K, cst, mode, X, V, TAU, F, DUM, R, k1, k2, k3, k4, yt, out):
     # one classical RK4 step of length hs (phase advance dtau) in the frozen mode
-    n2 = y.shape[0]
+    n2 = 2 * N
     rhs(y, tau0, p, Minv, C, K, cst, mode, X, V, TAU, F, DUM, R, k1)
     for i in range(n2):
         yt[i] = y[i] + 0.5 * hs * k1[i]
@@ -136,7 +136,7 @@ def _probe(y, tau0, dtau, hs, p, Minv, C, K, cst, mode, X, V, TAU, F, DUM, R, ka
     # A turn predicted past a surface (_dip marked its functions crossed): RK4 trials from y in the frozen mode at
     # the turn, refined by the cubic on the part of the step where the slope changes sign (up to four trials).
     # Returns the fraction of a trial past the surface (its state in yb, switching values in sb), or -1.
-    n2 = y.shape[0]
+    n2 = 2 * N
     x = _dip(tx, tv, mode, crossed)
     if x <= 0.0:
         return -1.0
@@ -189,11 +189,11 @@ def _probe(y, tau0, dtau, hs, p, Minv, C, K, cst, mode, X, V, TAU, F, DUM, R, ka
     return -1.0
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def integrate(y, mode, k0, k1, S, h, p, Minv, C, K, cst, locate, max_events, rec_start, rec_every,
               out_y, sec_y, stats):
     """Steps k0..k1-1 in place on y (2n,) and mode (NS,); 0 = done, 1 = non-finite state."""
-    n2 = y.shape[0]
+    n2 = 2 * N
     X = np.zeros((1, N))
     V = np.zeros((1, N))
     TAU = np.zeros(1)

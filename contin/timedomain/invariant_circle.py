@@ -47,7 +47,8 @@ import numpy as np
 
 from contin.stability.circle_products import fourier_rows, normal_products
 from contin.timedomain.circle_measures import strongest_winding
-from contin.timedomain.multiple_shooting import VARIATIONAL_COST, ShootingOptions, ShootingProblem
+from contin.timedomain.multiple_shooting import VARIATIONAL_COST, ShootingProblem
+from contin.timedomain.shooting_options import ShootingOptions
 from contin.util.options import from_mapping
 from contin.engine.problem import solve_at
 
@@ -194,7 +195,8 @@ class InvariantCircleProblem:
     def residual(self, u, lam: float) -> np.ndarray:
         """``(r_0, ..., r_{N-1}, r_phase)``, shape (size,)."""
         U, rho = self.blocks(u)
-        images = np.array([self.map.residual(z, lam) + z for z in U])
+        # phi(z) - z + z: the rounding of the map's residual, as the linearisation's images below
+        images = (self.map.flows_many(U, lam, checked=False)[:, 0] - U) + U
         return np.r_[(images - shift_matrix(self.points, rho) @ U).ravel(), self._phase(U)]
 
     def linearize(self, u, lam: float):
@@ -205,8 +207,8 @@ class InvariantCircleProblem:
         Ju = np.zeros((self.size, self.size))
         Jlam = np.zeros(self.size)
         images = np.empty((N, m))
-        for j in range(N):
-            r, Phi, dlam = self.map.linearize(U[j], lam)  # phi(z) - z, Phi - I, dphi/dlam
+        # phi(z) - z, Phi - I, dphi/dlam of every point, their flows in threads
+        for j, (r, Phi, dlam) in enumerate(self.map.linearize_many(U, lam)):
             images[j] = r + U[j]
             Ju[j * m:(j + 1) * m, j * m:(j + 1) * m] = Phi + np.eye(m)
             Jlam[j * m:(j + 1) * m] = dlam
@@ -366,12 +368,12 @@ def point_jacobians(problem: "InvariantCircleProblem", u, lam: float, Ju=None, m
         out = np.stack([Ju[j * m:(j + 1) * m, j * m:(j + 1) * m] for j in range(N)])
         out[:, range(m), range(m)] += diag
     else:
-        out = np.stack([problem.map.flow_jacobian(z, lam)[1] for z in U])
+        out = problem.map.flow_jacobians(U, lam)[1]
     if not midpoints:
         return out
     between = problem.points_on_circle(u, 2.0 * math.pi * (np.arange(N) + 0.5) / N)
     both = np.empty((2 * N, m, m))
-    both[0::2], both[1::2] = out, np.stack([problem.map.flow_jacobian(z, lam)[1] for z in between])
+    both[0::2], both[1::2] = out, problem.map.flow_jacobians(between, lam)[1]
     return both
 
 

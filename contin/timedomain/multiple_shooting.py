@@ -47,6 +47,15 @@ factors of the last linearisations are cached by ``(u, lam)``: the stability
 monitor at a point the engine has just linearised costs no integration
 (:mod:`contin.timedomain.shooting_bifurcations`: the stability monitor and the
 start of the doubled branch at a period doubling).
+
+Threads
+-------
+The segments' flows are independent: they run side by side
+(:func:`contin.util.workers.map_ordered`, the kernels leave the GIL), and so
+do the flows of many orbits at one ``lam`` (:meth:`ShootingProblem.flows_many`,
+:meth:`~ShootingProblem.linearize_many`, :meth:`~ShootingProblem.flow_jacobians`:
+the points of an invariant circle). Each writes only its own arrays, so the
+numbers are the same bit for bit whatever the number of threads.
 """
 
 from __future__ import annotations
@@ -60,16 +69,16 @@ from typing import Mapping
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from contin.stability.periodic_schur import periodic_eigenvalues
+from contin.stability.periodic_schur import product_eigenvalues
 from contin.stability.saltation import orbit_state
 from contin.timedomain.integrator import RK4_STABILITY, SimulationError, compile_model
+from contin.timedomain.shooting_options import ShootingOptions
 from contin.timedomain.shooting_events import graze_data, grid_graze, nearest_zero, start_graze
 from contin.timedomain.variational import VariationalFlow, parameter_sensitivity
-from contin.util.options import from_mapping
+from contin.util.workers import map_ordered
 
-__all__ = ["ShootingOptions", "ShootingProblem", "flip_test"]
+__all__ = ["ShootingProblem", "flip_test"]
 
-JACOBIANS = ("variational", "differences")
 #: factors asked of the flow per period (at least), so that the small multipliers survive the product
 MIN_FACTORS = 8
 #: linearisations kept (by (u, lam)) for the monitors and the stability verdict
@@ -86,89 +95,9 @@ SETUP_CACHE = 4
 SENSITIVITY_STEP = 1e-4
 
 
-@dataclasses.dataclass(frozen=True)
-class ShootingOptions:
-    """Options of shooting (:class:`ShootingProblem`, :func:`contin.timedomain.shooting.periodic_orbit`).
-
-    Attributes
-    ----------
-    steps_per_period : int
-        RK4 steps per forcing period ``2 pi / w`` (the rotor paper: 4096).
-    tol : float
-        Newton of :func:`~contin.timedomain.shooting.periodic_orbit` ends when
-        ``max |phi_T(z) - z| <= tol * max(1, max |z|)``.
-    max_iter : int
-        Newton iterations at most.
-    fd_step : float
-        Step of the central differences (of the flow map in the state for
-        ``jacobian="differences"``, in the parameter always), relative to
-        ``max(1, max |z|)`` and ``max(1, |lam|)``.
-    subharmonic : int
-        ``nu``: the orbit's period is ``nu`` forcing periods.
-    segments : int
-        ``M``, shooting segments of the period; ``steps_per_period * subharmonic``
-        must be a multiple of it (segment ends on the step grid).
-    jacobian : str
-        ``"variational"`` (the variational equations with the flow) or
-        ``"differences"`` (central differences of the flow map, the reference).
-    """
-
-    steps_per_period: int = 4096
-    tol: float = 1e-10
-    max_iter: int = 20
-    fd_step: float = 1e-6
-    subharmonic: int = 1
-    segments: int = 1
-    jacobian: str = "variational"
-
-    def __post_init__(self):
-        for name in ("steps_per_period", "max_iter", "subharmonic", "segments"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
-                raise ValueError(f"ShootingOptions.{name} must be a positive integer, got {v!r}")
-        for name, hi in (("tol", 1e-2), ("fd_step", 1e-2)):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not (0.0 < v <= hi):
-                raise ValueError(f"ShootingOptions.{name} must be a number in (0, {hi:g}], got {v!r}")
-        steps = self.steps_per_period * self.subharmonic
-        if steps % self.segments:
-            raise ValueError(f"ShootingOptions.segments must divide steps_per_period * subharmonic = {steps} "
-                             f"(segment ends on the step grid), got {self.segments}")
-        if self.jacobian not in JACOBIANS:
-            raise ValueError(f"ShootingOptions.jacobian must be one of {list(JACOBIANS)}, got {self.jacobian!r}")
-
-    @classmethod
-    def from_dict(cls, d: Mapping) -> "ShootingOptions":
-        """From a mapping (:func:`contin.util.options.from_mapping`); an unknown key raises ``ValueError``
-        naming it, the nearest valid one and all of them."""
-        return from_mapping(cls, d)
-
-
 def flip_test(mu: np.ndarray) -> float:
     """``det(Phi + I) = prod (mu_i + 1)`` from the multipliers: changes sign where a real one crosses -1."""
     return float(np.real(np.prod(np.asarray(mu) + 1.0)))
-
-
-def _multipliers(factors: np.ndarray) -> np.ndarray:
-    """Eigenvalues of the product of ``factors`` (K, m, m) by the periodic Schur decomposition.
-
-    Where its QR iteration does not deflate (rare: seen once on the finite-element rig, 8 factors of order 24),
-    the factors are merged pairwise and tried again, down to one factor (the monodromy itself, whose
-    eigenvalues LAPACK computes); each merge
-    costs accuracy only in multipliers smaller than ``eps`` times the merged factors' norm.
-    """
-    f = np.asarray(factors, dtype=float)
-    while True:
-        if f.shape[0] == 1:
-            mu = np.linalg.eigvals(f[0])
-            return mu[np.lexsort((-mu.imag, -np.abs(mu)))]
-        try:
-            return periodic_eigenvalues(f)
-        except ArithmeticError:
-            pass
-        k = f.shape[0]
-        merged = [f[i + 1] @ f[i] for i in range(0, k - 1, 2)] + ([f[-1]] if k % 2 else [])
-        f = np.asarray(merged)
 
 
 def _factor_count(steps: int, want: int) -> int:
@@ -415,75 +344,114 @@ class ShootingProblem:
                              f"(x, x') of model '{self.model.name}', got {u.shape}")
         return u.reshape(self.segments, 2 * self.n)
 
+    def _loaded(self):
+        """Load the generated modules here, not inside the threads that run their kernels."""
+        self._cm.module
+        if self._variational() is not None:
+            self._flow.module
+
     def flows(self, u: np.ndarray, lam: float, checked: bool = True) -> np.ndarray:
         """The segment end states ``phi_k(z_k)``, shape (M, 2n) (``checked``: see :meth:`_setup`)."""
-        Z = self._blocks(u)
+        return self.flows_many(np.asarray(u, dtype=float)[None], lam, checked)[0]
+
+    def flows_many(self, U: np.ndarray, lam: float, checked: bool = True) -> np.ndarray:
+        """:meth:`flows` at each row of ``U`` (K, 2nM), shape (K, M, 2n); the segments run in threads
+        (:func:`contin.util.workers.map_ordered`)."""
+        Z = np.stack([self._blocks(u) for u in U]) if len(U) else np.empty((0, self.segments, 2 * self.n))
         setup = self._setup(lam, checked)
-        return np.array([self._run(Z[k], setup, k)[0] for k in range(self.segments)])
+        self._loaded()
+        M = self.segments
+        ends = map_ordered(lambda i: self._run(Z[i // M, i % M], setup, i % M)[0], len(Z) * M)
+        return np.array(ends).reshape(Z.shape)
 
     def residual(self, u: np.ndarray, lam: float) -> np.ndarray:
         """``r_k = phi_k(z_k) - z_{k+1 mod M}``, shape (2 n M,)."""
         Z = self._blocks(u)
         return (self.flows(u, lam, checked=False) - np.roll(Z, -1, axis=0)).reshape(-1)
 
+    def _sensitivity(self, lam: float):
+        """The derivatives in ``lam`` the variational flow integrates ``dR/dlam`` from, or None where it
+        cannot (then central differences of the plain flows; module docstring)."""
+        if self._variational() is None:
+            return None
+        try:  # the matrices and constants at most quadratic in lam: a wider step, exact but for rounding
+            dp = SENSITIVITY_STEP * max(1.0, abs(float(lam)))
+            p_lo, p_hi = (self.model.parameter_vector(self.params_at(lam + s)) for s in (-dp, dp))
+            return parameter_sensitivity(self._cm, p_lo, p_hi, dp, self._kw)
+        except (ArithmeticError, SimulationError):
+            return None
+
     def linearize(self, u: np.ndarray, lam: float):
         """Residual (2nM,), ``dR/du`` (2nM, 2nM, dense) and ``dR/dlam`` (2nM,) (module docstring)."""
         key = (np.asarray(u, dtype=float).tobytes(), float(lam))
         hit = self._cache.get(key)
-        if hit is not None:
+        if hit is None:
+            hit = self._cache[key] = self._linearisations(np.asarray(u, dtype=float)[None], lam)[0]
+            if len(self._cache) > CACHE_SIZE:
+                self._cache.popitem(last=False)
+        else:
             self._cache.move_to_end(key)
-            return hit.residual.copy(), hit.Ju.copy(), hit.Jlam.copy()
-        Z = self._blocks(u)
+        return hit.residual.copy(), hit.Ju.copy(), hit.Jlam.copy()
+
+    def linearize_many(self, U: np.ndarray, lam: float) -> list[tuple]:
+        """:meth:`linearize` at each row of ``U`` (K, 2nM), the segments in threads; not cached."""
+        return [(lin.residual, lin.Ju, lin.Jlam) for lin in self._linearisations(np.asarray(U, dtype=float), lam)]
+
+    def _linearisations(self, U: np.ndarray, lam: float) -> list[_Linearisation]:
         M, m = self.segments, 2 * self.n
+        Z = [self._blocks(u) for u in U]
         setup = self._setup(lam)
-        ends, factors, graze, switches = np.empty((M, m)), [], [], 0
-        Ju = np.zeros((M * m, M * m))
-        # dR/dlam: the sensitivity integrated with the variational equations where it can be, else central
-        # differences of the plain flows (module docstring)
-        step = self.options.fd_step * max(1.0, abs(float(lam)))
-        sens = None
-        if self._variational() is not None:
-            try:  # the matrices and constants at most quadratic in lam: a wider step, exact but for rounding
-                dp = SENSITIVITY_STEP * max(1.0, abs(float(lam)))
-                p_lo, p_hi = (self.model.parameter_vector(self.params_at(lam + s)) for s in (-dp, dp))
-                sens = parameter_sensitivity(self._cm, p_lo, p_hi, dp, self._kw)
-            except (ArithmeticError, SimulationError):
-                sens = None
-        Jlam = np.empty(M * m) if sens is not None else None
-        for k in range(M):
-            ends[k], f, g, n_sw, dz = self._segment(Z[k], setup, k, sens)
-            if Jlam is not None:
-                Jlam[k * m:(k + 1) * m] = dz
-            switches += n_sw
-            Phi = f[0]
-            for F in f[1:]:
-                Phi = F @ Phi
-            Ju[k * m:(k + 1) * m, k * m:(k + 1) * m] = Phi
-            j = (k + 1) % M
-            Ju[k * m:(k + 1) * m, j * m:(j + 1) * m] -= np.eye(m)
-            factors.append(f)
-            graze.append(g)
-        if not (np.all(np.isfinite(ends)) and np.all(np.isfinite(Ju))):
-            raise ArithmeticError(f"non-finite flow map at {self.parameter} = {lam:.10g}")
-        if Jlam is None:
-            Jlam = ((self.flows(u, lam + step) - self.flows(u, lam - step)) / (2.0 * step)).reshape(-1)
-        R = (ends - np.roll(Z, -1, axis=0)).reshape(-1)
-        lin = _Linearisation(R, Ju, Jlam, np.concatenate(factors, axis=0), nearest_zero(graze), switches)
-        self._cache[key] = lin
-        if len(self._cache) > CACHE_SIZE:
-            self._cache.popitem(last=False)
-        return R.copy(), Ju.copy(), Jlam.copy()
+        sens = self._sensitivity(lam)
+        self._loaded()
+        runs = map_ordered(lambda i: self._segment(Z[i // M][i % M], setup, i % M, sens), len(Z) * M)
+        out = []
+        for u, Zu, segs in zip(U, Z, (runs[i * M:(i + 1) * M] for i in range(len(Z)))):
+            ends, factors, graze, switches = np.empty((M, m)), [], [], 0
+            Ju = np.zeros((M * m, M * m))
+            Jlam = np.empty(M * m) if sens is not None else None
+            for k, (end, f, g, n_sw, dz) in enumerate(segs):
+                ends[k] = end
+                if Jlam is not None:
+                    Jlam[k * m:(k + 1) * m] = dz
+                switches += n_sw
+                Phi = f[0]
+                for F in f[1:]:
+                    Phi = F @ Phi
+                Ju[k * m:(k + 1) * m, k * m:(k + 1) * m] = Phi
+                j = (k + 1) % M
+                Ju[k * m:(k + 1) * m, j * m:(j + 1) * m] -= np.eye(m)
+                factors.append(f)
+                graze.append(g)
+            if not (np.all(np.isfinite(ends)) and np.all(np.isfinite(Ju))):
+                raise ArithmeticError(f"non-finite flow map at {self.parameter} = {lam:.10g}")
+            if Jlam is None:
+                step = self.options.fd_step * max(1.0, abs(float(lam)))
+                Jlam = ((self.flows(u, lam + step) - self.flows(u, lam - step)) / (2.0 * step)).reshape(-1)
+            R = (ends - np.roll(Zu, -1, axis=0)).reshape(-1)
+            out.append(_Linearisation(R, Ju, Jlam, np.concatenate(factors, axis=0), nearest_zero(graze), switches))
+        return out
 
     def flow_jacobian(self, z: np.ndarray, lam: float) -> tuple[np.ndarray, np.ndarray]:
         """The first segment's end state from ``z`` (2n,) and its Jacobian ``Phi`` (2n, 2n): the variational flow
         alone, without ``dR/dlam`` (for iterating the map; with one segment, over the whole period)."""
-        end, factors, _, _, _ = self._segment(np.asarray(z, dtype=float), self._setup(lam), 0)
-        Phi = factors[0]
-        for F in factors[1:]:
-            Phi = F @ Phi
-        if not (np.all(np.isfinite(end)) and np.all(np.isfinite(Phi))):
+        ends, Phis = self.flow_jacobians(np.asarray(z, dtype=float)[None], lam)
+        return ends[0], Phis[0]
+
+    def flow_jacobians(self, Z: np.ndarray, lam: float) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`flow_jacobian` from each row of ``Z`` (K, 2n), in threads: shapes (K, 2n) and (K, 2n, 2n)."""
+        Z = np.asarray(Z, dtype=float)
+        setup = self._setup(lam)
+        self._loaded()
+        runs = map_ordered(lambda i: self._segment(Z[i], setup, 0), len(Z))
+        ends, Phis = np.empty(Z.shape), np.empty((len(Z), Z.shape[1], Z.shape[1]))
+        for i, (end, factors, _, _, _) in enumerate(runs):
+            Phi = factors[0]
+            for F in factors[1:]:
+                Phi = F @ Phi
+            ends[i], Phis[i] = end, Phi
+        if not (np.all(np.isfinite(ends)) and np.all(np.isfinite(Phis))):
             raise ArithmeticError(f"non-finite flow map at {self.parameter} = {lam:.10g}")
-        return end, Phi
+        return ends, Phis
 
     def _linearisation(self, u, lam) -> _Linearisation:
         key = (np.asarray(u, dtype=float).tobytes(), float(lam))
@@ -497,7 +465,7 @@ class ShootingProblem:
 
     def multipliers(self, u: np.ndarray, lam: float) -> np.ndarray:
         """Floquet multipliers of the orbit, by decreasing modulus: periodic Schur of the segment factors."""
-        mu = np.asarray(_multipliers(self._linearisation(u, lam).factors), dtype=complex)
+        mu = np.asarray(product_eigenvalues(self._linearisation(u, lam).factors), dtype=complex)
         return mu[np.argsort(-np.abs(mu), kind="stable")]
 
     def _contacts(self, u, lam) -> tuple[np.ndarray, int]:
@@ -514,14 +482,14 @@ class ShootingProblem:
                 lin = self._linearisation(u, lam)
                 return lin.graze, lin.switches
             Z, setup = self._blocks(u), self._setup(lam)
-            graze, switches = [], 0
-            for k in range(self.segments):
-                try:
-                    run = flow.run(Z[k], setup[0], k * self._seg_steps, (k + 1) * self._seg_steps, jacobian=False)
-                except SimulationError as exc:
-                    raise ArithmeticError(str(exc)) from None
-                graze.append(np.asarray(run.graze, dtype=float).reshape(-1))
-                switches += run.switches
+            self._loaded()
+            try:
+                runs = map_ordered(lambda k: flow.run(Z[k], setup[0], k * self._seg_steps, (k + 1) * self._seg_steps,
+                                                      jacobian=False), self.segments)
+            except SimulationError as exc:
+                raise ArithmeticError(str(exc)) from None
+            graze = [np.asarray(run.graze, dtype=float).reshape(-1) for run in runs]
+            switches = sum(run.switches for run in runs)
             hit = self._passes[key] = (nearest_zero(graze), switches)
             if len(self._passes) > CACHE_SIZE:
                 self._passes.popitem(last=False)
@@ -571,7 +539,8 @@ class ShootingProblem:
         """The states at every step over the period, its end included: shape (nu * steps_per_period + 1, 2n)."""
         Z = self._blocks(u)
         setup = self._setup(lam)
-        return np.vstack([Z[:1]] + [self._run(Z[k], setup, k, record=True)[1] for k in range(self.segments)])
+        self._loaded()
+        return np.vstack([Z[:1]] + map_ordered(lambda k: self._run(Z[k], setup, k, record=True)[1], self.segments))
 
     def orbit(self, u: np.ndarray, lam: float, t):
         """Displacements and velocities of the orbit ``u`` at times ``t`` in ``[0, period]``.

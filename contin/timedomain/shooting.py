@@ -49,7 +49,8 @@ from typing import Mapping
 
 import numpy as np
 
-from contin.timedomain.multiple_shooting import ShootingOptions, ShootingProblem, flip_test
+from contin.timedomain.multiple_shooting import ShootingProblem, flip_test
+from contin.timedomain.shooting_options import ShootingOptions
 from contin.timedomain.shooting_bifurcations import ShootingStability, period_doubling_start
 from contin.timedomain.simulation import SimulationError, simulate
 

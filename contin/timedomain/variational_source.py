@@ -34,7 +34,7 @@ def _graze(tx, tv, graze):
 @njit(cache=True, error_model="numpy", inline="always")
 def _apply(B, P, Q):
     # Q = A P with A = [[0, I], [B]] (P (2N, columns))
-    n2 = P.shape[0]
+    n2 = 2 * N
     nc = P.shape[1]
     for r in range(N):
         for c in range(nc):
@@ -50,7 +50,7 @@ def _apply(B, P, Q):
 @njit(cache=True, error_model="numpy", inline="always")
 def _applyv(B, v, out):
     # out = A v with A = [[0, I], [B]]
-    n2 = v.shape[0]
+    n2 = 2 * N
     for r in range(N):
         out[r] = v[N + r]
         a = 0.0
@@ -68,7 +68,7 @@ def step_times(y, tau0, dtau, hs, om, p, Minv, C, K, cst, mode, ta, tb):
     right-hand side's derivatives in y and tau there, d k_i / d t1 = J_i c_i (k_{i-1} + hs d k_{i-1} / d t1)
     + c_i om ft_i and, at fixed hs, d k_i / d t0 = J_i c_i hs d k_{i-1} / d t0 + om ft_i.
     """
-    n2 = y.shape[0]
+    n2 = 2 * N
     X, V, TAU, F, DUM, DX, DXD, R, B = _scratch(n2)
     kp = np.zeros(n2)
     kc = np.zeros(n2)
@@ -116,7 +116,7 @@ def step_times(y, tau0, dtau, hs, om, p, Minv, C, K, cst, mode, ta, tb):
         ta[i] = hs / 6.0 * sda[i] - tb[i]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def flow(y, mode, P, k0, k1, S, h, p, Minv, C, K, cst, dC, dK, dcst, rate, max_events, want, L, factors, graze,
          stats):
     """Steps k0..k1-1 on y (2n,), mode (NS,) and, with want, P (2n, 2n); factors every L steps.
@@ -127,7 +127,7 @@ def flow(y, mode, P, k0, k1, S, h, p, Minv, C, K, cst, dC, dK, dcst, rate, max_e
     stats: 0 events, 1 unresolved, 2 failing step, 3 steps, 4 trials, 5 switches with n . dR/dt1 = 0.
     Returns 0 = done, 1 = non-finite state or derivative.
     """
-    n2 = y.shape[0]
+    n2 = 2 * N  # a constant: the small loops unrolled
     nc = P.shape[1]  # n2, or n2 + 1 with the sensitivity column
     X, V, TAU, F, DUM, DX, DXD, R, B = _scratch(n2)
     fl = np.zeros(n2)

@@ -29,7 +29,8 @@ from contin.bifurcation.hopf import (
 )
 from contin.model.catalog import build_model
 from contin.model.rotating_frame import rotating_frame, to_fixed
-from contin.timedomain.multiple_shooting import ShootingOptions, ShootingProblem
+from contin.timedomain.multiple_shooting import ShootingProblem
+from contin.timedomain.shooting_options import ShootingOptions
 
 E = 0.15
 

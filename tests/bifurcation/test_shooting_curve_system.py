@@ -24,7 +24,8 @@ from contin.engine.newton import solve_at_parameter
 from contin.model.catalog import build_model
 from contin.scene.build import build_model as build_scene_model
 from contin.scene.parse import scene_from_data
-from contin.timedomain.multiple_shooting import ShootingOptions, ShootingProblem
+from contin.timedomain.multiple_shooting import ShootingProblem
+from contin.timedomain.shooting_options import ShootingOptions
 from contin.bifurcation.two_parameter import curve_from_point
 from contin.engine.continuation import continuation
 from contin.stability import orbit_state

@@ -38,7 +38,8 @@ from contin.scene.parse import load_scene
 from contin.bifurcation.circle_branch import circle_child_start
 from contin.bifurcation.start import integrated_model
 from contin.bifurcation.switching import doubled_problem
-from contin.timedomain.multiple_shooting import ShootingOptions, ShootingProblem
+from contin.timedomain.multiple_shooting import ShootingProblem
+from contin.timedomain.shooting_options import ShootingOptions
 
 pytestmark = pytest.mark.hard
 ROOT = Path(__file__).resolve().parents[2]

@@ -18,7 +18,8 @@ from contin.engine.continuation import ContinuationOptions, continuation
 from contin.engine.newton import solve_at_parameter
 from contin.hb.problem import HarmonicBalance, HBOptions
 from contin.model.catalog import build_model
-from contin.timedomain.multiple_shooting import ShootingOptions, ShootingProblem
+from contin.timedomain.multiple_shooting import ShootingProblem
+from contin.timedomain.shooting_options import ShootingOptions
 from contin.timedomain.simulation import simulate
 
 pytestmark = pytest.mark.slow  # about a minute: two curves of 4096-step flows, the harmonic-balance curve

@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 from scipy.linalg import expm
 from scipy.optimize import linear_sum_assignment
 
+import contin.stability.periodic_schur as ps
 from contin.stability.periodic_schur import periodic_eigenvalues, periodic_schur
 
 
@@ -250,3 +251,20 @@ def test_no_convergence_raises_rather_than_returning(rng):
     for bad in (0, -3, 2.5, True, "10"):
         with pytest.raises(ValueError, match="max_iterations: expected a positive integer"):
             periodic_eigenvalues(A, max_iterations=bad)
+
+
+def test_multipliers_survive_a_periodic_qr_that_does_not_deflate(monkeypatch):
+    """Factors merged pairwise until the periodic QR deflates (here: never), then LAPACK on the product."""
+    rng = np.random.default_rng(3)
+    factors = np.eye(4) + 0.3 * rng.standard_normal((8, 4, 4))
+    calls = []
+
+    def stalls(f):
+        calls.append(f.shape[0])
+        raise ArithmeticError("periodic QR: no deflation")
+
+    monkeypatch.setattr(ps, "periodic_eigenvalues", stalls)
+    mu = ps.product_eigenvalues(factors)
+    product = np.linalg.multi_dot(factors[::-1])
+    np.testing.assert_allclose(np.sort_complex(mu), np.sort_complex(np.linalg.eigvals(product)), rtol=1e-10)
+    assert calls == [8, 4, 2] and np.all(np.diff(np.abs(mu)) <= 1e-12)

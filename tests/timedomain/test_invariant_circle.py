@@ -18,6 +18,7 @@ from contin.timedomain.invariant_circle import (CircleOptions, InvariantCirclePr
                                                point_jacobians,
                                                shift_matrix)
 from contin.timedomain.shooting import ShootingOptions, periodic_orbit
+from contin.util import workers
 from van_der_pol_model import F, MU, vdp_model
 
 
@@ -69,14 +70,19 @@ def test_the_shift_matrix_moves_a_trigonometric_polynomial_exactly():
     np.testing.assert_allclose(shift_matrix(N, rho, derivative=True), d, atol=1e-7)
 
 
-def test_the_jacobian_against_central_differences(qp_branch):
+def small_circle(qp_branch, anchor_scale=1.0, drho=0.0):
+    """A circle of 7 points at 256 steps from the balance's sixth torus point: ``(problem, U, u, w)``."""
     _, d = qp_branch
     br, qp = d.branches[1], d.problems[1]
     u_qp, w = br.unknowns[5], float(br.parameter[5])
     prob = InvariantCircleProblem(vdp_model(), "w", options=CircleOptions(points=7, steps_per_period=256))
     U = circle_of(qp, u_qp, w, 7)
-    prob.set_anchor(1.01 * U)  # a residual away from zero in every row
-    u = prob.unknowns(U, u_qp[-1] / w + 0.01)
+    prob.set_anchor(anchor_scale * U)
+    return prob, U, prob.unknowns(U, u_qp[-1] / w + drho), w
+
+
+def test_the_jacobian_against_central_differences(qp_branch):
+    prob, U, u, w = small_circle(qp_branch, 1.01, 0.01)  # a residual away from zero in every row
     R, Ju, Jlam = prob.linearize(u, w)
     np.testing.assert_allclose(R, prob.residual(u, w), atol=1e-14)
     Jfd = np.empty_like(Ju)
@@ -87,6 +93,24 @@ def test_the_jacobian_against_central_differences(qp_branch):
     jl = (prob.residual(u, w + 1e-6) - prob.residual(u, w - 1e-6)) / 2e-6
     assert np.abs(Ju - Jfd).max() < 1e-8 * np.abs(Ju).max()
     assert np.abs(Jlam - jl).max() < 1e-8 * np.abs(Jlam).max()
+
+
+def test_the_points_flows_in_threads_give_the_serial_numbers_bit_for_bit(qp_branch):
+    prob, U, u, w = small_circle(qp_branch)
+    before = workers.threads()
+    got = {}
+    try:
+        for n in (1, 2, 3):
+            workers.set_threads(n)
+            got[n] = (*prob.linearize(u, w), prob.residual(u, w), point_jacobians(prob, u, w, midpoints=True))
+    finally:
+        workers.set_threads(before)
+    for n in (2, 3):
+        for a, b in zip(got[1], got[n]):
+            assert np.array_equal(a, b)
+    # the diagonal blocks of the threaded Jacobian are the single flows' Jacobians
+    Phi = np.stack([prob.map.flow_jacobian(z, w)[1] for z in U])
+    np.testing.assert_array_equal(point_jacobians(prob, u, w), Phi)
 
 
 def test_the_circle_is_the_quasi_periodic_balance_section_and_invariant_under_scipy(qp_branch):

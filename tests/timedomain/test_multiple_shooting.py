@@ -23,11 +23,13 @@ from contin.model.elements import GapForce
 from contin.models.polynomial import polynomial_model
 from contin.stability import stability_events
 from contin.stability.monodromy_reference import monodromy_reference
-from contin.timedomain.multiple_shooting import ShootingOptions, ShootingProblem
+from contin.timedomain.multiple_shooting import ShootingProblem
+from contin.timedomain.shooting_options import ShootingOptions
 from contin.timedomain.shooting_bifurcations import ShootingStability, period_doubling_start
 from contin.timedomain.shooting import periodic_orbit
 from contin.timedomain.shooting_events import ShootingGrazingEvent, shooting_events, start_graze
 from contin.timedomain.simulation import simulate
+from contin.util import workers
 from conftest import fuzz_examples
 
 C, F, G = 0.05, 0.2, 1.0  # the gap oscillator: x'' + C x' + x + 20 max(x - G, 0) = F cos(w t)
@@ -469,20 +471,30 @@ def test_a_strongly_unstable_orbit_keeps_its_small_multipliers(segments):
     np.testing.assert_allclose(got, exact, rtol=1e-8)
 
 
-def test_multipliers_survive_a_periodic_qr_that_does_not_deflate(monkeypatch):
-    """Factors merged pairwise until the periodic QR deflates (here: never), then LAPACK on the product."""
-    import contin.timedomain.multiple_shooting as ms
-
-    rng = np.random.default_rng(3)
-    factors = np.eye(4) + 0.3 * rng.standard_normal((8, 4, 4))
-    calls = []
-
-    def stalls(f):
-        calls.append(f.shape[0])
-        raise ArithmeticError("periodic QR: no deflation")
-
-    monkeypatch.setattr(ms, "periodic_eigenvalues", stalls)
-    mu = ms._multipliers(factors)
-    product = np.linalg.multi_dot(factors[::-1])
-    np.testing.assert_allclose(np.sort_complex(mu), np.sort_complex(np.linalg.eigvals(product)), rtol=1e-10)
-    assert calls == [8, 4, 2] and np.all(np.diff(np.abs(mu)) <= 1e-12)
+def test_segments_and_batches_in_threads_give_the_serial_numbers_bit_for_bit():
+    """Each segment's flow writes only its own arrays: threads change the time, never a digit."""
+    model = gap_model()
+    w = 1.2
+    prob = ShootingProblem(model, "w", options=ShootingOptions(steps_per_period=512, segments=4))
+    u0 = prob.start_unknowns(linear_state(w), w)
+    U = np.stack([u0, 1.1 * u0, 0.9 * u0])
+    before = workers.threads()
+    got = {}
+    try:
+        for n in (1, 2):
+            workers.set_threads(n)
+            prob._cache.clear()
+            prob._passes.clear()
+            got[n] = (*prob.linearize(u0, w), prob.residual(u0, w), prob.flows_many(U, w),
+                      *[a for lin in prob.linearize_many(U, w) for a in lin], *prob.flow_jacobians(U[:, :2], w),
+                      prob.graze(u0, w), prob.step_states(u0, w))
+    finally:
+        workers.set_threads(before)
+    assert len(got[1]) == len(got[2])
+    for a, b in zip(got[1], got[2]):
+        assert np.array_equal(a, b)
+    # the batches are the single calls, row by row
+    for u, (R, Ju, Jlam) in zip(U, prob.linearize_many(U, w)):
+        for a, b in zip((R, Ju, Jlam), prob.linearize(u, w)):
+            assert np.array_equal(a, b)
+        assert np.array_equal(prob.flows_many(u[None], w)[0], prob.flows(u, w))
