@@ -123,9 +123,8 @@ def _samples(problem, u, lam: float) -> np.ndarray:
     """``x`` on the step grid of one period, ``nu * steps_per_period`` samples, shape (N, n)."""
     n = problem.model.n_dof
     S, nu = problem.options.steps_per_period, problem.options.subharmonic
-    if hasattr(problem, "orbit"):  # the segments integrated again: the step grid's own values
-        x, _ = problem.orbit(u, lam, np.arange(S * nu) * problem.period_at(lam) / (S * nu))
-        return np.ascontiguousarray(np.asarray(x, dtype=float).T)
+    if hasattr(problem, "step_states"):  # the segments integrated again: the step grid's own values
+        return np.ascontiguousarray(problem.step_states(u, lam)[:, :n])
     from contin.timedomain.simulation import simulate  # deferred: the time domain, for shooting only
 
     z = _state(problem, u)

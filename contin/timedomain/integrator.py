@@ -70,13 +70,20 @@ import numpy as np
 from contin.model import codegen
 from contin.model.base import Model
 from contin.model.elements.registry import CompiledForm, kinds_with_compiled_form
-from contin.timedomain.integrator_source import INTEGRATOR
+from contin.timedomain.integrator_source import INTEGRATOR, MINV_TIMES_R
 from contin.timedomain.variational_source import jacobian_functions
 
 __all__ = ["SimulationError", "CompiledModel", "compile_model", "RK4_STABILITY", "SIMULATION_TEMPLATE_VERSION"]
 
 #: bumped when the integrator template changes meaning
-SIMULATION_TEMPLATE_VERSION = "2"
+SIMULATION_TEMPLATE_VERSION = "3"
+
+def _structurally_diagonal(mass) -> bool:
+    """Whether every term of the mass matrix (a :class:`contin.model.base.ParametricMatrix`) is diagonal."""
+    terms = getattr(mass, "terms", None)
+    if terms is None:
+        return False
+    return all(np.count_nonzero(np.asarray(A) - np.diag(np.diag(np.asarray(A)))) == 0 for _, A in terms)
 #: largest h*|lambda| accepted (classical RK4 is stable up to 2 sqrt 2 on the imaginary axis)
 RK4_STABILITY = 2.8
 
@@ -142,6 +149,8 @@ class CompiledModel:
         self.forces = [_form_of(el) for el in model.forces]
         self.excitations = [_form_of(el) for el in model.excitations]
         self.notes = [t for f in self.forces + self.excitations for t in f.notes()]
+        #: the mass matrix is diagonal whatever the parameters (each of its terms is)
+        self.diagonal_mass = _structurally_diagonal(model.mass)
         self.source = self._source()
         self._module = None
         self._minv = None  # (M's bytes, M^-1): the mass matrix rarely moves with the continuation parameter
@@ -195,7 +204,10 @@ class CompiledModel:
             "from contin.util.jit import njit",  # cached only in the private cache directory
         ] + sorted(imports) + ["", f"N = {n}", f"NS = {m}",
                                # dips through a surface inside a step are found where every surface has a gradient
-                               f"DIP = {0 if no_grad or not m else 1}"] + globals_
+                               f"DIP = {0 if no_grad or not m else 1}",
+                               # a mass matrix diagonal for every parameter value: M^-1 is, and its products
+                               # skip the exact zeros (the same numbers)
+                               f"MDIAG = {1 if self.diagonal_mass else 0}"] + globals_
         rhs = [
             "",
             "",
@@ -218,10 +230,7 @@ class CompiledModel:
         ] + excite + [
             "    for i in range(N):",
             "        out[i] = V[0, i]",
-            "        a = 0.0",
-            "        for j in range(N):",
-            "            a += Minv[i, j] * R[j]",
-            "        out[N + i] = a",
+        ] + MINV_TIMES_R + [
             "",
             "",
             '@njit(cache=True, error_model="numpy")',

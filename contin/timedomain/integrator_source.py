@@ -13,7 +13,20 @@ bit. The code is appended to the model's generated functions ``rhs``,
 
 from __future__ import annotations
 
-__all__ = ["INTEGRATOR"]
+__all__ = ["INTEGRATOR", "MINV_TIMES_R"]
+
+
+#: the generated lines ``out[N + i] = (M^-1 R)[i]`` inside a loop over ``i`` (a diagonal mass: one product)
+MINV_TIMES_R = [
+    "        if MDIAG:",
+    "            out[N + i] = Minv[i, i] * R[i]",
+    "        else:",
+    "            a = 0.0",
+    "            for j in range(N):",
+    "                a += Minv[i, j] * R[j]",
+    "            out[N + i] = a",
+]
+
 
 
 INTEGRATOR = '''

@@ -11,6 +11,8 @@ switching functions' gradients ``switch_grad`` are in the simulation module).
 
 from __future__ import annotations
 
+from contin.timedomain.integrator_source import MINV_TIMES_R
+
 __all__ = ["NO_JACOBIAN", "VARIATIONAL", "jacobian_functions"]
 
 
@@ -486,13 +488,17 @@ def jacobian_functions(jac: list, ftau: list, etau: list, elam: list = ()) -> st
     ] + jac + [
         "    for i in range(N):",
         "        for j in range(N):",
-        "            a = 0.0",
-        "            b = 0.0",
-        "            for q in range(N):",
-        "                a -= Minv[i, q] * (K[q, j] + DX[0, q, j])",
-        "                b -= Minv[i, q] * (C[q, j] + DXD[0, q, j])",
-        "            B[i, j] = a",
-        "            B[i, N + j] = b",
+        "            if MDIAG:",
+        "                B[i, j] = 0.0 - Minv[i, i] * (K[i, j] + DX[0, i, j])",
+        "                B[i, N + j] = 0.0 - Minv[i, i] * (C[i, j] + DXD[0, i, j])",
+        "            else:",
+        "                a = 0.0",
+        "                b = 0.0",
+        "                for q in range(N):",
+        "                    a -= Minv[i, q] * (K[q, j] + DX[0, q, j])",
+        "                    b -= Minv[i, q] * (C[q, j] + DXD[0, q, j])",
+        "                B[i, j] = a",
+        "                B[i, N + j] = b",
 
         "",
         "",
@@ -527,8 +533,4 @@ def jacobian_functions(jac: list, ftau: list, etau: list, elam: list = ()) -> st
 _ACCELERATION = [
     "    for i in range(N):",
     "        out[i] = 0.0",
-    "        a = 0.0",
-    "        for j in range(N):",
-    "            a += Minv[i, j] * R[j]",
-    "        out[N + i] = a",
-]
+] + MINV_TIMES_R

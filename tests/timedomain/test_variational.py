@@ -449,3 +449,53 @@ def test_an_excitation_without_tau_derivative_lines_is_refused_by_name(duffing):
     flow = VariationalFlow(dataclasses.replace(model, excitations=[odd]), steps_per_period=256)
     with pytest.raises(SimulationError, match=r"'untimed_forcing' \(_UntimedExcitation\) depend on the phase tau"):
         flow.run(np.array([0.3, -0.2]), model.parameter_vector(), 0, 256)
+
+
+COUPLED = """
+model:
+  dofs: [x, y]
+  parameters: {m: 1.0, mc: 0.2, c: 0.05, w: 1.0}
+  mass: [[m, MC], [MC, m]]
+  damping: [[c, 0], [0, c]]
+  stiffness: [[2, -1], [-1, 2]]
+  excitation:
+    - {dof: x, amplitude: 0.1}
+  frequency: w
+analysis: {type: simulate, parameter: w, values: [1.0]}
+"""
+
+
+@pytest.mark.parametrize("coupling, diagonal", [("0", True), ("0.0", True), ("mc", False), ("0.1", False)])
+def test_a_mass_diagonal_for_every_parameter_is_told_from_its_terms(coupling, diagonal):
+    from contin.timedomain.integrator import compile_model
+
+    model = build_scene_model(parse_scene(textwrap.dedent(COUPLED.replace("MC", coupling))))
+    assert compile_model(model).diagonal_mass is diagonal
+    assert compile_model(build_model("bearing_rotor")).diagonal_mass
+    assert not compile_model(build_model("timing_belt")).diagonal_mass
+
+
+@pytest.mark.slow  # a second module of the stop oscillator (its compilation)
+def test_the_diagonal_mass_shortcut_gives_the_full_products_numbers_bit_for_bit(monkeypatch):
+    import contin.timedomain.integrator as integrator
+
+    model = gap_model(True)
+    p = model.parameter_vector()
+    z = np.array([1.3, 0.2])
+    sens = (np.zeros((1, 1)), np.zeros((1, 1)), np.zeros(model_constants(model)), -1.0)
+    runs = []
+    for diagonal in (True, False):
+        monkeypatch.setattr(integrator, "_structurally_diagonal", lambda mass, d=diagonal: d)
+        flow = VariationalFlow(model, steps_per_period=256)
+        assert flow.compiled.diagonal_mass is diagonal
+        runs.append(flow.run(z, p, 0, 3 * 256, factors=3, sensitivity=sens))
+    a, b = runs
+    assert a.switches == b.switches > 0
+    for x, y in ((a.state, b.state), (a.jacobian, b.jacobian), (a.sensitivity, b.sensitivity), (a.graze, b.graze)):
+        assert np.array_equal(x, y)
+
+
+def model_constants(model) -> int:
+    from contin.timedomain.integrator import compile_model
+
+    return compile_model(model).n_constants
