@@ -24,6 +24,7 @@ import sys
 import textwrap
 
 from contin.util.blas import limit_blas_threads
+from contin.util.workers import threads
 from contin.util.version import __version__
 from contin.util.warning import ContinWarning
 
@@ -458,7 +459,11 @@ def _main(argv=None) -> int:
     from contin.analyses.base import RunError  # deferred: with SceneError
     from contin.scene.schema import SceneError  # deferred: numpy (0.1 s), not for --help
 
-    limit_blas_threads()
+    try:  # the environment's thread counts, before anything runs
+        limit_blas_threads()
+        threads()
+    except ValueError as exc:
+        return _fail(str(exc))
     try:
         if args.command == "models":
             return cmd_models()

@@ -86,3 +86,17 @@ def test_rotor_scene_checks_and_a_failed_start_is_reported(tmp_path, capsys):
     assert "no starting solution at w=1.6" in capsys.readouterr().err
     summary = json.loads((tmp_path / "r" / "summary.json").read_text())
     assert summary["status"] == "failed" and "after 0.01 revolutions" in summary["message"]
+
+
+@pytest.mark.parametrize("var, value", [("CONTIN_THREADS", "0"), ("CONTIN_THREADS", "two"),
+                                        ("CONTIN_BLAS_THREADS", "abc"), ("CONTIN_BLAS_THREADS", "-1")])
+def test_a_bad_thread_count_in_the_environment_is_named_before_anything_runs(var, value, tmp_path, monkeypatch,
+                                                                              capsys):
+    from contin.util import workers
+
+    monkeypatch.setenv(var, value)
+    monkeypatch.setattr(workers, "_threads", None)  # read the environment again
+    out = tmp_path / "never"
+    assert main(["run", str(ROOT / "scenes/duffing.yaml"), "-o", str(out), "-q"]) == 2
+    assert f"{var} must be a positive integer, got {value!r}" in capsys.readouterr().err
+    assert not out.exists()
