@@ -78,14 +78,16 @@ __all__ = ["SimulationError", "CompiledModel", "compile_model", "RK4_STABILITY",
 #: bumped when the integrator template changes meaning
 SIMULATION_TEMPLATE_VERSION = "3"
 
+#: largest h*|lambda| accepted (classical RK4 is stable up to 2 sqrt 2 on the imaginary axis)
+RK4_STABILITY = 2.8
+
+
 def _structurally_diagonal(mass) -> bool:
     """Whether every term of the mass matrix (a :class:`contin.model.base.ParametricMatrix`) is diagonal."""
     terms = getattr(mass, "terms", None)
     if terms is None:
         return False
     return all(np.count_nonzero(np.asarray(A) - np.diag(np.diag(np.asarray(A)))) == 0 for _, A in terms)
-#: largest h*|lambda| accepted (classical RK4 is stable up to 2 sqrt 2 on the imaginary axis)
-RK4_STABILITY = 2.8
 
 
 class SimulationError(ArithmeticError):

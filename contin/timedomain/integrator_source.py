@@ -28,7 +28,6 @@ MINV_TIMES_R = [
 ]
 
 
-
 INTEGRATOR = '''
 
 @njit(cache=True, error_model="numpy", inline="always")
