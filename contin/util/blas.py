@@ -11,31 +11,9 @@ decomposition of a 98x98 matrix measured 42 ms with two threads against
 
 from __future__ import annotations
 
-import os
-
-__all__ = ["blas_threads", "limit_blas_threads"]
+__all__ = ["limit_blas_threads"]
 
 _limiter = None
-
-
-def blas_threads() -> int:
-    """``$CONTIN_BLAS_THREADS``, 1 if unset.
-
-    Raises
-    ------
-    ValueError
-        If it is set to anything but a positive integer (naming it).
-    """
-    text = os.environ.get("CONTIN_BLAS_THREADS", "").strip()
-    if not text:
-        return 1
-    try:
-        n = int(text)
-    except ValueError:
-        n = 0
-    if n < 1:
-        raise ValueError(f"CONTIN_BLAS_THREADS must be a positive integer, got {text!r}")
-    return n
 
 
 def limit_blas_threads(threads: int | None = None):
@@ -52,6 +30,8 @@ def limit_blas_threads(threads: int | None = None):
     from threadpoolctl import threadpool_limits
 
     if threads is None:
-        threads = blas_threads()
+        from contin.util.options import environment_count  # deferred: numpy (its names), not for --help
+
+        threads = environment_count("CONTIN_BLAS_THREADS", 1)
     _limiter = threadpool_limits(limits=threads, user_api="blas")
     return _limiter

@@ -17,11 +17,12 @@ Each option class's ``from_dict`` is this function applied to itself.
 from __future__ import annotations
 
 import dataclasses
+import os
 from typing import Any, Callable, Iterable, Mapping
 
 from contin.util.naming import suggest
 
-__all__ = ["check_keys", "field_names", "from_mapping"]
+__all__ = ["check_keys", "environment_count", "field_names", "from_mapping"]
 
 
 def field_names(cls) -> list[str]:
@@ -84,3 +85,23 @@ def from_mapping(cls, d: Mapping[str, Any], *, converters: Mapping[str, Callable
             # the field's name first: a nested object's message alone would not say where it came from
             raise ValueError(f"{cls.__name__}.{name}: {exc}") from None
     return cls(**values)
+
+
+def environment_count(name: str, default: int) -> int:
+    """The positive integer in the environment variable ``name``, ``default`` where it is unset or empty.
+
+    Raises
+    ------
+    ValueError
+        If it is set to anything else (naming it and the value).
+    """
+    text = os.environ.get(name, "").strip()
+    if not text:
+        return default
+    try:
+        n = int(text)
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise ValueError(f"{name} must be a positive integer, got {text!r}")
+    return n

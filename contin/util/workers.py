@@ -44,14 +44,9 @@ def threads() -> int:
     """The number of threads :func:`map_ordered` uses (``$CONTIN_THREADS``, else the cores available)."""
     global _threads
     if _threads is None:
-        text = os.environ.get("CONTIN_THREADS", "").strip()
-        try:
-            wanted = int(text) if text else _available()
-        except ValueError:
-            wanted = 0
-        if wanted < 1:
-            raise ValueError(f"CONTIN_THREADS must be a positive integer, got {text!r}")
-        _threads = min(wanted, MAX_THREADS)
+        from contin.util.options import environment_count  # deferred: numpy (its names), not for --help
+
+        _threads = min(environment_count("CONTIN_THREADS", _available()), MAX_THREADS)
     return _threads
 
 
