@@ -82,6 +82,8 @@ class BranchRecorder:
         self.problems: dict = {}  # branch id -> its problem, to expand condensed unknowns
         # the stored unknowns' full coefficients (its full problem set by the analysis: expansion.full = hb)
         self.expansion = StoredExpansion(None, self.problems)
+        # (id of a special point, nu) -> (the point, its point_values), computed in the thread that found it
+        self.prepared: dict = {}
 
     def _full(self, branch_id: int, u, lam: float, problem=None):
         """Full coefficients of the engine's ``u`` (expanded when the branch's problem is condensed)."""
@@ -121,13 +123,25 @@ class BranchRecorder:
         c, sampled = self._solution(None, u, lam, nu, problem)
         return {**self._measures(c, len(self.dof_names), nu, problem, lam), **sampled}
 
-    def point(self, branch_id: int, nu: int, branch, i: int, H: int | None = None, problem=None) -> None:
+    def point_values(self, problem, u, lam: float, nu: int) -> tuple:
+        """What :meth:`point` computes of a stored point of ``problem`` (the engine's ``u`` at ``lam``): its full
+        coefficients, its sampled measures and its measures. Reads nothing but the recorder's settings, so it
+        may run in the thread that traced the point (:mod:`contin.analyses.side_by_side`)."""
+        c, sampled = self._solution(None, u, lam, nu, problem)
+        return c, sampled, self._measures(c, len(self.dof_names), nu, problem, lam)
+
+    def point(self, branch_id: int, nu: int, branch, i: int, H: int | None = None, problem=None,
+              values: tuple | None = None) -> None:
+        """Write stored point ``i`` of ``branch``: its row, its checkpoint record and the special points found
+        up to it. ``values``: its :meth:`point_values`, when computed already."""
         self.offsets.setdefault(branch_id, self.n_rows - i)
         self._engine_offsets.setdefault(branch_id, self.n_rows - i)
         if problem is not None:
             self.problems[branch_id] = problem
         lam = float(branch.parameter[i])
-        u, sampled = self._solution(branch_id, branch.unknowns[i], lam, nu)
+        if values is None:
+            values = self.point_values(self.problems.get(branch_id), branch.unknowns[i], lam, nu)
+        u, sampled, measures = values
         shooting = is_shooting(self.problems.get(branch_id))
         row = {"branch": branch_id, "nu": nu, self.parameter: lam}
         pd = branch.point_data
@@ -137,7 +151,7 @@ class BranchRecorder:
             row["max_multiplier"] = float(pd["max_multiplier"][i])
         elif "stable" in pd:  # no verdict at this point: empty cells, not the monitor's placeholders
             row.update(stable=None, n_unstable=None, max_multiplier=None)
-        row.update(self._measures(u, len(self.dof_names), nu, self.problems.get(branch_id), lam))
+        row.update(measures)
         row.update(sampled)
         row["newton_iterations"] = int(branch.newton_iterations[i])
         row["residual_norm"] = float(branch.residual_norms[i])
@@ -216,8 +230,12 @@ class BranchRecorder:
             nu = self.curves.get(branch_id, {}).get("nu", 1)
             if is_shooting(self.problems.get(branch_id)):
                 nu = order_of(self.problems[branch_id])
-            u, sampled = self._solution(branch_id, sp.unknowns, float(sp.parameter), nu)
-            row.update(self._measures(u, len(self.dof_names), nu, self.problems.get(branch_id), float(sp.parameter)))
+            sp_values = self.prepared.pop((id(sp), nu), (None, None))
+            values = sp_values[1] if sp_values[0] is sp else None
+            if values is None:
+                values = self.point_values(self.problems.get(branch_id), sp.unknowns, float(sp.parameter), nu)
+            _, sampled, measures = values
+            row.update(measures)
             row.update(sampled)
             lo, hi = sp.bracket
             row.update({"interval_lo": float(lo), "interval_hi": float(hi), "located": bool(sp.located),

@@ -30,7 +30,7 @@ from contin.analyses.simulate import check_time_step
 from contin.analyses.branch_summary import condition_summary as _condition_summary
 from contin.analyses.branch_summary import interval_or_none as _interval_or_none
 from contin.analyses.branch_summary import stability_summary as _stability_summary
-from contin.analyses.handover import boundary_gap, hand_over
+from contin.analyses.handover import follow_and_hand_over, boundary_gap, hand_over
 from contin.analyses.shooting_rows import (METHODS, ShootingSettings, analysis_method, is_shooting, shooting_problem,
                                            shooting_start)
 from contin.analyses.stability_hooks import stability_setup
@@ -384,11 +384,18 @@ def _run(plan: FrequencyResponsePlan, ctx) -> Outcome:
                 if problem is not hb_i:  # the starts are full coefficients
                     u0 = problem.restrict(u0)
             first = len(results)
-            results += setup.follow(problem, u0, lam0, (lo, hi), opts, rec, ctx, previous, first_id=first)
+            # an auto start's two directions, each handed over at its grazing point, side by side; a start taken
+            # up from a checkpoint runs one after the other
+            both = None if setup.method != "auto" or a["solution"] == "torus" or any(j >= first for j in previous) \
+                else follow_and_hand_over(setup, problem, u0, lam0, (lo, hi), rec, ctx, first)
+            if both is not None:
+                results += both
+            else:
+                results += setup.follow(problem, u0, lam0, (lo, hi), opts, rec, ctx, previous, first_id=first)
+                if setup.method == "auto":  # branches that harmonic balance could not take past a grazing point
+                    results = hand_over(results, first, setup, rec, ctx, previous, (lo, hi))
             if len(results) > first and results[first][0].status == BranchStatus.START_FAILED:
                 results[first][0].message += start_advice(sc, hb_i, lam0)
-            if setup.method == "auto":  # branches that harmonic balance could not take past a grazing point
-                results = hand_over(results, first, setup, rec, ctx, previous, (lo, hi))
             if ctx.stop_requested or any(b.status == BranchStatus.INTERRUPTED for b, _ in results):
                 break
     finally:

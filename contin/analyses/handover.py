@@ -19,12 +19,15 @@ from __future__ import annotations
 import numpy as np
 
 from contin.analyses.shooting_rows import is_shooting, shooting_problem, unknowns_from_state
+from contin.analyses.side_by_side import interrupted, run_threads, side_by_side
 from contin.bifurcation.end_check import barrier_point
 from contin.bifurcation.grazing_steps import through_grazing
 from contin.engine.branch import BranchStatus
+from contin.scene.sweep_plan import runs_from_start
 from contin.stability import orbit_state
+from contin.util.workers import threads
 
-__all__ = ["HANDOVER_AGREEMENT", "HANDOVER_BACK", "boundary_gap", "hand_over", "handover_start"]
+__all__ = ["HANDOVER_AGREEMENT", "HANDOVER_BACK", "boundary_gap", "follow_and_hand_over", "hand_over", "handover_start"]
 
 
 def _direction(branch) -> int:
@@ -37,8 +40,53 @@ def _direction(branch) -> int:
     return -1 if t.size and t[-1] < 0.0 else 1
 
 
+def _job(i: int, br, meta: dict, prob, setup, ctx):
+    """What hands branch ``i`` over: ``(i, meta, shooting problem, u0, lam, options)``; None for a branch that
+    is not a harmonic-balance branch ended at a point it cannot pass, or that no start was found for (said in
+    ``meta``)."""
+    if (br.status is not BranchStatus.BOUNDARY or not len(br) or prob is None or is_shooting(prob)
+            or meta.get("torus") is not None or ctx.stop_requested):
+        return None
+    hb = prob.full  # the periodic-problem protocol (contin.model.periodic)
+    at = barrier_point(br)
+    sp = shooting_problem(hb, setup.shooting, meta.get("nu", hb.nu))
+    start = handover_start(sp, br, prob, at[0].index if at is not None else len(br) - 1,
+                           at[1] if at is not None else _direction(br))
+    if start is None:
+        meta["handover_failed"] = ("no point of the harmonic-balance branch before its grazing point gave a "
+                                   "shooting orbit within the truncation's reach")
+        return None
+    u0, lam, direction = start
+    su = setup.options.unknown_scale
+    opts = through_grazing(setup.options.replace(direction=direction,
+                                                 unknown_scale=su if su is None or np.ndim(su) == 0 else None))
+    return i, meta, sp, u0, lam, opts
+
+
+def _follow_job(job, setup, lam_range, previous: dict, first_id: int):
+    """``call(recorder, ctx)``: the shooting branch of ``job`` (:func:`_job`), as branch ``first_id``."""
+    _, _, sp, u0, lam, opts = job
+    return lambda recorder, context: setup.follow(sp, u0, lam, lam_range, opts, recorder, context, previous,
+                                                  first_id=first_id, both_ways=False)
+
+
+def _attach(out: list, job, new) -> None:
+    """Append the shooting branches ``new`` of ``job`` to ``out``, each side saying where it was handed over."""
+    if not new:
+        return
+    i, meta, _, _, lam, _ = job
+    meta.update(handed_over_to=len(out), end="handover")
+    new[0][1]["handed_over_from"] = i
+    new[0][1]["origin"] = {"kind": "handover", "parameter": lam, "located": True,
+                           "note": "harmonic balance could not pass the grazing point; continued by shooting"}
+    out += new
+
+
 def hand_over(results: list, first: int, setup, rec, ctx, previous: dict, lam_range) -> list:
     """Hand every ``boundary`` harmonic-balance branch from ``first`` on to shooting; the results with theirs.
+
+    The shooting branches run side by side (:mod:`contin.analyses.side_by_side`) unless the start switches
+    (then how many branches each gives is known only at its end, and so are the ids of the next).
 
     Parameters
     ----------
@@ -53,39 +101,78 @@ def hand_over(results: list, first: int, setup, rec, ctx, previous: dict, lam_ra
     lam_range : (float, float)
     """
     out = list(results)
-    i = first
-    while i < len(out):
-        br, meta = out[i]
-        prob = rec.problems.get(i)
-        i += 1
-        if (br.status is not BranchStatus.BOUNDARY or not len(br) or prob is None or is_shooting(prob)
-                or meta.get("torus") is not None or ctx.stop_requested):
-            continue
-        hb = prob.full  # the periodic-problem protocol (contin.model.periodic)
-        at = barrier_point(br)
-        sp = shooting_problem(hb, setup.shooting, meta.get("nu", hb.nu))
-        start = handover_start(sp, br, prob, at[0].index if at is not None else len(br) - 1,
-                               at[1] if at is not None else _direction(br))
-        if start is None:
-            meta["handover_failed"] = ("no point of the harmonic-balance branch before its grazing point gave a "
-                                       "shooting orbit within the truncation's reach")
-            continue
-        u0, lam, direction = start
-        su = setup.options.unknown_scale
-        opts = through_grazing(setup.options.replace(direction=direction,
-                                                     unknown_scale=su if su is None or np.ndim(su) == 0 else None))
-        j = len(out)
-        new = setup.follow(sp, u0, lam, lam_range, opts, rec, ctx, previous, first_id=j, both_ways=False)
-        if not new:
-            continue
-        meta.update(handed_over_to=j, end="handover")
-        new[0][1]["handed_over_from"] = i - 1
-        new[0][1]["origin"] = {"kind": "handover", "parameter": lam, "located": True,
-                               "note": "harmonic balance could not pass the grazing point; continued by shooting"}
-        out += new
-        if ctx.stop_requested or any(b.status == BranchStatus.INTERRUPTED for b, _ in new):
-            break
+    jobs = [job for i in range(first, len(results))
+            if (job := _job(i, *results[i], rec.problems.get(i), setup, ctx)) is not None]
+    if not jobs or ctx.stop_requested:
+        return out
+    if setup.scene.analysis["switch"]:
+        news = []
+        for job in jobs:
+            news.append(_follow_job(job, setup, lam_range, previous, len(out) + sum(len(n) for n in news))(rec, ctx))
+            if ctx.stop_requested or interrupted(news[-1]):
+                break
+    else:  # one branch each: their ids are known before they run
+        ids = [len(out) + k for k in range(len(jobs))]
+        news = side_by_side([_follow_job(job, setup, lam_range, previous, j) for job, j in zip(jobs, ids)], rec,
+                            ctx, "branches " + ", ".join(str(j) for j in ids))
+    for job, new in zip(jobs, news):
+        _attach(out, job, new)
     return out
+
+
+def follow_and_hand_over(setup, problem, u0, lam0: float, lam_range, rec, ctx, first: int) -> list | None:
+    """Both directions of an ``auto`` start side by side, each handed over to shooting as soon as it ends at a
+    point harmonic balance cannot pass: the branches :func:`hand_over` would add to those of the start's
+    ``follow``, with the same ids and in the same order (its harmonic-balance branches, then the shooting
+    branches in their order). None where they would not run side by side: one thread, a start followed one
+    way, a start that switches, or one taken up from a checkpoint (all run one after the other then).
+
+    In a thread a shooting branch's id is not known until the other direction's harmonic-balance branch has
+    ended (it may not hand over), so each direction records its shooting branch under the id it gets when
+    both hand over; the records are renumbered as they are written.
+    """
+    runs = runs_from_start(setup.options, setup.scene.analysis["both_ways"], lam0, lam_range)
+    if len(runs) < 2 or threads() < 2 or setup.scene.analysis["switch"]:
+        return None
+    n = len(runs)
+    # a problem keeps work arrays: each thread its own (the same numbers)
+    problems = [problem] + [problem.with_options() for _ in range(n - 1)]
+
+    def chain(d):
+        def call(recorder, context):
+            part = setup.follow(problems[d], u0, lam0, lam_range, runs[d], recorder, context, {},
+                                first_id=first + d, both_ways=False)
+            # without switching, one branch (:func:`contin.analyses.stability_hooks.stability_setup`)
+            if not part or context.stop_requested or interrupted(part):
+                return part, None, None
+            job = _job(first + d, *part[0], recorder.problems.get(first + d), setup, context)
+            if job is None:
+                return part, None, None
+            return part, job, _follow_job(job, setup, lam_range, {}, first + n + d)(recorder, context)
+
+        return call
+
+    chains = run_threads([chain(d) for d in range(n)], rec, ctx,
+                         f"branches {first}-{first + 2 * n - 1}")
+    for _, _, exc in chains:
+        if exc is not None:
+            raise exc
+    out: list = []
+    # written in the order one after the other would have: the harmonic-balance branches, then the shooting ones
+    for d, (log, (part, _, _), _) in enumerate(chains):
+        log.replay(rec, first + d)
+        out += part
+        if interrupted(part):
+            return out
+    results = [None] * first + out  # ids as in the run
+    for d, (log, (_, job, new), _) in enumerate(chains):
+        if job is None or new is None:
+            continue
+        log.replay(rec, first + n + d, len(results))
+        _attach(results, job, new)
+        if interrupted(new):
+            break
+    return results[first:]
 
 
 #: how many stored points before the grazing point a handover tries, nearest first

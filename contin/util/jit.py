@@ -116,6 +116,9 @@ def _cacheable(func) -> bool:
 def njit(*args, **kwargs):
     """``numba.njit``; with ``cache=True``, cached in contin's private cache directory or not at all.
 
+    The kernels leave the GIL (``nogil=True`` unless said otherwise): they touch no Python object, and
+    branches traced side by side (:mod:`contin.analyses.side_by_side`) run them in threads.
+
     Parameters
     ----------
     *args, **kwargs
@@ -126,6 +129,7 @@ def njit(*args, **kwargs):
     Dispatcher or callable
         The compiled function, or a decorator when no function is given.
     """
+    kwargs.setdefault("nogil", True)
     if not kwargs.get("cache"):
         return numba.njit(*args, **kwargs)
     if args and inspect.isfunction(args[0]):

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import os
 import threading
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, wait
 from typing import Callable, TypeVar
 
 __all__ = ["MAX_THREADS", "map_ordered", "set_threads", "threads"]
@@ -26,6 +26,8 @@ T = TypeVar("T")
 
 #: threads at most, whatever the cores
 MAX_THREADS = 8
+#: seconds between the caller's checks that its workers have ended (and for signals)
+SIGNAL_POLL = 0.05
 
 _lock = threading.Lock()
 _pool: ThreadPoolExecutor | None = None
@@ -97,7 +99,11 @@ def map_ordered(fn: Callable[[int], T], n: int) -> list[T]:
         out = share(0)
     finally:
         _inside.flag = False
-        rest = [f.exception() for f in futures]  # waits for all of them
+        # waits for all of them, in short waits: a signal's handler runs only in the main thread, between
+        # its bytecodes (a Ctrl-C that a worker received would otherwise wait for the workers to end)
+        while wait(futures, timeout=SIGNAL_POLL).not_done:
+            pass
+        rest = [f.exception() for f in futures]
     for f, exc in zip(futures, rest):
         if exc is not None:
             raise exc
