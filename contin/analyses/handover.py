@@ -129,7 +129,8 @@ def follow_and_hand_over(setup, problem, u0, lam0: float, lam_range, rec, ctx, f
 
     In a thread a shooting branch's id is not known until the other direction's harmonic-balance branch has
     ended (it may not hand over), so each direction records its shooting branch under the id it gets when
-    both hand over; the records are renumbered as they are written.
+    both hand over; the records are renumbered as they are written. An exception raised in a thread is
+    raised once both have ended, before anything of theirs is written.
     """
     runs = runs_from_start(setup.options, setup.scene.analysis["both_ways"], lam0, lam_range)
     if len(runs) < 2 or threads() < 2 or setup.scene.analysis["switch"]:

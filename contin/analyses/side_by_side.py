@@ -17,8 +17,8 @@ stopped: a signal stops each branch at its next point) resumes from before
 them. A stop keeps the calls up to the first interrupted one, that one
 included, as calls made one after the other would have; the work of the
 calls after it is dropped, and a resumed run takes them up from their
-start. An exception raised by a call is raised once the calls before it are
-written.
+start. An exception raised by a call is raised (by :func:`side_by_side`)
+once the calls before it are written.
 """
 
 from __future__ import annotations
