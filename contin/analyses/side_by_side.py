@@ -118,8 +118,8 @@ class DeferredRecorder:
 
 
 class _SharedProgress:
-    """One progress line for calls running at once: each call's latest text, side by side (no bar: the calls'
-    fractions of the range are not one fraction)."""
+    """One progress line for calls running at once: each thread's latest text (the branch it traces now),
+    side by side (no bar: the branches' fractions of the range are not one fraction)."""
 
     def __init__(self, progress, task: str):
         self._progress = progress
@@ -133,7 +133,7 @@ class _SharedProgress:
 
     def update(self, text: str, **where) -> None:
         with self._lock:
-            self._texts[where.get("task")] = text
+            self._texts[threading.get_ident()] = text
             self._progress.update("  |  ".join(self._texts.values()), task=self._task)
 
     def close(self) -> None:
