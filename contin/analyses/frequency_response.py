@@ -30,7 +30,7 @@ from contin.analyses.simulate import check_time_step
 from contin.analyses.branch_summary import condition_summary as _condition_summary
 from contin.analyses.branch_summary import interval_or_none as _interval_or_none
 from contin.analyses.branch_summary import stability_summary as _stability_summary
-from contin.analyses.handover import follow_and_hand_over, boundary_gap, hand_over
+from contin.analyses.handover import boundary_gap, follow_and_hand_over, hand_over
 from contin.analyses.shooting_rows import (METHODS, ShootingSettings, analysis_method, is_shooting, shooting_problem,
                                            shooting_start)
 from contin.analyses.stability_hooks import stability_setup
