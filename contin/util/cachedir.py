@@ -201,17 +201,18 @@ def is_claimed(py_file) -> bool:
         return False
 
 
-def numba_cache_dir(py_file) -> Path | None:
+def numba_cache_dir(py_file, variant: str = "") -> Path | None:
     """The private directory of numba's cache files for the kernels of ``py_file``, or None if there is none.
 
-    ``<cache directory>/numba/<folder>_<sha1 of the folder's path>``: one
-    subdirectory per source folder, so two modules of the same file name in
+    ``<cache directory>/numba/<folder>_<sha1 of the folder's path and variant>``:
+    one subdirectory per source folder, so two modules of the same file name in
     different folders (numba names its index ``<file>.<function>-<line>``)
-    never share an index. Created with mode 0700 and checked like the cache
-    directory itself.
+    never share an index; ``variant`` names what else the compiled code depends
+    on that numba's index does not see (the options contin's ``njit`` adds).
+    Created with mode 0700 and checked like the cache directory itself.
     """
     folder = os.path.dirname(os.path.abspath(os.fspath(py_file)))
-    sub = f"{os.path.basename(folder)}_{hashlib.sha1(folder.encode()).hexdigest()}"
+    sub = f"{os.path.basename(folder)}_{hashlib.sha1((folder + chr(0) + variant).encode()).hexdigest()}"
     for candidate in candidate_dirs():
         root = accepted(candidate)
         if root is None:

@@ -40,6 +40,13 @@ __all__ = ["ContinCacheLocator", "NoPrivateCache", "disk_cached", "install_locat
 _CacheImpl = getattr(caching, "CacheImpl", None) or caching._CacheImpl
 
 
+#: the options :func:`njit` gives every kernel unless told otherwise
+DEFAULT_OPTIONS = {"nogil": True}
+#: their name in the cache directory: numba's index keys a kernel by its source and signature, not by its
+#: options, so code compiled under other defaults (holding the GIL) must not be found there
+DEFAULTS_TAG = ",".join(f"{k}={v}" for k, v in sorted(DEFAULT_OPTIONS.items()))
+
+
 class NoPrivateCache(RuntimeError):
     """A contin kernel's compiled code has no private directory to go to (it is compiled without disk cache)."""
 
@@ -77,7 +84,7 @@ class ContinCacheLocator(caching._SourceFileBackedLocatorMixin, caching._CacheLo
         """
         if not cachedir.is_claimed(py_file):
             return None
-        path = cachedir.numba_cache_dir(py_file)
+        path = cachedir.numba_cache_dir(py_file, DEFAULTS_TAG)
         if path is None:
             raise NoPrivateCache(f"no private cache directory for the kernels of {py_file}")
         self = cls(py_func, py_file, path)
@@ -129,7 +136,7 @@ def njit(*args, **kwargs):
     Dispatcher or callable
         The compiled function, or a decorator when no function is given.
     """
-    kwargs.setdefault("nogil", True)
+    kwargs = {**DEFAULT_OPTIONS, **kwargs}
     if not kwargs.get("cache"):
         return numba.njit(*args, **kwargs)
     if args and inspect.isfunction(args[0]):

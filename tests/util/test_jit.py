@@ -171,6 +171,19 @@ def test_package_kernels_cache_in_the_private_directory_not_in_the_package(sandb
     assert type(aft.synthesize._cache._impl.locator).__name__ == "ContinCacheLocator"
 
 
+def test_code_compiled_under_other_default_options_is_not_found(sandbox):
+    """numba's index keys a kernel by its source and signature, not by its options: the options contin's
+    ``njit`` adds (it leaves the GIL) name the cache folder, so a cache written under other defaults (code
+    that holds the GIL) is another folder, never loaded for these."""
+    from contin.util import cachedir, jit
+
+    assert jit.DEFAULTS_TAG == "nogil=True" and aft.synthesize.targetoptions["nogil"]
+    ours = cachedir.numba_cache_dir(aft.__file__, jit.DEFAULTS_TAG)
+    assert Path(aft.synthesize._cache._cache_path).name == ours.name  # (decorated at import, under $HOME's cache)
+    assert cachedir.numba_cache_dir(aft.__file__, "") != ours != cachedir.numba_cache_dir(aft.__file__, "nogil=False")
+    assert ours.parent == Path(os.environ["CONTIN_CACHE_DIR"]) / "numba" and ours.name.startswith("hb_")
+
+
 def refuse(kind: str, directory: Path, monkeypatch) -> None:
     """Make ``directory`` (the ``$CONTIN_CACHE_DIR``) unacceptable in the way ``kind`` says."""
     if kind == "symlink":
