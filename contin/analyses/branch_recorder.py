@@ -82,8 +82,6 @@ class BranchRecorder:
         self.problems: dict = {}  # branch id -> its problem, to expand condensed unknowns
         # the stored unknowns' full coefficients (its full problem set by the analysis: expansion.full = hb)
         self.expansion = StoredExpansion(None, self.problems)
-        # (id of a special point, nu) -> (the point, its point_values), computed in the thread that found it
-        self.prepared: dict = {}
 
     def _full(self, branch_id: int, u, lam: float, problem=None):
         """Full coefficients of the engine's ``u`` (expanded when the branch's problem is condensed)."""
@@ -119,9 +117,8 @@ class BranchRecorder:
     def solution_measures(self, problem, u, lam: float) -> dict:
         """The row measures of a solution ``u`` of ``problem`` at ``lam`` that belongs to no branch (a point of a
         two-parameter curve)."""
-        nu = order_of(problem)
-        c, sampled = self._solution(None, u, lam, nu, problem)
-        return {**self._measures(c, len(self.dof_names), nu, problem, lam), **sampled}
+        _, sampled, measures = self.point_values(problem, u, lam, order_of(problem))
+        return {**measures, **sampled}
 
     def point_values(self, problem, u, lam: float, nu: int) -> tuple:
         """What :meth:`point` computes of a stored point of ``problem`` (the engine's ``u`` at ``lam``): its full
@@ -230,11 +227,8 @@ class BranchRecorder:
             nu = self.curves.get(branch_id, {}).get("nu", 1)
             if is_shooting(self.problems.get(branch_id)):
                 nu = order_of(self.problems[branch_id])
-            sp_values = self.prepared.pop((id(sp), nu), (None, None))
-            values = sp_values[1] if sp_values[0] is sp else None
-            if values is None:
-                values = self.point_values(self.problems.get(branch_id), sp.unknowns, float(sp.parameter), nu)
-            _, sampled, measures = values
+            _, sampled, measures = self.point_values(self.problems.get(branch_id), sp.unknowns, float(sp.parameter),
+                                                     nu)
             row.update(measures)
             row.update(sampled)
             lo, hi = sp.bracket

@@ -27,7 +27,6 @@ import copy
 import threading
 from typing import Callable
 
-from contin.analyses.shooting_rows import is_shooting, order_of
 from contin.engine.branch import BranchStatus
 from contin.util.workers import map_ordered, threads
 
@@ -66,47 +65,28 @@ class DeferredRecorder:
         self.calls: list[tuple[str, tuple, dict]] = []
         self.failed_switches: list = []
         self.problems: dict = {}
-        self.prepared: dict = {}  # as the recorder's (BranchRecorder.prepared)
         self._rec = rec
-        self._nu: dict = {}  # branch id -> its order, from its first point
-        self._prepared: dict = {}  # branch id -> how many of its special points have their values
 
     def point(self, branch_id: int, nu: int, branch, i: int, H=None, problem=None) -> None:
         if problem is not None:
             self.problems[branch_id] = problem
-        self._nu.setdefault(branch_id, nu)
         # the row's values here, in the thread (a shooting row integrates its orbit)
         values = self._rec.point_values(self.problems.get(branch_id), branch.unknowns[i], float(branch.parameter[i]),
                                         nu)
         self.calls.append(("point", (branch_id, nu, _Snapshot(branch), i, H), {"problem": problem, "values": values}))
-        self._prepare(branch_id, branch)
 
     def checkpoint(self, branch_id: int, branch, state: dict) -> None:
         # the engine's state is a fresh dict, but a monitor's state may share lists with the monitor
         self.calls.append(("checkpoint", (branch_id, _Snapshot(branch), copy.deepcopy(state)), {}))
-        self._prepare(branch_id, branch)
 
     def special_points(self, branch_id: int, branch, problem=None) -> None:
         if problem is not None:
             self.problems[branch_id] = problem
         self.calls.append(("special_points", (branch_id, _Snapshot(branch)), {"problem": problem}))
-        self._prepare(branch_id, branch)
-
-    def _prepare(self, branch_id: int, branch) -> None:
-        """The values of the special points found since the last call, for the recorder (``prepared``), with the
-        order the recorder gives their rows (a value of another order is computed again there)."""
-        problem = self.problems.get(branch_id)
-        nu = order_of(problem) if is_shooting(problem) else self._nu.get(branch_id, 1)
-        found = branch.special_points
-        for sp in found[self._prepared.get(branch_id, 0):]:
-            if sp.kind.value != "start":
-                self.prepared[(id(sp), nu)] = sp, self._rec.point_values(problem, sp.unknowns, float(sp.parameter), nu)
-        self._prepared[branch_id] = len(found)
 
     def replay(self, rec, branch_id: int | None = None, as_id: int | None = None) -> None:
         """Make the kept calls on ``rec``, in the order they were made: all of them, or those of branch
         ``branch_id`` alone, written as branch ``as_id`` (default: its own id)."""
-        rec.prepared.update(self.prepared)
         for name, args, kwargs in self.calls:
             if branch_id is not None and args[0] != branch_id:
                 continue

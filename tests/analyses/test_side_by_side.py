@@ -102,7 +102,7 @@ class _Recorder:
     """What a BranchRecorder is asked, in order."""
 
     def __init__(self):
-        self.log, self.failed_switches, self.prepared = [], [], {}
+        self.log, self.failed_switches = [], []
 
     def point_values(self, problem, u, lam, nu):
         return u, {}, {}
