@@ -340,7 +340,8 @@ def _shooting_header(problem) -> dict:
     """What a shooting branch's record says of its discretisation (its problem is rebuilt from it on resume)."""
     o = problem.options
     return {"method": "shooting", "unknowns": "state",
-            "shooting": {"steps_per_period": int(o.steps_per_period), "segments": int(getattr(o, "segments", 1))}}
+            "shooting": {"steps_per_period": int(o.steps_per_period), "segments": int(getattr(o, "segments", 1)),
+                         "start_step": int(getattr(o, "start_step", 0))}}
 
 
 def _torus_header(problem) -> dict | None:

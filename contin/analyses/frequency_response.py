@@ -32,7 +32,7 @@ from contin.analyses.branch_summary import interval_or_none as _interval_or_none
 from contin.analyses.branch_summary import stability_summary as _stability_summary
 from contin.analyses.handover import boundary_gap, follow_and_hand_over, hand_over
 from contin.analyses.shooting_rows import (METHODS, ShootingSettings, analysis_method, is_shooting, shooting_problem,
-                                           shooting_start)
+                                           shooting_start, stored_shooting_problem)
 from contin.analyses.stability_hooks import stability_setup
 from contin.analyses.torus_start import check_torus_start, circle_from_simulation, torus_keys_ok
 from contin.bifurcation.start import START_LOW_HARMONICS, HomotopyFailed, harmonic_start, simulation_start
@@ -315,9 +315,7 @@ def _shooting_factory(plan: FrequencyResponsePlan):
     hb = plan.first.hb
 
     def make(header: dict):
-        d = header.get("shooting") or {}
-        settings = ShootingSettings(int(d.get("segments", 1)), int(d.get("steps_per_period", 1024)))
-        return shooting_problem(hb, settings, int(header.get("nu") or 1))
+        return stored_shooting_problem(hb, header)
 
     return make
 

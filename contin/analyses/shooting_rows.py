@@ -33,7 +33,7 @@ if TYPE_CHECKING:
 # branch is made or sampled: a run of harmonic-balance branches alone never loads them.
 
 __all__ = ["METHODS", "ShootingSettings", "analysis_method", "is_shooting", "order_of", "shooting_problem",
-           "shooting_row", "shooting_start", "orbit_coefficients"]
+           "shooting_row", "shooting_start", "orbit_coefficients", "stored_shooting_problem"]
 
 #: the values of ``analysis.method``
 METHODS = ("hb", "shooting", "auto")
@@ -112,6 +112,20 @@ def shooting_problem(hb, settings: ShootingSettings, nu: int | None = None) -> S
           "segments": int(settings.segments)}
     base = {k: v for k, v in hb.parameters().items() if k != hb.parameter}
     return ShootingProblem(integrated_model(hb), hb.parameter, base, ShootingOptions(**kw))
+
+
+def stored_shooting_problem(hb, header: dict) -> ShootingProblem:
+    """A shooting branch's problem from its checkpoint record's ``header`` (:func:`shooting_problem` of its
+    ``shooting`` entry: segments, steps and section, and its order ``nu``)."""
+    d = header.get("shooting") or {}
+    settings = ShootingSettings(int(d.get("segments", 1)), int(d.get("steps_per_period", 1024)))
+    problem = shooting_problem(hb, settings, int(header.get("nu") or 1))
+    k0 = int(d.get("start_step", 0))
+    if not k0:
+        return problem
+    from contin.timedomain.shooting_section import resectioned  # deferred: the time domain, for shooting only
+
+    return resectioned(problem, k0)
 
 
 def _state(problem, u) -> np.ndarray:

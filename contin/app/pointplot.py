@@ -9,7 +9,7 @@ import numpy as np
 import yaml
 
 from contin.analyses.frequency_response import build_problem
-from contin.analyses.shooting_rows import ShootingSettings, shooting_problem, shooting_row
+from contin.analyses.shooting_rows import shooting_row, stored_shooting_problem
 from contin.analyses.simulate import SPECTRUM_FLOOR, draw_spectrum
 from contin.app.point_drawing import (closed_period, contact_geometry, contact_panels, draw_contact,
                                       draw_contact_panel, fill_places, legend_above, name_lines)
@@ -98,9 +98,7 @@ def stored_expansion(outdir: Path) -> StoredExpansion:
 
 def _shooting_coefficients(scene, model, header: dict, rec: dict) -> np.ndarray:
     """A shooting row's coefficients from its stored state (:func:`contin.analyses.shooting_rows.shooting_row`)."""
-    d = header.get("shooting") or {}
-    settings = ShootingSettings(int(d.get("segments", 1)), int(d.get("steps_per_period", 1024)))
-    problem = shooting_problem(build_problem(scene, model), settings, int(scene.analysis["subharmonic"]))
+    problem = stored_shooting_problem(build_problem(scene, model), {**header, "nu": scene.analysis["subharmonic"]})
     u = np.asarray(rec["u"], dtype=float)
     if u.shape != (problem.size,):
         raise SceneError("state.jsonl", f"a shooting row of {problem.size} values (the segment starts)",

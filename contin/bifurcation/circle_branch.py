@@ -26,7 +26,9 @@ map:
   forcing period) started from the circle's points, and tells the rotation
   ``p/q`` each one makes around the circle; :func:`locked_starts` makes them
   the first points of their branches (a diagram follows them, children of
-  the circle branch).
+  the circle branch), each parametrised at the section of its orbit
+  farthest from the contact switches (:mod:`contin.timedomain.shooting_section`)
+  and shot in one segment where its multipliers allow (:data:`SINGLE_SHOOTING`).
 
 Any other end keeps the engine's status and message.
 """
@@ -47,6 +49,7 @@ from contin.timedomain.invariant_circle import (CircleOptions, InvariantCirclePr
                                                point_jacobians)
 from contin.timedomain.multiple_shooting import ShootingProblem
 from contin.timedomain.shooting_options import ShootingOptions
+from contin.timedomain.shooting_section import at_quiet_section, state_at_zero
 from contin.timedomain.torus_check import check_circle
 
 __all__ = ["CHECK_PERIODS", "FLIP_SPREAD", "LOCKING_FIT", "LOCKING_REACH", "LOCKING_SHAPE", "LOCKING_TOL",
@@ -61,8 +64,8 @@ FLIP_SPREAD = 0.25
 LOCKING_TOL = 2e-3
 MAX_DENOMINATOR = 6
 
-#: the engine's ends that are as asked (nothing to tell)
-_AS_ASKED = (BranchStatus.RANGE_END, BranchStatus.MAX_POINTS, BranchStatus.CLOSED_LOOP)
+#: the engine's ends with nothing to tell: as asked, or a jump the engine's message says (no locking or collapse)
+_TOLD = (BranchStatus.RANGE_END, BranchStatus.MAX_POINTS, BranchStatus.CLOSED_LOOP, BranchStatus.RETRACED)
 
 
 def circle_spread(problem, u) -> float:
@@ -140,7 +143,7 @@ def classify_circle_end(branch: Branch, problem, max_denominator: int = MAX_DENO
                         locking_tol: float = LOCKING_TOL, collapsed: bool = False) -> None:
     """Tell a circle branch's end: collapse (``collapsed``: stopped at a flip) or locking (module docstring);
     changes ``branch`` in place."""
-    if not len(branch) or branch.status in _AS_ASKED:
+    if not len(branch) or branch.status in _TOLD:
         return
     u, lam = branch.unknowns[-1], float(branch.parameter[-1])
     name = branch.parameter_name
@@ -400,7 +403,7 @@ def circle_child_start(shooting, lam: float, unknowns, points: int) -> CircleSta
     lam : float
         The Neimark-Sacker point.
     unknowns : array_like, shape (shooting.size,)
-        The orbit there (its first segment's start is the state at forcing phase zero).
+        The orbit there (its unknowns at any section: the circle starts from its state at forcing phase zero).
     points : int
         ``N``, points of the circle.
 
@@ -412,13 +415,16 @@ def circle_child_start(shooting, lam: float, unknowns, points: int) -> CircleSta
     if shooting.nu != 1:
         raise ValueError(f"the torus of a Neimark-Sacker point of a branch of {shooting.nu} forcing periods is "
                          f"not built (its circle would be of the map over {shooting.nu} periods)")
-    z = np.asarray(unknowns, dtype=float)[:2 * shooting.n]
+    z = state_at_zero(shooting, np.asarray(unknowns, dtype=float), float(lam))  # the circle's map starts there
     opts = CircleOptions(points=int(points), steps_per_period=shooting.options.steps_per_period)
     problem, u0, tangent = circle_start(shooting.model, shooting.parameter, z, float(lam), shooting.base, opts,
                                         eps=CircleStart.eps)
     return CircleStart(problem, u0, float(lam), tangent)
 
 
+#: a locked orbit whose largest multiplier is below this is followed by single shooting (one segment of ``q``
+#: forcing periods), at its quiet section: with one section, only one state of the orbit shapes the branch's steps
+SINGLE_SHOOTING = 1e3
 #: how far into the tongue the orbits of a locked circle are sought, in turn (relative to ``max(1, |lam|)``)
 LOCKED_OFFSETS = (1e-4, 3e-4, 5.6e-4, 1e-3, 2e-3)
 
@@ -430,7 +436,8 @@ def locked_starts(problem, branch: Branch, starts: int = 11) -> list:
     past it, then a little past the last circle, into the tongue
     (:data:`LOCKED_OFFSETS` in turn, until some are found), :func:`locked_orbits` finds the orbits of
     ``q`` forcing periods from ``starts`` of its points; each one starts a
-    branch of multiple shooting with ``q`` segments (its problem), its tangent
+    branch of shooting at its quiet section (one segment, or ``q`` where a
+    multiplier reaches :data:`SINGLE_SHOOTING`), its tangent
     the null vector of ``[dR/du dR/dlam]`` pointing on into the tongue. Where
     they are the node and the saddle born together at the tongue's edge, the
     node starts two branches instead, one on into the tongue and one back to
@@ -462,12 +469,17 @@ def locked_starts(problem, branch: Branch, starts: int = 11) -> list:
     pair = _saddle_node_pair(orbits)
     plan = [(pair[0], ahead), (pair[0], -ahead)] if pair else [(o, ahead) for o in orbits]
     out = []
+    charts = {}  # each orbit's unknowns at its quiet section (the node starts two branches)
     for o, way in plan:
-        _, Ju, Jlam = o.problem.linearize(o.unknowns, lam)
+        if id(o) not in charts:
+            single = float(np.max(np.abs(o.multipliers))) < SINGLE_SHOOTING
+            charts[id(o)] = at_quiet_section(o.problem, o.unknowns, lam, 1 if single else None)
+        shoot, u = charts[id(o)]
+        _, Ju, Jlam = shoot.linearize(u, lam)
         tangent = np.linalg.svd(np.c_[Ju, Jlam])[2][-1]
         tangent *= np.sign(tangent[-1] * way) or 1.0
-        out.append(BranchStart(o.problem, np.asarray(o.unknowns), lam, tangent, SpecialKind.LOCKING, tangent[:-1],
-                               abs(lam - last), int(way * ahead), (np.asarray(o.unknowns), lam)))
+        out.append(BranchStart(shoot, u, lam, tangent, SpecialKind.LOCKING, tangent[:-1], abs(lam - last),
+                               int(way * ahead), (u, lam)))
     return out
 
 

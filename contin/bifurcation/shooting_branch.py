@@ -90,7 +90,10 @@ class ReturnEvent(Event):
 
     def __init__(self, problem: ShootingProblem):
         self.problem = problem
-        opts = dataclasses.replace(problem.options, subharmonic=problem.options.subharmonic // 2, segments=1)
+        half = problem.options.subharmonic // 2
+        # the half period's grid has the same section (its steps counted modulo the half period)
+        opts = dataclasses.replace(problem.options, subharmonic=half, segments=1,
+                                   start_step=problem.options.start_step % (half * problem.options.steps_per_period))
         self.half = ShootingProblem(problem.model, problem.parameter, problem.base, opts)
         self.n2 = 2 * problem.model.n_dof
         self.reference = None

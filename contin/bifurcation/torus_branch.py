@@ -175,7 +175,7 @@ def classify_end(branch: Branch, problem, settings: TorusSettings) -> None:
     """
     if not len(branch) or branch.status in (BranchStatus.RANGE_END, BranchStatus.INTERRUPTED,
                                             BranchStatus.MAX_POINTS, BranchStatus.DEFAULT_MAX_POINTS,
-                                            BranchStatus.CLOSED_LOOP):
+                                            BranchStatus.CLOSED_LOOP, BranchStatus.RETRACED):
         return
     u, lam = branch.unknowns[-1], float(branch.parameter[-1])
     name = branch.parameter_name

@@ -44,6 +44,9 @@ class BranchStatus(str, enum.Enum):
     #: reached the end of the parameter range opposite to the one it set out towards (it turned
     #: back at a fold): the part of the range beyond its furthest point is not covered by it
     TURNED_BACK = "turned_back"
+    #: passed again through one of its earlier points (not its start), in the same direction: a smooth
+    #: branch cannot, so a step jumped back onto an earlier part of it (or onto another branch through it)
+    RETRACED = "retraced"
 
     def __str__(self) -> str:
         return self.value
@@ -55,7 +58,8 @@ class BranchStatus(str, enum.Enum):
         A branch ends as asked at a range end (also after turning back), at
         a closed loop, at a located point it cannot pass (``BOUNDARY``) or
         after the ``max_points`` points the caller set; it falls short when
-        its start, Newton, the step size or the conditioning failed, when it
+        its start, Newton, the step size or the conditioning failed, when a
+        step jumped back onto an earlier part of it (``RETRACED``), when it
         reached the default cap on points that nobody set
         (``DEFAULT_MAX_POINTS``), or when it was interrupted.
         """

@@ -34,7 +34,7 @@ Method
   when its chord leans off the bisector of its end tangents by more than
   twice their turn, or when a variable moves against both end tangents; a
   branch that passes again through one of its earlier points, in the same
-  direction, stops with ``CLOSED_LOOP`` and says so.
+  direction, stops with ``RETRACED`` (a shortfall) and says so.
 - Scaling: the automatic scalar scale follows the unknowns when they grow
   100-fold; dofs whose magnitudes differ by more than ``GROUP_SPREAD``
   (:mod:`contin.engine.stepsize`) are scaled separately
@@ -70,7 +70,8 @@ from contin.engine.branch import Branch, BranchBuilder, BranchStatus, PointRejec
 from contin.engine.connection import connection_report
 from contin.engine.corners import Corners, kink_point
 from contin.engine.corrector import Candidate, Corrector, Failure, StepFailed, format_parameter
-from contin.engine.ends import attempt, closed, finish_at_range_end, left_at_start, revisited, toward, uncovered
+from contin.engine.ends import (attempt, closed, finish_at_range_end, left_at_start, revisit_end, revisited, toward,
+                                uncovered)
 from contin.engine.events import BranchPointEvent, Event, FoldEvent, PointInfo
 from contin.engine.location import EventLocation, test_values
 from contin.engine.newton import NUMERICAL_ERRORS, SingularMatrixError, factorize
@@ -423,11 +424,7 @@ class _Engine:
             return False
         k = revisited(self.branch, self.pos.prev_x, cand.x, self.sp.su, self.sp.sl, self.opt.max_angle_deg)
         if k is not None:
-            self.builder.finish(
-                BranchStatus.CLOSED_LOOP,
-                f"the branch passed again through its point {k} at {self.fmt(self.branch.parameter[k])}, in the "
-                f"same direction, at {self.fmt(self.pos.lam)}: it retraces itself (a loop not through the start; if "
-                "the problem has none there, a step jumped onto an earlier part of the branch: lower ds_max)")
+            self.builder.finish(*revisit_end(self.branch, k, self.fmt))
             return False
         return True
 

@@ -8,8 +8,12 @@
 - :func:`left_at_start`: a branch that leaves the range where it started, without covering any of it,
   though asked into it, has not reached a range end (the engine ends it as a shortfall);
 - :func:`closed` and :func:`revisited`: a branch passing again through its
-  start, or through an earlier point in the same direction, stops with
-  ``CLOSED_LOOP`` instead of going round until ``max_points``.
+  start stops with ``CLOSED_LOOP`` instead of going round until
+  ``max_points``; one passing again through an earlier point in the same
+  direction stops too, with ``RETRACED`` (no smooth branch does: a step
+  jumped back onto an earlier part of it), or ``CLOSED_LOOP`` where that
+  point is one of the first :data:`NEAR_START` after the start (a loop closed
+  a step late).
 
 Points ``x`` and tangents ``t`` are scaled, of shape (m+1,).
 """
@@ -24,7 +28,8 @@ from contin.engine.branch import Branch, BranchBuilder, BranchStatus, SpecialKin
 from contin.engine.corrector import Candidate, Corrector, StepFailed, format_parameter
 from contin.engine.predictor import predict
 
-__all__ = ["attempt", "closed", "finish_at_range_end", "left_at_start", "revisited", "toward", "uncovered"]
+__all__ = ["NEAR_START", "attempt", "closed", "finish_at_range_end", "left_at_start", "revisit_end", "revisited",
+           "toward", "uncovered"]
 
 #: A chord passing through an earlier point must be within this angle of it (and of the start tangent).
 MAX_PASSING_ANGLE_DEG = 89.0
@@ -37,6 +42,9 @@ START_DISTANCE = 0.25
 WENT_AWAY = 2.0
 #: Stored points before a branch can close on its start.
 MIN_LOOP_POINTS = 4
+#: A branch that passes again through one of its first points after the start closed its loop (the start
+#: itself passed between two points without being seen); through a later one, it retraced itself.
+NEAR_START = 2
 
 
 def attempt(corrector: Corrector, pos, ds: float, lam_range: tuple[float, float]) -> Candidate | None:
@@ -175,6 +183,19 @@ def revisited(branch: Branch, a: np.ndarray, x1: np.ndarray, su: np.ndarray, sl:
         if nd > 0 and float(d @ seg) >= cos_min * nd * L:
             return k
     return None
+
+
+def revisit_end(branch: Branch, k: int, fmt) -> tuple[BranchStatus, str]:
+    """How a branch that passed again through its point ``k`` (:func:`revisited`) ends: ``(status, message)``;
+    ``fmt(lam)`` names a parameter value."""
+    lam_k = fmt(branch.parameter[k])
+    if k <= NEAR_START:
+        return BranchStatus.CLOSED_LOOP, (f"the branch returned to its start {fmt(branch.parameter[0])} (it passed "
+                                          f"again through its point {k} at {lam_k})")
+    return BranchStatus.RETRACED, (
+        f"the branch passed again through its point {k} at {lam_k}, in the same direction, at "
+        f"{fmt(branch.parameter[-1])}: it retraces itself, which no smooth branch does away from its start (a step "
+        "jumped back onto an earlier part of it, or onto another branch through it: lower ds_max)")
 
 
 def closed(pos, x1: np.ndarray, n_points: int, max_angle_deg: float) -> bool:

@@ -287,19 +287,21 @@ def _numbering(points, p: np.ndarray, groups) -> list:
 
 
 def _value_texts(values) -> list:
-    """Values with 5 significant digits; up to 7 for those that would read as another one does
-    (two points closer than that are one point found twice, and keep 5)."""
+    """Values with 5 significant digits; up to 7 for those that would read as another one does. Two values
+    alike to 7 digits are one point found twice (on two branches, say): they are not told apart, but each
+    still from the other values."""
+    v = [float(x) for x in values]
+    twice = [[f"{x:.7g}" == f"{y:.7g}" for y in v] for x in v]
+
     def clashes(texts):
-        return [i for i, t in enumerate(texts) if any(t == u and float(values[i]) != float(values[k])
+        return [i for i, t in enumerate(texts) if any(t == u and v[i] != v[k] and not twice[i][k]
                                                       for k, u in enumerate(texts) if k != i)]
 
-    digits = [5] * len(values)
+    digits = [5] * len(v)
     for _ in range(2):
-        for i in clashes([f"{v:.{d}g}" for v, d in zip(values, digits)]):
+        for i in clashes([f"{x:.{d}g}" for x, d in zip(v, digits)]):
             digits[i] += 1
-    for i in clashes([f"{v:.{d}g}" for v, d in zip(values, digits)]):
-        digits[i] = 5
-    return [f"{v:.{d}g}".replace("-", "\u2212") for v, d in zip(values, digits)]
+    return [f"{x:.{d}g}".replace("-", "\u2212") for x, d in zip(v, digits)]
 
 
 def special_table(ax, points, parameter, symbols, short_names, units) -> list:

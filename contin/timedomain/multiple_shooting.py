@@ -1,8 +1,9 @@
 """Multiple shooting on the integrated flow: periodic orbits as a discretisation for the continuation engine.
 
 The period ``T = nu 2 pi / w`` is cut into ``M`` segments at the RK4 step
-indices ``k L``, ``L = S nu / M`` (``S`` steps per forcing period), so
-segment ``k`` runs from ``t_k = k T / M`` to ``t_{k+1}``. The unknowns are the
+indices ``k0 + k L``, ``L = S nu / M`` (``S`` steps per forcing period, ``k0``
+the option ``start_step``, 0 by default), so segment ``k`` runs from
+``t_k = t0 + k T / M`` to ``t_{k+1}``, ``t0 = k0 T / (S nu)``. The unknowns are the
 states at the segment starts, ``u = (z_0, ..., z_{M-1})`` (``z = (x, x')``,
 size ``2 n M``), and the residual is
 
@@ -110,7 +111,7 @@ class _Linearisation:
     residual: np.ndarray
     Ju: np.ndarray
     Jlam: np.ndarray
-    factors: np.ndarray  # (K_total, 2n, 2n), in time order from t = 0
+    factors: np.ndarray  # (K_total, 2n, 2n), in time order from the section t0
     graze: np.ndarray  # (n_switch,)
     switches: int  # located switches along the orbit
 
@@ -165,6 +166,7 @@ class ShootingProblem:
         self.n_switch = self._cm.n_switch
         self._steps = options.steps_per_period * options.subharmonic  # steps per orbit period
         self._seg_steps = self._steps // self.segments
+        self._k0 = int(options.start_step)  # the section: the first segment starts at this step of the grid
         # with one segment the flow still hands its Jacobian in factors, so the small multipliers survive
         self._factors = _factor_count(self._seg_steps, -(-MIN_FACTORS // self.segments))
         self._flow = None
@@ -267,13 +269,13 @@ class ShootingProblem:
             self._cm.module.switch(y, p, cst, X, V, s)
         return (s > 0.0).astype(np.int64)
 
-    def _run(self, z, setup, k, record=False, steps=None):
-        """The plain flow over segment ``k`` from ``z`` (or its first ``steps`` steps): the end state, the
-        states at every step if ``record`` and the number of located switches."""
+    def _run(self, z, setup, k, record=False, steps=None, first=None):
+        """The plain flow over segment ``k`` from ``z`` (or its first ``steps`` steps; from the grid's step ``first``
+        if given): the end state, the states at every step if ``record`` and the number of located switches."""
         p, h, (Minv, C, K, cst) = setup
         y = np.array(z, dtype=float)
         mode = self._mode(y, p, cst)
-        k0 = k * self._seg_steps
+        k0 = self._k0 + k * self._seg_steps if first is None else first
         k1 = k0 + (self._seg_steps if steps is None else steps)
         S = self.options.steps_per_period
         out = np.zeros((k1 - k0 if record else 0, y.size))
@@ -296,6 +298,11 @@ class ShootingProblem:
             out[i] = s[: self.n_switch]
         return out
 
+    def switching_values(self, states: np.ndarray, lam: float) -> np.ndarray:
+        """The switching functions at the states ``states`` (K, 2n) at ``lam``: shape (K, n_switch)."""
+        p, _, (_, _, _, cst) = self._setup(lam)
+        return self._switching(np.asarray(states, dtype=float), p, cst)
+
     def _variational(self):
         if self.jacobian == "variational" and self._flow is None:
             self._flow = VariationalFlow(self.model, steps_per_period=self.options.steps_per_period)
@@ -314,7 +321,8 @@ class ShootingProblem:
         if flow is None:
             return (*self._segment_differences(z, setup, k), None)
         try:
-            run = flow.run(z, setup[0], k * self._seg_steps, (k + 1) * self._seg_steps, jacobian=True,
+            k0 = self._k0 + k * self._seg_steps
+            run = flow.run(z, setup[0], k0, k0 + self._seg_steps, jacobian=True,
                            factors=self._factors, sensitivity=sensitivity)
         except SimulationError as exc:
             raise ArithmeticError(str(exc)) from None
@@ -484,8 +492,9 @@ class ShootingProblem:
             Z, setup = self._blocks(u), self._setup(lam)
             self._loaded()
             try:
-                runs = map_ordered(lambda k: flow.run(Z[k], setup[0], k * self._seg_steps, (k + 1) * self._seg_steps,
-                                                      jacobian=False), self.segments)
+                k0, L = self._k0, self._seg_steps
+                runs = map_ordered(lambda k: flow.run(Z[k], setup[0], k0 + k * L, k0 + (k + 1) * L, jacobian=False),
+                                   self.segments)
             except SimulationError as exc:
                 raise ArithmeticError(str(exc)) from None
             graze = [np.asarray(run.graze, dtype=float).reshape(-1) for run in runs]
@@ -510,10 +519,19 @@ class ShootingProblem:
 
     # ------------------------------------------------------------ starts and orbits
     def start_unknowns(self, z0, lam: float) -> np.ndarray:
-        """The unknowns from the state ``z0`` (2n,) at ``t = 0``: each segment start by integrating the previous."""
+        """The unknowns from the state ``z0`` (2n,) at ``t = 0``: the section's state and each segment start by
+        integrating the previous."""
         z = np.asarray(z0, dtype=float)
         if z.shape != (2 * self.n,):
             raise ValueError(f"z0 must have shape ({2 * self.n},) = (x, x') of model '{self.model.name}', got {z.shape}")
+        if self._k0:  # from t = 0 to the section
+            z = self._run(z, self._setup(lam), 0, steps=self._k0, first=0)[0]
+        return self.section_unknowns(z, lam)
+
+    def section_unknowns(self, z, lam: float) -> np.ndarray:
+        """The unknowns from the state ``z`` (2n,) at the section ``t0`` (``start_step``; ``t = 0`` by default):
+        each segment start by integrating the previous."""
+        z = np.asarray(z, dtype=float)
         setup = self._setup(lam)
         out = [z]
         for k in range(self.segments - 1):
@@ -527,7 +545,8 @@ class ShootingProblem:
         """
         full = hb.full  # the periodic-problem protocol (contin.model.periodic)
         coeffs = hb.expand(c, lam) if hb.condensed else np.asarray(c, dtype=float)
-        t = np.arange(self.segments) * self.period_at(lam) / self.segments
+        T = self.period_at(lam)
+        t = (self._k0 / self._steps + np.arange(self.segments) / self.segments) * T
         return np.asarray(orbit_state(full, coeffs, lam, t), dtype=float).reshape(-1)
 
     def step_states(self, u: np.ndarray, lam: float) -> np.ndarray:
@@ -536,11 +555,18 @@ class ShootingProblem:
         return self._states(u, lam)[:-1]
 
     def _states(self, u, lam: float) -> np.ndarray:
-        """The states at every step over the period, its end included: shape (nu * steps_per_period + 1, 2n)."""
+        """The states at every step over the period from ``t = 0``, its end included: shape (nu * steps_per_period
+        + 1, 2n); with a section elsewhere the period integrated from it, rotated to start at ``t = 0`` (its first
+        and last rows then both the state at the period's end)."""
         Z = self._blocks(u)
         setup = self._setup(lam)
         self._loaded()
-        return np.vstack([Z[:1]] + map_ordered(lambda k: self._run(Z[k], setup, k, record=True)[1], self.segments))
+        Y = np.vstack([Z[:1]] + map_ordered(lambda k: self._run(Z[k], setup, k, record=True)[1], self.segments))
+        k0 = self._k0
+        if not k0:
+            return Y
+        n = self._steps
+        return np.vstack([Y[n - k0:n], Y[:n - k0 + 1]])
 
     def orbit(self, u: np.ndarray, lam: float, t):
         """Displacements and velocities of the orbit ``u`` at times ``t`` in ``[0, period]``.

@@ -122,7 +122,7 @@ def period_doubling_start(problem: ShootingProblem, u, lam: float, eps: float = 
     opts = dataclasses.replace(problem.options, subharmonic=2 * problem.nu, segments=M2)
     doubled = ShootingProblem(problem.model, problem.parameter, problem.base, opts)
     z0 = Z[0] + eps * max(1.0, float(np.max(np.abs(Z[0])))) * v
-    u0 = doubled.start_unknowns(z0, lam)
+    u0 = doubled.section_unknowns(z0, lam)  # the doubled orbit keeps the section (start_step) of this one
     # the tangent: v carried along the first lap by the segment Jacobians, -v along the second
     lap = [v]
     for P in Phis[:-1]:
@@ -132,6 +132,6 @@ def period_doubling_start(problem: ShootingProblem, u, lam: float, eps: float = 
     else:
         # other segment counts: the starts lie at other times, the tangent by differences of the start
         d = 1e-6 * max(1.0, float(np.max(np.abs(Z[0]))))
-        vs = (doubled.start_unknowns(Z[0] + d * v, lam) - doubled.start_unknowns(Z[0] - d * v, lam)) / (2 * d)
+        vs = (doubled.section_unknowns(Z[0] + d * v, lam) - doubled.section_unknowns(Z[0] - d * v, lam)) / (2 * d)
     tangent = np.r_[vs, 0.0]
     return doubled, u0, tangent / np.linalg.norm(tangent)

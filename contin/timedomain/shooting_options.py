@@ -39,6 +39,11 @@ class ShootingOptions:
     jacobian : str
         ``"variational"`` (the variational equations with the flow) or
         ``"differences"`` (central differences of the flow map, the reference).
+    start_step : int
+        The step of the orbit's grid (``steps_per_period * subharmonic`` steps a period) at which its state
+        is the first unknown: the section ``t0 = start_step T / (steps_per_period * subharmonic)``
+        (0: forcing phase zero). The orbits are the same whatever it is; the branch through them is
+        parametrised by the states at other times (:mod:`contin.timedomain.shooting_section`).
     """
 
     steps_per_period: int = 4096
@@ -48,6 +53,7 @@ class ShootingOptions:
     subharmonic: int = 1
     segments: int = 1
     jacobian: str = "variational"
+    start_step: int = 0
 
     def __post_init__(self):
         for name in ("steps_per_period", "max_iter", "subharmonic", "segments"):
@@ -62,6 +68,10 @@ class ShootingOptions:
         if steps % self.segments:
             raise ValueError(f"ShootingOptions.segments must divide steps_per_period * subharmonic = {steps} "
                              f"(segment ends on the step grid), got {self.segments}")
+        v = self.start_step
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 0 <= v < steps:
+            raise ValueError(f"ShootingOptions.start_step must be an integer in [0, {steps}) (a step of the orbit's "
+                             f"grid of steps_per_period * subharmonic steps), got {v!r}")
         if self.jacobian not in JACOBIANS:
             raise ValueError(f"ShootingOptions.jacobian must be one of {list(JACOBIANS)}, got {self.jacobian!r}")
 

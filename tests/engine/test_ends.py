@@ -85,3 +85,30 @@ def test_a_huge_range_is_followed_into_not_left_at_its_start(width):
         assert br.status is BranchStatus.MAX_POINTS and len(br) == 6, br.message
         assert np.all(direction * np.diff(br.parameter) > 0)  # along the range, away from its start
         np.testing.assert_allclose(br.unknowns, np.outer(br.parameter, np.linalg.solve(A, b)), rtol=1e-9)
+
+
+@pytest.mark.parametrize("k, status", [(1, BranchStatus.CLOSED_LOOP), (2, BranchStatus.CLOSED_LOOP),
+                                       (7, BranchStatus.RETRACED)])
+def test_passing_an_earlier_point_again_closes_a_loop_only_beside_the_start(monkeypatch, k, status):
+    """A branch that passes again through one of its first points has gone round its loop (its start passed
+    unseen between two points); through a later one it has retraced itself, which no smooth branch does: a
+    jump, a shortfall with the interval it did not reach (the Duffing oscillator whose two sheets beside the
+    backbone lie closer than a step retraces itself so: tests/hard/test_damping.py)."""
+    import contin.engine.continuation as engine
+
+    calls = []
+
+    def revisited(branch, *a):
+        calls.append(len(branch))
+        return k if len(branch) == 12 else None
+
+    monkeypatch.setattr(engine, "revisited", revisited)
+    br = continuation(Line(), [0.0], 0.0, (0.0, 10.0))
+    assert len(br) == 12 and br.status is status
+    assert br.status.as_asked == (status is BranchStatus.CLOSED_LOOP)
+    assert f"passed again through its point {k}" in br.message
+    if status is BranchStatus.RETRACED:
+        assert "retraces itself" in br.message and "lower ds_max" in br.message
+        assert br.info["uncovered"] == (pytest.approx(br.parameter[-1], rel=1e-12), 10.0)
+    else:
+        assert "returned to its start" in br.message and "uncovered" not in br.info

@@ -96,7 +96,8 @@ def scene_branches(name, scene_run):
             continue
         if headers.get(j, {}).get("method") == "shooting":  # the integrated flow's problem, as followed
             sh = headers[j]["shooting"]
-            opts = ShootingOptions(steps_per_period=sh["steps_per_period"], segments=sh["segments"], subharmonic=nu)
+            opts = ShootingOptions(steps_per_period=sh["steps_per_period"], segments=sh["segments"], subharmonic=nu,
+                                   start_step=sh.get("start_step", 0))
             base = {k: v for k, v in hb.parameters().items() if k != hb.parameter}
             problems[j] = ShootingProblem(integrated_model(hb), hb.parameter, base, opts)
             yield j, problems[j], br
