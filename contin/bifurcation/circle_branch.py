@@ -53,8 +53,8 @@ from contin.timedomain.shooting_section import at_quiet_section, state_at_zero
 from contin.timedomain.torus_check import check_circle
 
 __all__ = ["CHECK_PERIODS", "FLIP_SPREAD", "LOCKING_FIT", "LOCKING_REACH", "LOCKING_SHAPE", "LOCKING_TOL",
-           "LYAPUNOV_PERIODS", "MAX_DENOMINATOR", "PAIR_MULTIPLIER", "CircleStabilityMonitor", "CircleStart",
-           "LOCKED_OFFSETS", "LockedOrbit", "circle_child_start", "circle_spread", "classify_circle_end",
+           "LYAPUNOV_PERIODS", "MAX_DENOMINATOR", "PAIR_MULTIPLIER", "SINGLE_SHOOTING", "CircleStabilityMonitor",
+           "CircleStart", "LOCKED_OFFSETS", "LockedOrbit", "circle_child_start", "circle_spread", "classify_circle_end",
            "follow_circle", "locked_orbits", "locked_starts", "locking_ahead"]
 
 #: a flip counts as the collapse where the circle is this small against its largest (elsewhere it would be the
