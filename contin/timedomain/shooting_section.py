@@ -9,9 +9,9 @@ a small change of the orbit slides the bounce's timing across ``t0`` and the
 state there sweeps the bounce's whole velocity reversal. The curve is then
 stretched over a tiny change of the orbit, its tangent turns at each corner
 the contact puts into it, and the steps crawl (the bearing rotor's
-subharmonic near ``w = 2.1855``, parametrised at ``t = 0``: 80 steps and no
+subharmonic near ``w = 2.1855``, parametrised at ``t = 0``: 75 steps and no
 way past; at ``t = T``, where the journal slides steadily on its casing, three
-steps).
+steps: docs/theory/events.md).
 
 :func:`quiet_step` picks the step of the orbit's grid farthest in time from
 every switch along it (the middle of its longest stretch without a contact
@@ -19,8 +19,8 @@ arc opening or closing: in a steady contact or a flight, far from the
 landings and lift-offs where grazing and chatter happen); along an orbit
 without switches, the state farthest from every switching surface (each
 function relative to its largest modulus along the orbit).
-:func:`at_quiet_section` moves an orbit's unknowns there (:func:`resectioned`, :func:`unknowns_at`). Both are chosen
-once, where a branch starts.
+:func:`at_quiet_section` moves an orbit's unknowns there (:func:`resectioned`,
+:func:`unknowns_at`). The section is chosen once, where a branch starts.
 """
 
 from __future__ import annotations
@@ -81,10 +81,11 @@ def quiet_step(problem, u: np.ndarray, lam: float, segments: int | None = None) 
     n = s.shape[0]
     side = s > 0.0
     switched = np.flatnonzero(np.any(side != np.roll(side, 1, axis=0), axis=1))  # a switch just before these steps
-    if switched.size:
+    if switched.size:  # the circular distance to the nearest switch, either way round
         k = np.arange(n)
-        d = np.abs(k[:, None] - switched[None, :])
-        score = np.minimum(d, n - d).min(axis=1).astype(float)
+        at = np.searchsorted(switched, k)
+        ahead, behind = switched[at % switched.size], switched[(at - 1) % switched.size]
+        score = np.minimum((ahead - k) % n, (k - behind) % n).astype(float)
     else:
         a = np.abs(s)
         top = a.max(axis=0)
