@@ -25,6 +25,11 @@ __all__ = ["shooting_options", "shooting_reference"]
 def shooting_options(scene) -> ShootingOptions:
     """``analysis.shooting_options``, with the orbit's period ``subharmonic`` forcing periods by default."""
     d = {"subharmonic": scene.analysis["subharmonic"], **dict(scene.analysis["shooting_options"])}
+    internal = [f.name for f in dataclasses.fields(ShootingOptions) if f.metadata.get("scene") is False]
+    for k in d:
+        if k in internal:
+            raise SceneError(f"analysis.shooting_options.{k}", "a key a scene sets (its orbits are shot from "
+                             "forcing phase zero)", d[k])
     try:
         return ShootingOptions.from_dict(d)
     except (ValueError, TypeError) as exc:

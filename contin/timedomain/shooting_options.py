@@ -53,7 +53,8 @@ class ShootingOptions:
     subharmonic: int = 1
     segments: int = 1
     jacobian: str = "variational"
-    start_step: int = 0
+    #: not a scene key: chosen where a branch starts (metadata ``scene``: False)
+    start_step: int = dataclasses.field(default=0, metadata={"scene": False})
 
     def __post_init__(self):
         for name in ("steps_per_period", "max_iter", "subharmonic", "segments"):

@@ -125,6 +125,8 @@ def options_table(cls) -> list[str]:
     docs = attribute_docs(cls)
     rows = ["| key | default | meaning |", "| --- | --- | --- |"]
     for f in dataclasses.fields(cls):
+        if f.metadata.get("scene") is False:  # an option no scene sets
+            continue
         if f.default is not dataclasses.MISSING:
             default = f"`{_value(f.default)}`"
         elif f.default_factory is not dataclasses.MISSING:

@@ -105,6 +105,8 @@ def test_shooting_reference_finds_the_transition_curves_and_the_curves(tmp_path)
     (["analysis.shooting=[0.2]"], "analysis.shooting", "period-doubling curves to check ('pd' in analysis.curves)"),
     (["analysis.shooting=[0.2]", "analysis.curves=[pd]", "analysis.shooting_options={steps: 8}"],
      "analysis.shooting_options", "unknown option 'steps' of"),
+    (["analysis.shooting=[0.2]", "analysis.curves=[pd]", "analysis.shooting_options={start_step: 8}"],
+     "analysis.shooting_options.start_step", "a key a scene sets (its orbits are shot from forcing phase zero)"),
     (["analysis.shooting_points=2"], "analysis.shooting_points", "an integer from 3 to 10000"),
 ])
 def test_bad_shooting_input_names_the_key(override, key, message, tmp_path, capsys):
