@@ -117,7 +117,11 @@ interpolant's error is ``O(h^4)`` (the fourth derivative of ``s``), and the
 measure is continuous in the initial state: when a turn passes a step end,
 ``s'`` is zero there and the cubics on both sides give the value of ``s``
 itself. Sub-steps ending at a located switch are taken in their own contact
-mode, so the turn of a short arc between two switches is seen.
+mode, so the turn of a short arc between two switches is seen. On a whole
+step where no dip through a surface is possible (the simulation module's
+``_near``) the slopes at its end are those the next step's first stage gives
+(the same state and mode; the run's last step evaluates them once more), so
+such a step costs one switching gradient and no extra right-hand side.
 """
 
 from __future__ import annotations

@@ -162,6 +162,15 @@ def flow(y, mode, P, k0, k1, S, h, p, Minv, C, K, cst, dC, dK, dcst, rate, max_e
     tx = np.zeros(ns)
     tv = np.zeros(ns)
     kb = np.empty(n2)
+    # a plain step's turn waits for the slopes at its end, the next step's first stage (pend): its start
+    # values ps0, slopes psl (per unit time) and length ph; sl0 the slopes at the current step's start
+    sl0 = np.zeros(ns)
+    ps0 = np.zeros(ns)
+    psl = np.zeros(ns)
+    ptx = np.zeros(ns)
+    ptv = np.zeros(ns)
+    ph = 0.0
+    pend = False
     nh = 0
     dphi = 2.0 * np.pi / S
     om = dphi / h  # the phase rate: tau = om t
@@ -236,6 +245,17 @@ def flow(y, mode, P, k0, k1, S, h, p, Minv, C, K, cst, dC, dK, dcst, rate, max_e
                     # the time derivatives only where they enter, a sub-step ending at a switch or starting at
                     # one (a few a period: a call of its own, the stages recomputed)
                     step_times(y, tau0, dtau, hs, om, p, Minv, C, K, cst, mode, ta, tb)
+            if DIP and theta == 0.0 and not searching and not finishing:
+                # the slopes s' = grad s . y' at the grid step's start (q1 its first stage): the end of the
+                # waiting turn, the start of this step's
+                switch_grad(y, p, cst, X, V, G)
+                for j in range(NS):
+                    sl0[j] = _slope(G, j, q1, 1.0)
+                if pend:
+                    pend = False
+                    for j in range(NS):
+                        ptx[j], ptv[j] = _hermite(ps0[j], s0[j], psl[j] * ph, sl0[j] * ph)
+                    _graze(ptx, ptv, graze)
             if finishing:
                 # accept the state just past the surface (yb; the sub-step's own state is the same arithmetic),
                 # differentiate the event time and switch the crossing laws
@@ -332,10 +352,19 @@ def flow(y, mode, P, k0, k1, S, h, p, Minv, C, K, cst, dC, dK, dcst, rate, max_e
                 crossed[j] = (sm[j] > 0.0) != (mode[j] != 0)
                 if crossed[j]:
                     ncross += 1
-            if ncross == 0 and DIP:
+            near = ncross == 0 and DIP and nev < max_events and _near(s0, sm, sp, nh, theta)
+            if ncross == 0 and DIP and theta == 0.0 and not near:
+                # no dip possible: the turn is only the graze's, and waits for the next step's slopes (the
+                # same state: one switch gradient and one right-hand side a step fewer)
+                pend = True
+                ph = frac * h
+                for j in range(NS):
+                    ps0[j] = s0[j]
+                    psl[j] = sl0[j]
+            elif ncross == 0 and DIP:
                 _turns_in(y, ym, q1, tau0 + frac * dphi, frac * h, p, Minv, C, K, cst, mode, X, V, TAU, F, DUM, R, kb,
                        G, s0, sm, tx, tv)
-                if nev < max_events and _near(s0, sm, sp, nh, theta):
+                if near:
                     # as the simulation module's integrate, bit for bit (the same trials from the same state)
                     b = _probe(y, tau0, frac * dphi, frac * h, p, Minv, C, K, cst, mode, X, V, TAU, F, DUM, R, q1,
                                s0, ym, sm, tx, tv, crossed, yb, sb, stats)
@@ -425,6 +454,13 @@ def flow(y, mode, P, k0, k1, S, h, p, Minv, C, K, cst, dC, dK, dcst, rate, max_e
                     factors[nf, i, c] = P[i, c]
                     P[i, c] = 1.0 if i == c else 0.0
             nf += 1
+    if pend:
+        # the last step's turn: the slopes at the run's end
+        rhs(y, (k1 % S) * dphi, p, Minv, C, K, cst, mode, X, V, TAU, F, DUM, R, kb)
+        switch_grad(y, p, cst, X, V, G)
+        for j in range(NS):
+            ptx[j], ptv[j] = _hermite(ps0[j], s0[j], psl[j] * ph, _slope(G, j, kb, ph))
+        _graze(ptx, ptv, graze)
     return 0
 '''
 

@@ -203,6 +203,28 @@ def test_graze_is_the_extremum_of_the_switching_function_of_a_linear_orbit():
     assert run.graze[1] == math.inf  # the absent side is a constant
 
 
+@pytest.mark.parametrize("jacobian", [False, True])
+@pytest.mark.parametrize("last", [0, 1, 5])
+def test_graze_of_a_run_whose_extremum_lies_in_its_last_steps(jacobian, last):
+    """A run of a few steps ending ``last`` steps after the one that holds the crest of x = A cos(w t - phi):
+    the crest's turn is found there too (a step's turn is taken with the slopes at its end, which the next
+    step's first stage gives, or, for the run's last step, one more evaluation)."""
+    model = gap_model(False)
+    prm = {"g": 1.6, "F": 0.5, "w": 0.8, "a3": 0.0, "a2": 0.0}
+    p = model.parameter_vector(prm)
+    c, w, F = 0.05, 0.8, 0.5
+    A = F / math.hypot(1 - w * w, c * w)
+    phi = math.atan2(c * w, 1 - w * w)
+    S = 512
+    h = 2 * math.pi / w / S
+    k_crest = int(phi / w / h)  # the crest at t = phi / w lies in step k_crest
+    k0 = k_crest - 6
+    t0 = k0 * h
+    z = np.array([A * math.cos(w * t0 - phi), -A * w * math.sin(w * t0 - phi)])
+    run = VariationalFlow(model, steps_per_period=S).run(z, p, k0, k_crest + 1 + last, jacobian=jacobian)
+    assert abs(run.graze[0] - (A - 1.6)) <= A * w ** 3 * h ** 3 / (9 * math.sqrt(3)) + 1e-12
+
+
 def _hb_at(model, z, w, lam_name="w"):
     """A one-harmonic HB problem and coefficients whose state at t = 0 is z (its start for monodromy_reference)."""
     hb = HarmonicBalance(model, lam_name, HBOptions(harmonics=1, samples=16, crossings="none"))
