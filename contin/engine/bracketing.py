@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["KINK_FLOOR", "Location", "narrow"]
+__all__ = ["JUMP", "KINK_FLOOR", "Location", "narrow"]
 
 
 @dataclasses.dataclass(eq=False)
@@ -91,6 +91,13 @@ class _Budget:
         return s if abs(s - mid) <= radius else mid + math.copysign(radius, s - mid)
 
 
+#: A plain continuous test (``value_decides``) jumps at the change when its difference quotient across the
+#: bracket has grown this many times over the one across the whole step (a smooth zero keeps it about the same).
+JUMP = 64
+#: At a jump the parameter is located once the steepest slope between neighbouring solved points, times this
+#: margin, moves it by at most the tolerance across the bracket.
+JUMP_MARGIN = 2.0
+
 #: with ``kink``, a test value of the wrong sign but within this fraction of the bracket's values counts as
 #: lying on its side's side of zero (:func:`narrow`)
 KINK_FLOOR = 1e-6
@@ -150,7 +157,12 @@ def narrow(point_at, s_lo, s_hi, p_lo, p_hi, v_lo, v_hi, h, *, side, value=None,
         may fail), instead of ending the location there.
     value_decides : bool
         ``side`` is the sign of ``value`` (a plain continuous test), so a
-        zero of ``value`` is the change.
+        zero of ``value`` is the change. Where the test jumps at the change
+        instead (its difference quotient across the bracket :data:`JUMP`
+        times the one across the step: a fold at a corner of a non-smooth
+        branch, where the tangent flips), the change is located once the
+        steepest slope of the parameter between the solved points cannot move
+        it by more than ``tol`` across the bracket, however wide in arclength.
     kink : bool
         The test may have a corner at the change (its slope differs on the
         two sides, as the turn of a switching function at a grazing): the
@@ -183,6 +195,10 @@ def narrow(point_at, s_lo, s_hi, p_lo, p_hi, v_lo, v_hi, h, *, side, value=None,
     # the points solved on each side with their test values (kink)
     sides = {-1: [(s_lo, v_lo)], 1: [(s_hi, v_hi)]}
     lam_hi = p_hi.lam
+    # (s, lam) of the solved points, and the test's difference quotient across the step (a jump: JUMP)
+    solved = [(s_lo, p_lo.lam), (s_hi, p_hi.lam)]
+    quotient = (abs(v_lo) + abs(v_hi)) / (s_hi - s_lo) if value_decides and math.isfinite(scale_v) else math.nan
+    at_jump = False
     # the half width the tolerances ask (the parameter's part through the step's mean slope, with a
     # margin of two halvings for a slope steeper where the change is)
     eps = math.sqrt(tol) * h
@@ -197,7 +213,20 @@ def narrow(point_at, s_lo, s_hi, p_lo, p_hi, v_lo, v_hi, h, *, side, value=None,
         # without a solved far end, the parameter's bracket is estimated from the step's mean slope
         dlam = abs(lam_hi - p_lo.lam) if lam_hi is not None else lam_rate * width
         lam_ref = max(1.0, abs(p_lo.lam), abs(p_hi.lam))
-        return dlam <= tol * lam_ref and width <= math.sqrt(tol) * h
+        if dlam > tol * lam_ref:
+            return False
+        if (math.isfinite(quotient) and math.isfinite(v_lo) and math.isfinite(v_hi)
+                and abs(v_lo) + abs(v_hi) >= JUMP * width * quotient):
+            # the test jumps at the change (a corner of a non-smooth branch, where a fold's tangent flips):
+            # its values tell nothing of where the change lies in the bracket, but the parameter is known
+            # once it cannot move by more than the tolerance across it, however wide the bracket
+            nonlocal at_jump
+            pts = sorted(solved)
+            steepest = max((abs(l1 - l0) / (s1 - s0) for (s0, l0), (s1, l1) in zip(pts, pts[1:]) if s1 > s0),
+                           default=math.inf)
+            at_jump = JUMP_MARGIN * steepest * width <= tol * lam_ref
+            return at_jump
+        return width <= math.sqrt(tol) * h
 
     while True:
         if bracket_done():
@@ -229,6 +258,7 @@ def narrow(point_at, s_lo, s_hi, p_lo, p_hi, v_lo, v_hi, h, *, side, value=None,
         if info is None:
             message = f"location failed: {why}"
             break
+        solved.append((s, info.lam))
         try:
             v = value(info) if value is not None else math.nan
             lower = bool(side(info, v))
@@ -283,4 +313,7 @@ def narrow(point_at, s_lo, s_hi, p_lo, p_hi, v_lo, v_hi, h, *, side, value=None,
     if located:
         dlam = abs(lam_hi - p_lo.lam) if lam_hi is not None else lam_rate * (s_hi - s_lo)
         message = f"located in {iterations} iterations, |dlam| = {dlam:.1e}"
+        if at_jump:
+            message += (f"; the test jumps there (from {v_lo:.2g} to {v_hi:.2g} across {s_hi - s_lo:.1e} of "
+                        "arclength: a corner of the branch)")
     return Location(sigma, point, val, located, iterations, message, (p_lo.lam, p_hi.lam))

@@ -51,3 +51,48 @@ def test_a_count_a_hair_behind_the_zero_still_gives_secant_steps():
         assert loc.located and abs(loc.point.lam - ROOT) <= 2e-13 and math.isfinite(loc.value)
         its[kink] = loc.iterations
     assert its[True] <= 14 and its[False] >= 40, its
+
+
+PEAK = 2.1437741
+
+
+def _fold(corner: bool, slope: float):
+    """A branch whose parameter peaks at sigma = ROOT: at a corner (lam = PEAK - slope |sigma - ROOT|, its
+    tangent's parameter component jumping from +1 to -1 there) or smoothly (PEAK - slope (sigma - ROOT)^2)."""
+    def point_at(s):
+        d = s - ROOT
+        lam = PEAK - slope * (abs(d) if corner else d * d)
+        return types.SimpleNamespace(lam=lam, s=s, t=(-math.copysign(1.0, d) if corner else -2.0 * d)), ""
+
+    def value(info):
+        return info.t
+
+    return value, point_at
+
+
+@pytest.mark.parametrize("slope", [1e-9, 1e-4])
+def test_a_fold_at_a_corner_is_located_once_the_parameter_cannot_move(slope):
+    """The test jumps at the change: the bracket need not shrink to sqrt(tol) of the step, only until the
+    steepest slope of the parameter across it is within the tolerance."""
+    value, point_at = _fold(True, slope)
+    a, b = point_at(0.0)[0], point_at(1.0)[0]
+    tol = 1e-10
+    loc = narrow(point_at, 0.0, 1.0, a, b, value(a), value(b), 1.0, side=lambda info, v: (v < 0) == (value(a) < 0),
+                 value=value, tol=tol, value_decides=True)
+    assert loc.located and "the test jumps there" in loc.message
+    assert PEAK - loc.point.lam <= tol * PEAK
+    lo, hi = loc.bracket
+    assert PEAK - min(lo, hi) <= tol * PEAK
+    # bisections to the jump test (1/64 of the step) or to the parameter's tolerance, whichever is later; the
+    # arclength criterion would have taken 17 (sqrt(tol) of the step)
+    needed = max(6, math.ceil(math.log2(2 * slope / (tol * PEAK))))
+    assert loc.iterations <= needed + 4, (loc.iterations, needed)
+
+
+def test_a_smooth_fold_is_no_jump():
+    value, point_at = _fold(False, 0.5)
+    a, b = point_at(0.0)[0], point_at(1.0)[0]
+    loc = narrow(point_at, 0.0, 1.0, a, b, value(a), value(b), 1.0, side=lambda info, v: (v < 0) == (value(a) < 0),
+                 value=value, tol=1e-10, value_decides=True)
+    assert loc.located and "jumps" not in loc.message
+    assert abs(loc.point.s - ROOT) <= 1e-5 and PEAK - loc.point.lam <= 1e-10 * PEAK
