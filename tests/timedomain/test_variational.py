@@ -184,14 +184,18 @@ def test_an_element_without_jacobian_lines_still_has_its_state_integrated(duffin
     np.testing.assert_array_equal(flow.run(z, p, 0, 256, jacobian=False).state, duffing[1].run(z, p, 0, 256).state)
 
 
+def _linear_orbit():
+    """The gap oscillator whose stop (g = 1.6) is never reached: the model, its parameter vector, and the
+    amplitude, frequency and phase of its steady state x = A cos(w t - phi) (closed form)."""
+    model = gap_model(False)
+    p = model.parameter_vector({"g": 1.6, "F": 0.5, "w": 0.8, "a3": 0.0, "a2": 0.0})
+    c, w, F = 0.05, 0.8, 0.5
+    return model, p, F / math.hypot(1 - w * w, c * w), w, math.atan2(c * w, 1 - w * w)
+
+
 def test_graze_is_the_extremum_of_the_switching_function_of_a_linear_orbit():
     """A stop never reached: x = A cos(w t - phi), so the extremum of x - g is A - g (closed form)."""
-    model = gap_model(False)
-    prm = {"g": 1.6, "F": 0.5, "w": 0.8, "a3": 0.0, "a2": 0.0}
-    p = model.parameter_vector(prm)
-    c, w, F = 0.05, 0.8, 0.5
-    A = F / math.hypot(1 - w * w, c * w)
-    phi = math.atan2(c * w, 1 - w * w)
+    model, p, A, w, phi = _linear_orbit()
     z = np.array([A * math.cos(phi), A * w * math.sin(phi)])  # the steady state at t = 0
     S = 512
     flow = VariationalFlow(model, steps_per_period=S)
@@ -209,12 +213,7 @@ def test_graze_of_a_run_whose_extremum_lies_in_its_last_steps(jacobian, last):
     """A run of a few steps ending ``last`` steps after the one that holds the crest of x = A cos(w t - phi):
     the crest's turn is found there too (a step's turn is taken with the slopes at its end, which the next
     step's first stage gives, or, for the run's last step, one more evaluation)."""
-    model = gap_model(False)
-    prm = {"g": 1.6, "F": 0.5, "w": 0.8, "a3": 0.0, "a2": 0.0}
-    p = model.parameter_vector(prm)
-    c, w, F = 0.05, 0.8, 0.5
-    A = F / math.hypot(1 - w * w, c * w)
-    phi = math.atan2(c * w, 1 - w * w)
+    model, p, A, w, phi = _linear_orbit()
     S = 512
     h = 2 * math.pi / w / S
     k_crest = int(phi / w / h)  # the crest at t = phi / w lies in step k_crest
