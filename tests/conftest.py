@@ -74,8 +74,8 @@ def rng():
 
 #: example scenes whose run falls short, exit 1, and the words each of their shortfalls holds: branches that end
 #: at a grazing point harmonic balance cannot pass, leaving part of the range (docs/reference/outcomes.md)
-FALLS_SHORT = {"rotor_c2_5.yaml": ("ended at a grazing point",),
-               # shooting, handed the nu = 2 halves at their grazing points, does not get past them (yet)
+FALLS_SHORT = {# shooting, handed the nu = 2 halves at their grazing points, takes the lower one to the period
+               # doubling but crawls in the upper one's grazing cascade (yet)
                "rotor_f0_02.yaml": ("ended step_too_small",),
                # harmonic balance alone (method: hb): its branches stop at grazing points
                "rotor_fe_rig.yaml": ("ended at a grazing point", "stopped at a point it cannot pass"),

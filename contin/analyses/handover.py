@@ -54,7 +54,9 @@ def _job(i: int, br, meta: dict, prob, setup, ctx):
                            at[1] if at is not None else _direction(br))
     if start is None:
         meta["handover_failed"] = ("no point of the harmonic-balance branch before its grazing point gave a "
-                                   "shooting orbit within the truncation's reach")
+                                   "shooting orbit within the truncation's reach (the flow integrated at "
+                                   f"{sp.options.steps_per_period} steps a period: a stiff contact may need "
+                                   "more, analysis.shooting.steps_per_period)")
         return None
     u0, lam, direction = start
     su = setup.options.unknown_scale

@@ -414,6 +414,7 @@ def branch_end_checks(results, problems: dict, branches_info: list, lam_range, t
             lines.append(f"{who} ended at a grazing point at {at} that harmonics {v.harmonics} does not resolve "
                          f"({v.reason}); raise analysis.harmonics{gap}")
         else:
+            tip = f"; shooting could not take it over: {info['handover_failed']}" if info.get("handover_failed") else ""
             lines.append(f"{who} ended at a grazing point at {at} that the continuation could not pass ({v.reason})"
-                         f"{gap}")
+                         f"{gap}{tip}")
     return lines

@@ -107,3 +107,17 @@ def test_a_run_interrupted_after_the_handover_resumes_to_the_same_rows(tmp_path,
     for col in a:
         if a[col].dtype.kind == "f":
             np.testing.assert_allclose(b[col], a[col], rtol=1e-9, atol=1e-12, err_msg=col)
+
+
+@pytest.mark.slow  # a harmonic-balance branch and the handover's tries (~3 s)
+def test_a_flow_too_coarse_for_the_contact_meets_no_branch_and_the_shortfall_says_which_steps(tmp_path):
+    """At 32 RK4 steps a period the stop's contact (stiffness 300, its period a fifth of the forcing's) is not
+    resolved: no shooting orbit lies within reach of the truncated series, the branch ends at its grazing
+    point and the shortfall names the steps the flow was integrated at and the key that sets them."""
+    s = run_scene(parse_scene(GAP.replace("shooting: {steps_per_period: 1024}", "shooting: {steps_per_period: 32}")),
+                  tmp_path / "out", progress=False)
+    assert s["status"] == "incomplete" and len(s["analysis"]["branches"]) == 1
+    b0 = s["analysis"]["branches"][0]
+    assert b0["status"] == "boundary" and "32 steps a period" in b0["handover_failed"]
+    assert any("shooting could not take it over" in line and "analysis.shooting.steps_per_period" in line
+               for line in s["shortfalls"])

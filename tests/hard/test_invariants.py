@@ -165,13 +165,8 @@ def natural_steps_connected(name, j, problem, br) -> int:
     return len(br) - 1
 
 
-#: scenes whose shooting legs stall inside a grazing cascade (incomplete runs, tests/conftest.py FALLS_SHORT): the
-#: last of their tiny steps have no solution on the midpoint hyperplane, which this test asks for
-STALLED = {"rotor_f0_02.yaml": "its nu = 2 shooting legs stall within 1e-5 of their grazing points"}
-
-
-@pytest.mark.parametrize("name", [pytest.param(n, marks=(() if n in QUICK else (pytest.mark.slow, pytest.mark.longest)) + (
-    (pytest.mark.xfail(reason=STALLED[n], strict=False),) if n in STALLED else ())) for n in SCENES])
+@pytest.mark.parametrize("name", [pytest.param(n, marks=() if n in QUICK else (pytest.mark.slow, pytest.mark.longest))
+                                  for n in SCENES])
 def test_example_scene_branches_are_connected(name, scene_run):
     n = 0
     for j, problem, br in scene_branches(name, scene_run):
