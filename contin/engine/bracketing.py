@@ -207,6 +207,7 @@ def narrow(point_at, s_lo, s_hi, p_lo, p_hi, v_lo, v_hi, h, *, side, value=None,
     budget = _Budget(s_lo, s_hi, 0.125 * max(eps, 64 * _EPS * max(1.0, s_full)), max_iter)
 
     def bracket_done():
+        nonlocal at_jump
         width = s_hi - s_lo
         if width <= 64 * _EPS * max(1.0, s_full):
             return True
@@ -220,7 +221,6 @@ def narrow(point_at, s_lo, s_hi, p_lo, p_hi, v_lo, v_hi, h, *, side, value=None,
             # the test jumps at the change (a corner of a non-smooth branch, where a fold's tangent flips):
             # its values tell nothing of where the change lies in the bracket, but the parameter is known
             # once it cannot move by more than the tolerance across it, however wide the bracket
-            nonlocal at_jump
             pts = sorted(solved)
             steepest = max((abs(l1 - l0) / (s1 - s0) for (s0, l0), (s1, l1) in zip(pts, pts[1:]) if s1 > s0),
                            default=math.inf)
