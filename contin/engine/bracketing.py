@@ -94,8 +94,8 @@ class _Budget:
 #: A plain continuous test (``value_decides``) jumps at the change when its difference quotient across the
 #: bracket has grown this many times over the one across the whole step (a smooth zero keeps it about the same).
 JUMP = 64
-#: At a jump the parameter is located once the steepest slope between neighbouring solved points, times this
-#: margin, moves it by at most the tolerance across the bracket.
+#: At a jump the parameter is located once the steepest slope between solved points (at least ``h / JUMP`` apart),
+#: times this margin, moves it by at most the tolerance across the bracket.
 JUMP_MARGIN = 2.0
 
 #: with ``kink``, a test value of the wrong sign but within this fraction of the bracket's values counts as
@@ -221,9 +221,12 @@ def narrow(point_at, s_lo, s_hi, p_lo, p_hi, v_lo, v_hi, h, *, side, value=None,
             # the test jumps at the change (a corner of a non-smooth branch, where a fold's tangent flips):
             # its values tell nothing of where the change lies in the bracket, but the parameter is known
             # once it cannot move by more than the tolerance across it, however wide the bracket
+            # slopes between points at least h / JUMP apart: closer ones, down to the rounding of the
+            # arclength, give the rounding (or Newton's tolerance) of lambda over a vanishing distance
             pts = sorted(solved)
-            steepest = max((abs(l1 - l0) / (s1 - s0) for (s0, l0), (s1, l1) in zip(pts, pts[1:]) if s1 > s0),
-                           default=math.inf)
+            far = h / JUMP
+            steepest = max((abs(l1 - l0) / (s1 - s0) for i, (s0, l0) in enumerate(pts) for s1, l1 in pts[i + 1:]
+                            if s1 - s0 >= far), default=math.inf)
             at_jump = JUMP_MARGIN * steepest * width <= tol * lam_ref
             return at_jump
         return width <= math.sqrt(tol) * h
