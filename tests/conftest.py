@@ -79,7 +79,7 @@ FALLS_SHORT = {# shooting, handed the nu = 2 halves at their grazing points, tak
                "rotor_f0_02.yaml": ("ended step_too_small",),
                # harmonic balance alone (method: hb): its branches stop at grazing points
                "rotor_fe_rig.yaml": ("ended at a grazing point", "stopped at a point it cannot pass"),
-               # natural steps of its tori end at a fold, or where no locking is in reach (no turning there)
+               # natural steps of its tori end at tongues of large q, where no locking of small q is in reach
                "rotor_fig3.yaml": ("ended step_too_small",)}
 
 

@@ -13,19 +13,25 @@ of the lazy Jacobian count).
 
 Ends: the range's end (``range_end``); a circle that collapses onto its
 periodic orbit (``boundary`` with an unlocated ``ns`` point: a
-Neimark-Sacker point); Newton failing at every step down to ``ds_min``
-with the rotation number at ``p/q`` of small ``q`` (``boundary`` with a
-``locking`` point, :func:`~contin.bifurcation.circle_branch.classify_circle_end`),
-or elsewhere (``step_too_small``: a fold of the torus, which natural steps
-cannot turn, or its breakdown; the run is incomplete). Where the stability
+Neimark-Sacker point, where the torus is born: an end as asked); Newton
+failing at every step down to ``ds_min``, and a pass of steps at a fixed
+size of the circle failing after it, with the rotation number at ``p/q`` of
+small ``q`` (``boundary`` with a ``locking`` point,
+:func:`~contin.bifurcation.circle_branch.classify_circle_end`), or
+elsewhere (``step_too_small``: a breakdown of the torus, or a tongue's edge;
+the run is incomplete). Where the size steps turn back in ``lam``, the
+branch turns at a fold of the torus (a ``fold`` point, located between
+circles at a fixed size: :mod:`contin.bifurcation.circle_fold`) and goes on
+towards the range's other end. Where the stability
 verdicts of two neighbouring circles differ, an unlocated ``stability`` point
 between them says so: a bifurcation of the torus, or a step across a fold
 of tori onto its other half (both tori exist on one side of the fold, and a
 step from one half may land on the other, which natural steps cannot
 tell). After each stored circle ``checkpoint(branch, state)`` receives
 ``{"points", "natural": CircleStepper.state(), "monitors"}``; a resumed
-branch goes on from its last two circles and the same chord
-factorisation, as the uninterrupted run would.
+branch goes on from its last circles (two, or those of a pass of size
+steps under way) and the same chord factorisation, as the uninterrupted
+run would.
 """
 
 from __future__ import annotations
@@ -85,7 +91,7 @@ def follow_circle_steps(problem, u0, lam0: float, lam_range, options: Continuati
         _restore_monitors(mons, previous.info.get("monitor_states"))
         return previous
     opts = options.replace(newton_max_iter=max(options.newton_max_iter, MIN_NEWTON_ITER))
-    end = hi if options.direction > 0 else lo
+    end, other = (hi, lo) if options.direction > 0 else (lo, hi)
     first = options.direction * min(options.ds, options.ds_max)
     if previous is not None:
         state = previous.info.pop("restart", None)
@@ -94,8 +100,9 @@ def follow_circle_steps(problem, u0, lam0: float, lam_range, options: Continuati
         builder = BranchBuilder(name, problem.size, branch=previous)
         previous.status, previous.message = BranchStatus.RUNNING, ""
         stepper = CircleStepper(problem, previous.unknowns[-1], float(previous.parameter[-1]), first, end,
-                                min_step=options.ds_min, max_step=options.ds_max, options=opts)
-        stepper.restore(previous.parameter[-2:], previous.unknowns[-2:], state["natural"])
+                                min_step=options.ds_min, max_step=options.ds_max, options=opts, turn_to=other)
+        k = CircleStepper.circles_needed(state["natural"])
+        stepper.restore(previous.parameter[-k:], previous.unknowns[-k:], state["natural"])
         _restore_monitors(mons, state.get("monitors"))
     else:
         builder = BranchBuilder(name, problem.size)
@@ -115,7 +122,7 @@ def follow_circle_steps(problem, u0, lam0: float, lam_range, options: Continuati
             u, iterations, res = r.x, r.iterations, r.residual_norm
         # a start at the range's end it goes to: one circle, the range's end reached
         stepper = CircleStepper(problem, u, lam0, first, end, min_step=options.ds_min, max_step=options.ds_max,
-                                options=opts)
+                                options=opts, turn_to=other)
         builder.append_point(u, lam0, _start_tangent(problem.size, options.direction), 0.0, iterations, 0.0,
                              _finite(res, problem, u, lam0), evaluate_monitors(mons, u, lam0, None, None))
         if not _after(builder.branch, callback, checkpoint, stepper, mons):
@@ -132,8 +139,7 @@ def follow_circle_steps(problem, u0, lam0: float, lam_range, options: Continuati
         try:
             r = stepper.attempt()
         except NUMERICAL_ERRORS:  # an evaluation that failed is a failed step
-            stepper.step /= 2.0
-            stepper.failures += 1
+            stepper.failed()
             continue
         if r is None:
             continue
@@ -144,6 +150,9 @@ def follow_circle_steps(problem, u0, lam0: float, lam_range, options: Continuati
                              + float(np.linalg.norm(secant)), r.iterations, abs(dlam), r.residual_norm,
                              evaluate_monitors(mons, r.x, stepper.lam, None, None))
         _stability_change(branch)
+        if stepper.turned is not None:
+            _fold(branch, stepper.turned)
+            stepper.turned = None
         if not _after(branch, callback, checkpoint, stepper, mons):
             return branch
     else:
@@ -153,6 +162,20 @@ def follow_circle_steps(problem, u0, lam0: float, lam_range, options: Continuati
     if checkpoint is not None:
         checkpoint(branch, {"monitors": [_state_of(m) for m in mons]})
     return branch
+
+
+def _fold(branch: Branch, turned: dict) -> None:
+    """The fold the steps turned at (:class:`~contin.bifurcation.circle_steps.CircleStepper`): a ``fold`` point
+    at the circle found there, indexed at the stored circle nearest it."""
+    i = len(branch) - 1 - int(turned["back"])
+    name, lam = branch.parameter_name, float(turned["lam"])
+    a, b = turned["interval"]
+    how = ("located" if turned["located"] else f"not located to the tolerance: between {a:.10g} and {b:.10g}")
+    branch.special_points.append(SpecialPoint(
+        kind=SpecialKind.FOLD, parameter=lam, unknowns=np.array(turned["u"]), interval=(float(a), float(b)), index=i,
+        s=float(branch.arclength[i]), located=bool(turned["located"]), data={},
+        message=f"a fold of the torus at {name}={lam:.10g} ({how}): the steps at a fixed size of the circle "
+                f"turned there, and the steps in {name} go on the other way", event="circle fold"))
 
 
 def _stability_change(branch: Branch) -> None:

@@ -201,7 +201,8 @@ def end_as_boundary(branch: Branch, kind: SpecialKind, lam: float, u, index: int
                     event: str) -> None:
     """End ``branch`` as ``boundary`` with the unlocated special point ``kind`` at ``lam`` (stored point ``index``,
     unknowns ``u``), its ``event`` name and ``why`` before the engine's message; a resumed branch that holds the
-    point already keeps it."""
+    point already keeps it. A collapse onto the periodic orbit (``kind`` NS) is the torus's end as asked
+    (``info["end"] = "collapse"``: no shortfall, :func:`contin.scene.registry.shortfalls`)."""
     if not any(sp.event == event for sp in branch.special_points):
         prev = float(branch.parameter[index - 1]) if index > 0 else lam
         branch.special_points.append(SpecialPoint(
@@ -209,6 +210,8 @@ def end_as_boundary(branch: Branch, kind: SpecialKind, lam: float, u, index: int
             s=float(branch.arclength[index]), located=False, data=data, message=why, event=event))
     branch.message = f"{why}; the engine stopped there: {branch.message}"
     branch.status = BranchStatus.BOUNDARY
+    if kind is SpecialKind.NS:
+        branch.info["end"] = "collapse"  # the torus shrinks onto the orbit it is born from: an end as asked
 
 
 def run_torus(start, lam_range, options: ContinuationOptions, parameter_name: str, settings: TorusSettings,

@@ -103,17 +103,30 @@ JUMP_MARGIN = 2.0
 KINK_FLOOR = 1e-6
 
 
-def _one_sided(points) -> float | None:
-    """The zero of the secant through the two latest ``(s, value)`` of one side, pushed past it by a hundredth of
-    the step to it (so that the bracket closes from the far side too, a hundredfold an iteration where the side
-    is straight); None if there is none."""
+def _secant_zero(points) -> tuple[float, float] | None:
+    """The zero of the secant through the two latest ``(s, value)`` of ``points`` and the secant's slope; None if
+    there is none."""
     if len(points) < 2:
         return None
     (s0, v0), (s1, v1) = points[-2], points[-1]
     if not (math.isfinite(v0) and math.isfinite(v1)) or v1 == v0 or s1 == s0:
         return None
-    t = s1 - v1 * (s1 - s0) / (v1 - v0)
-    return t + 0.01 * (t - s1)
+    slope = (v1 - v0) / (s1 - s0)
+    return s1 - v1 / slope, slope
+
+
+def _one_sided(points, s_lo: float, s_hi: float, s_last: float, reach: float) -> float | None:
+    """The next point by the secant through the two latest ``(s, value)`` of one side (``points``): its zero,
+    moved towards the bracket's end farther from it by a hundredth of its distance from the latest point
+    ``s_last``, and at least by ``reach``. Where the side is straight the ends come next to the zero in turn, a
+    hundredfold closer each time; where the secant's side flattens towards the change (a dip past a grazing),
+    its points crowd at the zero and ``reach`` brings the far end in. None without a secant."""
+    found = _secant_zero(points)
+    if found is None:
+        return None
+    t = found[0]
+    far = s_lo if abs(t - s_lo) > abs(s_hi - t) else s_hi
+    return t + math.copysign(max(0.01 * abs(t - s_last), reach), far - t)
 
 
 def narrow(point_at, s_lo, s_hi, p_lo, p_hi, v_lo, v_hi, h, *, side, value=None, tol=1e-10, max_iter=60,
@@ -166,11 +179,11 @@ def narrow(point_at, s_lo, s_hi, p_lo, p_hi, v_lo, v_hi, h, *, side, value=None,
     kink : bool
         The test may have a corner at the change (its slope differs on the
         two sides, as the turn of a switching function at a grazing): the
-        next point is the secant of the two latest points on one side,
-        pushed a hundredth of its step past the zero it predicts (so that the
-        next bracket closes from the other side), where it falls inside the
-        bracket; a secant across a corner (regula falsi) converges only
-        linearly.
+        next point is the zero of the secant of the two latest points on the
+        side of the latest, moved towards the bracket's farther end
+        (:func:`_one_sided`, at least a tenth of the half width the
+        tolerance asks), where it falls inside the bracket; a secant across
+        a corner (regula falsi) converges only linearly.
 
     Returns
     -------
@@ -192,6 +205,7 @@ def narrow(point_at, s_lo, s_hi, p_lo, p_hi, v_lo, v_hi, h, *, side, value=None,
     s_full = s_hi
 
     lam_rate = abs(p_hi.lam - p_lo.lam) / (s_hi - s_lo) if s_hi > s_lo else 0.0
+    s_last = s_hi  # the latest point solved
     # the points solved on each side with their test values (kink)
     sides = {-1: [(s_lo, v_lo)], 1: [(s_hi, v_hi)]}
     lam_hi = p_hi.lam
@@ -241,7 +255,7 @@ def narrow(point_at, s_lo, s_hi, p_lo, p_hi, v_lo, v_hi, h, *, side, value=None,
         s = 0.5 * (s_lo + s_hi)
         width = s_hi - s_lo
         interpolated = False
-        one_sided = _one_sided(sides.get(last, [])) if kink and stalls < 3 else None
+        one_sided = _one_sided(sides.get(last, []), s_lo, s_hi, s_last, 0.1 * eps) if kink and stalls < 3 else None
         if one_sided is not None and s_lo < one_sided < s_hi:
             s, interpolated = budget.project(iterations, one_sided, s_lo, s_hi), True
         elif (stalls < 3 and math.isfinite(w_lo) and math.isfinite(w_hi) and (w_lo < 0) != (w_hi < 0)
@@ -250,6 +264,7 @@ def narrow(point_at, s_lo, s_hi, p_lo, p_hi, v_lo, v_hi, h, *, side, value=None,
             if s_lo < t < s_hi:
                 s, interpolated = t, True
         iterations += 1
+        s_last = s
         info, why = point_at(s)
         if info is None and failed_beyond and s > s_lo:
             s_hi, w_hi, stalls = s, math.nan, 0

@@ -140,7 +140,8 @@ def _check_panels(scene, measures: list, panels: bool) -> None:
 def _stopped_short(b: dict) -> bool:
     """A ``boundary`` end (a point the branch cannot pass) that leaves part of the range uncovered, neither handed
     over to another method (``end: handover``), nor a torus going on as the branches of its locked orbits
-    (``end: locking``), nor reported by the end checks already (another ``end``)."""
+    (``end: locking``) or shrinking onto the periodic orbit it is born from (``end: collapse``), nor reported by
+    the end checks already (another ``end``)."""
     gap = b.get("uncovered")
     return b.get("end") is None and gap is not None and gap[1] > gap[0]
 
@@ -156,7 +157,8 @@ def shortfalls(branches: list[dict], parameter: str, failed_switches=(), what: s
     it cannot pass (``boundary``, a grazing point of harmonic balance) falls
     short when it leaves part of its range uncovered (its ``uncovered``),
     unless it was handed over to shooting (``end: handover``) or is a torus
-    that locked and goes on as its periodic orbits' branches (``end: locking``).
+    that locked and goes on as its periodic orbits' branches (``end: locking``)
+    or collapsed onto its periodic orbit at a Neimark-Sacker point (``end: collapse``).
 
     Parameters
     ----------

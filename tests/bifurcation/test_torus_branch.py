@@ -30,13 +30,13 @@ class FakeBranch(SimpleNamespace):
 def branch(lams, w2, amp, status=BranchStatus.STEP_TOO_SMALL):
     U = [np.array([0.0, a, 0.0, v]) for a, v in zip(amp, w2)]
     return FakeBranch(unknowns=U, parameter=np.array(lams), status=status, message="step size fell",
-                           special_points=[], arclength=np.arange(len(lams), dtype=float), parameter_name="w")
+                           special_points=[], arclength=np.arange(len(lams), dtype=float), parameter_name="w", info={})
 
 
 def test_a_branch_stopping_at_ratio_one_half_locks():
     br = branch([1.9, 2.0, 2.1], [1.07, 1.05, 1.0512], [0.1, 0.15, 0.16])  # ratio 0.5006 at the end
     classify_end(br, FakeTorus(), TorusSettings())
-    assert br.status is BranchStatus.BOUNDARY
+    assert br.status is BranchStatus.BOUNDARY and "end" not in br.info
     sp = br.special_points[-1]
     assert sp.kind is SpecialKind.LOCKING and sp.data["rational"] == "1/2" and sp.parameter == 2.1
     assert br.message.startswith("the torus locks: w2/(w/nu) = 0.500571 approaches 1/2 at w=2.1")
@@ -50,6 +50,7 @@ def test_a_branch_shrinking_to_nothing_ends_at_a_neimark_sacker_point():
     classify_end(br, FakeTorus(), TorusSettings())
     assert br.status is BranchStatus.BOUNDARY and br.special_points[-1].kind is SpecialKind.NS
     assert "shrinks onto the periodic branch" in br.message
+    assert br.info["end"] == "collapse"  # the torus's end as asked: not a shortfall
 
 
 def test_other_ends_keep_the_engines_status():

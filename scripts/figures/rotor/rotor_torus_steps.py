@@ -11,12 +11,15 @@ fails and grown again after a success). Printed at each speed: the rotation numb
 collapse, the nearest ``p/q`` (q <= 12) to ``rho``, and what the last circle's linearisation says of
 the end (the smallest singular values, the tangent's ``w`` component: a smooth fold has both near zero).
 
-Plain steps cannot turn at a fold of the branch, but they pass the corners and the thin resonance tongues
-that a pseudo-arclength branch of the circle crawls into (docs/theory/quasi-periodic.md).
+Plain steps pass the corners and the thin resonance tongues that a pseudo-arclength branch of the circle
+crawls into; where they fail, steps at a fixed size of the circle turn a fold of the torus (printed, the
+steps then go back the other way) or pass on (docs/theory/quasi-periodic.md).
 
     python scripts/figures/rotor/rotor_torus_steps.py                       # N = 61, down then up from 1.9 (10 min)
     python scripts/figures/rotor/rotor_torus_steps.py --quick               # N = 31, one step each way
     python scripts/figures/rotor/rotor_torus_steps.py --from-ns --points 31 # the unstable torus, 1 min
+    python scripts/figures/rotor/rotor_torus_steps.py --points 31 --range 1.6 2.1 --step 0.02 --min-step 1e-3
+                                         # down through the fold of tori to the Neimark-Sacker point (1 min)
 
 ``--from-ns`` starts instead from the torus born at the harmonic orbit's Neimark-Sacker point near 1.8508
 (the orbit by shooting from a simulation at 1.84, the circle branch by arclength down to ``--ns-to``, as
@@ -41,20 +44,25 @@ from contin.timedomain.circle_measures import circle_measures
 from contin.timedomain.shooting import ShootingOptions, ShootingProblem
 
 
-def follow(problem, u, w, dw0, end, min_step, dofs, monitor=None):
-    """Steps from the circle ``u`` at ``w`` towards ``end``; the rows printed (with ``monitor``, a
-    :class:`CircleStabilityMonitor`, the normal Lyapunov exponent), and the last speed reached."""
+def follow(problem, u, w, dw0, end, min_step, dofs, monitor=None, turn_to=None):
+    """Steps from the circle ``u`` at ``w`` towards ``end`` (turning at a fold towards ``turn_to``); the rows
+    printed (with ``monitor``, a :class:`CircleStabilityMonitor`, the normal Lyapunov exponent), and the
+    farthest speed reached the way of ``dw0`` (past a fold the steps come back)."""
     def show(lam, x, iterations, m):
         exp = "" if monitor is None else f" {monitor(x, lam)['normal_exponent']:+10.4f}"
         print(f"  {lam:9.5f} {x[-1]:9.6f} {m['frequency2']:9.5f} {m['forced_x1']:8.4f} {m['free_x1']:8.4f} "
               f"{m['comb_x1']:8.4f} {iterations:4d}{exp}", flush=True)
 
-    steps = step_circle(problem, u, w, dw0, end, min_step=min_step,
+    steps = step_circle(problem, u, w, dw0, end, min_step=min_step, turn_to=turn_to,
                         measure=lambda x, lam: circle_measures(problem, x, lam, dofs), callback=show)
+    for f in steps.folds:
+        lo, hi = f["interval"]
+        print(f"  a fold of the torus at w = {f['lam']:.8f} ({'located' if f['located'] else 'not located'}: "
+              f"between {lo:.8f} and {hi:.8f}); the steps turned there")
     if not steps.reached:
         print(f"  {steps.message}")
         wall(problem, steps.unknowns[-1], float(steps.parameter[-1]))
-    return float(steps.parameter[-1])
+    return float(np.max(steps.parameter) if dw0 > 0 else np.min(steps.parameter))
 
 
 def wall(problem, u, w):
@@ -102,11 +110,12 @@ def main(argv=None) -> int:
     ap.add_argument("--start", type=float, default=1.9, help="speed of the simulation the circle is fitted to")
     ap.add_argument("--range", type=float, nargs=2, default=(1.6, 2.1), help="speeds to go to, down and up")
     ap.add_argument("--step", type=float, default=0.01, help="largest step in w")
+    ap.add_argument("--min-step", type=float, default=1e-5, help="smallest step in w")
     ap.add_argument("--quick", action="store_true", help="N = 31, one step each way")
     ap.add_argument("--from-ns", action="store_true", help="the torus born at the Neimark-Sacker point, down")
     ap.add_argument("--ns-to", type=float, default=1.79, help="where its arclength branch hands over to the steps")
     args = ap.parse_args(argv)
-    min_step = 1e-5
+    min_step = args.min_step
     if args.quick:
         args.points, args.range, min_step = 31, (args.start - 0.01, args.start + 0.01), 2e-3
     if args.from_ns:
@@ -129,8 +138,10 @@ def main(argv=None) -> int:
     print(f"circle of {args.points} points ({args.steps} RK4 steps a revolution) fitted to a simulation at "
           f"w = {args.start} and corrected")
     print(f"  {'w':>9} {'rho':>9} {'w2':>9} {'forced':>8} {'free':>8} {'comb':>8} {'its':>4}")
-    reached = [follow(problem, r.x, args.start, -args.step, args.range[0], min_step, model.dof_names),
-               follow(problem, r.x, args.start, args.step, args.range[1], min_step, model.dof_names)]
+    reached = [follow(problem, r.x, args.start, -args.step, args.range[0], min_step, model.dof_names,
+                      turn_to=args.range[1]),
+               follow(problem, r.x, args.start, args.step, args.range[1], min_step, model.dof_names,
+                      turn_to=args.range[0])]
     print(f"circle found over w in [{reached[0]:.5f}, {reached[1]:.5f}] in {time.perf_counter() - t0:.0f} s")
     return 0
 

@@ -54,7 +54,10 @@ def test_shortfalls_name_every_branch_that_gave_up_and_every_switch_without_a_br
             {"branch": 4, "nu": 1, "points": 4, "status": "boundary", "message": "locks", "uncovered": [2.14, 2.6],
              "end": "locking"},
             {"branch": 5, "nu": 1, "points": 4, "status": "boundary", "message": "locks", "uncovered": [2.15, 2.6],
-             "method": "shooting"}]
+             "method": "shooting"},
+            # a torus that collapsed onto its periodic orbit at the Neimark-Sacker point it is born at
+            {"branch": 6, "nu": 1, "points": 30, "status": "boundary", "message": "collapses",
+             "uncovered": [1.85, 2.6], "end": "collapse"}]
     failed = [{"parent": 0, "kind": "pd", "parameter": 2.2, "side": -1, "message": "no first point"}]
     out = shortfalls(info, "w", failed)
     assert out == ["branch 1 (nu=2) ended step_too_small after 7 points: ds fell; w in [2.1, 2.6] not covered",
