@@ -90,7 +90,8 @@ SCHEMA = {
                  "('simulation' or 'none'), periods (a number > 0), steps_per_period (an integer >= 4), "
                  "locking_tol (a number in (0, 0.25)), points (an odd integer from 3 to 999: the invariant "
                  "circle's points on a shooting branch), continuation ('arclength' or 'natural': a circle branch "
-                 "in natural steps of the parameter, from solution: torus)", torus_keys_ok, {}),
+                 "in natural steps of the parameter, through its folds; a torus born at a Neimark-Sacker point "
+                 "grows from it first)", torus_keys_ok, {}),
     # a start on a torus: the invariant circle a simulation settles on (contin.analyses.torus_start)
     "solution": string("periodic", ("periodic", "torus")),
     "max_branches": integer(8, 1),

@@ -47,13 +47,8 @@ def torus_keys_ok(v) -> bool:
 
 def check_torus_start(a: dict, key: str, method: str) -> None:
     """What a torus start needs, checked before anything is written: a simulation to start from and the
-    integrated flow; natural steps only from such a start (raises :class:`SceneError` naming the key)."""
-    natural = (a.get("torus") or {}).get("continuation") == "natural"
+    integrated flow (raises :class:`SceneError` naming the key)."""
     if a.get("solution") != "torus":
-        if natural:
-            raise SceneError(f"{key}.torus.continuation", "arclength for the tori born at Neimark-Sacker points "
-                                                          "(natural steps start from a torus fitted to a simulation: "
-                                                          "solution: torus)", "natural")
         return
     if a.get("start_from") != "simulation":
         raise SceneError(f"{key}.start_from", "simulation with solution: torus (the circle is fitted to the "

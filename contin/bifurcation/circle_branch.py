@@ -375,6 +375,14 @@ class CircleStabilityMonitor:
                 "max_multiplier": float(np.exp(min(largest, 700.0))), "normal_exponent": float(fine.largest_normal),
                 "normal_exponent_error": float(error)}
 
+    def state(self) -> dict:
+        """The parameter values without a verdict and those a simulation decided (a checkpoint's)."""
+        return {"undecided": list(self.undecided), "simulated": list(self.simulated)}
+
+    def restore(self, state: dict) -> None:
+        self.undecided = [float(v) for v in state["undecided"]]
+        self.simulated = [float(v) for v in state["simulated"]]
+
 
 @dataclasses.dataclass(frozen=True)
 class CircleStart:

@@ -54,7 +54,7 @@ MIN_NEWTON_ITER = 20
 
 def follow_circle_steps(problem, u0, lam0: float, lam_range, options: ContinuationOptions, *, monitors=(),
                         callback=None, checkpoint=None, previous: Branch | None = None, solve_start: bool = False,
-                        parameter_name: str | None = None) -> Branch:
+                        parameter_name: str | None = None, grow: bool = False) -> Branch:
     """Trace the circle branch from ``u0`` at ``lam0`` in natural steps (module docstring).
 
     Parameters
@@ -78,6 +78,10 @@ def follow_circle_steps(problem, u0, lam0: float, lam_range, options: Continuati
     solve_start : bool
         Correct ``u0`` at ``lam0`` first (a fitted guess).
     parameter_name : str, optional
+    grow : bool
+        ``u0`` is the first guess of a circle born at a Neimark-Sacker point at ``lam0``: size steps grow it
+        until the parameter has moved away, and the steps go on the way it moved (the options' ``direction``
+        does not apply; :class:`~contin.bifurcation.circle_steps.CircleStepper`). The guess is not stored.
 
     Returns
     -------
@@ -122,12 +126,14 @@ def follow_circle_steps(problem, u0, lam0: float, lam_range, options: Continuati
             u, iterations, res = r.x, r.iterations, r.residual_norm
         # a start at the range's end it goes to: one circle, the range's end reached
         stepper = CircleStepper(problem, u, lam0, first, end, min_step=options.ds_min, max_step=options.ds_max,
-                                options=opts, turn_to=other)
-        builder.append_point(u, lam0, _start_tangent(problem.size, options.direction), 0.0, iterations, 0.0,
-                             _finite(res, problem, u, lam0), evaluate_monitors(mons, u, lam0, None, None))
-        if not _after(builder.branch, callback, checkpoint, stepper, mons):
-            return builder.branch
+                                options=opts, turn_to=other, grow=grow)
+        if not grow:
+            builder.append_point(u, lam0, _start_tangent(problem.size, options.direction), 0.0, iterations, 0.0,
+                                 _finite(res, problem, u, lam0), evaluate_monitors(mons, u, lam0, None, None))
+            if not _after(builder.branch, callback, checkpoint, stepper, mons):
+                return builder.branch
     branch = builder.branch
+    guess = np.append(np.asarray(u0, dtype=float), float(lam0))
     while stepper.going():
         if len(branch) >= options.point_cap:
             capped = options.max_points is not None
@@ -143,12 +149,22 @@ def follow_circle_steps(problem, u0, lam0: float, lam_range, options: Continuati
             continue
         if r is None:
             continue
-        du = stepper.us[-1] - stepper.us[-2]
-        dlam = stepper.lams[-1] - stepper.lams[-2]
-        secant = np.append(du, dlam)
-        builder.append_point(r.x, stepper.lam, secant / float(np.linalg.norm(secant)), float(branch.arclength[-1])
-                             + float(np.linalg.norm(secant)), r.iterations, abs(dlam), r.residual_norm,
-                             evaluate_monitors(mons, r.x, stepper.lam, None, None))
+        saved = [_state_of(m) for m in mons]
+        values = evaluate_monitors(mons, r.x, stepper.lam, None, None)
+        if stepper.last_kind == "lam" and _flips(branch, values):
+            # a step in lam whose circle's stability differs from the last one's: onto the other half of a fold
+            # of tori (both halves exist on one side of the fold); refused, the steps shorten, and at ds_min the
+            # size steps take the fold (a bifurcation of the torus is passed by them too, and marked)
+            _restore_monitors(mons, saved)
+            stepper.undo()
+            continue
+        if len(branch):
+            secant = np.append(stepper.us[-1] - stepper.us[-2], stepper.lams[-1] - stepper.lams[-2])
+            s = float(branch.arclength[-1]) + float(np.linalg.norm(secant))
+        else:  # the first circle grown from a Neimark-Sacker point: from the guess it grew from
+            secant, s = np.append(r.x, stepper.lam) - guess, 0.0
+        builder.append_point(r.x, stepper.lam, secant / float(np.linalg.norm(secant)), s, r.iterations,
+                             abs(float(secant[-1])), r.residual_norm, values)
         _stability_change(branch)
         if stepper.turned is not None:
             _fold(branch, stepper.turned)
@@ -156,6 +172,9 @@ def follow_circle_steps(problem, u0, lam0: float, lam_range, options: Continuati
         if not _after(branch, callback, checkpoint, stepper, mons):
             return branch
     else:
+        if not len(branch):
+            return builder.finish(BranchStatus.START_FAILED, f"no circle grew from the Neimark-Sacker point at "
+                                  f"{name}={lam0:.10g}: {stepper.message()}")
         _finish(branch, problem, stepper.message(), stepper.reached(), stepper)
     branch.info.update(lam_range=(lo, hi), n_newton_iterations=int(np.sum(branch.newton_iterations)),
                        n_rejected_steps=stepper.failures, continuation="natural")
@@ -176,6 +195,31 @@ def _fold(branch: Branch, turned: dict) -> None:
         s=float(branch.arclength[i]), located=bool(turned["located"]), data={},
         message=f"a fold of the torus at {name}={lam:.10g} ({how}): the steps at a fixed size of the circle "
                 f"turned there, and the steps in {name} go on the other way", event="circle fold"))
+
+
+#: a verdict decides a refusal (:func:`_flips`) where its normal exponent is this many times its error from zero
+DECISIVE = 3.0
+
+
+def _flips(branch: Branch, values: dict) -> bool:
+    """Whether the monitors' ``values`` of a new circle give a stability verdict other than the last stored
+    circle's that has one, both decisive (where the monitor gives the normal exponent and its error, the
+    exponent :data:`DECISIVE` times its error from zero: near a fold of tori, and near a Neimark-Sacker
+    point, it is near zero, and a verdict there may go either way)."""
+    pd = branch.point_data
+    if not len(branch) or "stable" not in pd or "stable" not in values or not values.get("evaluated"):
+        return False
+
+    def decisive(exponent, error) -> bool:
+        return exponent is None or not np.isfinite(exponent) or abs(exponent) > DECISIVE * error
+
+    if not decisive(values.get("normal_exponent"), values.get("normal_exponent_error", 0.0)):
+        return False
+    for k in range(len(branch) - 1, -1, -1):
+        if pd["evaluated"][k] and decisive(pd["normal_exponent"][k] if "normal_exponent" in pd else None,
+                                           pd["normal_exponent_error"][k] if "normal_exponent" in pd else 0.0):
+            return bool(pd["stable"][k]) != bool(values["stable"])
+    return False
 
 
 def _stability_change(branch: Branch) -> None:

@@ -30,9 +30,10 @@ def run_circle(start: CircleStart, lam_range, options: ContinuationOptions, para
     monitors = [CircleStabilityMonitor(problem)] if stability else []
     opts = options.replace(unknown_scale=None, parameter_scale=None)
     if natural:
+        # a torus born at a Neimark-Sacker point grows from its first guess there, to the side it lies on
         br = follow_circle_steps(problem, start.u, start.lam, lam_range, opts, monitors=monitors, callback=callback,
                                  checkpoint=checkpoint, previous=previous, solve_start=start.solve_start,
-                                 parameter_name=parameter_name)
+                                 parameter_name=parameter_name, grow=start.kind == "ns" and not start.solve_start)
     else:
         br = follow_circle(problem, start.u, start.lam, lam_range, opts, tangent=start.tangent,
                            parameter_name=parameter_name, monitors=monitors, callback=callback, checkpoint=checkpoint,

@@ -63,16 +63,23 @@ CLOSE_DENOMINATOR = 30
 #: diverge far beyond it, those that converge stay well within it (docs/theory/quasi-periodic.md)
 DIVERGED = 100.0
 #: a pass of steps at a fixed size (where the steps in ``lam`` failed) takes at most this many circles ...
-FOLD_PASS_STEPS = 40
+FOLD_PASS_STEPS = 16
 #: ... a branch turns at most this many folds (a closed family of tori would turn for ever) ...
 FOLD_PASSES = 4
-#: ... and makes at most this many passes that go on the same way (past a place where the steps in lam failed:
-#: at the edge of a tongue of large ``q`` they creep along it, at the cost of a pass each time)
+#: ... and at most this many passes that went on the same way since the last turn (at the edge of a tongue of large
+#: ``q`` the passes would creep along it, a pass each time)
 FORWARD_PASSES = 1
 #: the size steps, relative: the first, the largest, and the smallest before a pass gives up
 SIZE_STEP, SIZE_STEP_MAX, SIZE_STEP_MIN = 1e-2, 5e-2, 1e-3
-#: after a turn the steps in ``lam`` take over once ``lam`` is this many ``min_step`` back from the fold
-TURN_CLEAR = 4
+#: after a turn the steps in ``lam`` take over once ``lam`` is this many ``min_step`` back from the fold, and ...
+TURN_CLEAR = 1
+#: ... going on the same way, this many past the place where they failed (towards a fold the size steps first go
+#: on the same way a while)
+PASS_CLEAR = 4
+#: a circle born at a Neimark-Sacker point grows by size steps from the small first guess, the first and the
+#: largest relative (its ``lam`` moves as the square of its size there: doublings are small steps), until
+#: ``lam`` has moved :data:`TURN_CLEAR` ``min_step`` away, in at most :data:`GROW_STEPS` circles
+GROW_STEP, GROW_STEP_MAX, GROW_STEPS = 0.5, 1.0, 60
 
 
 @dataclasses.dataclass
@@ -115,10 +122,14 @@ class CircleStepper:
     its Jacobian was evaluated at (``lu_at``), so :meth:`restore` rebuilds it
     and a resumed run takes the steps the uninterrupted one would have.
 
-    With ``turn_to`` (the range's other end), where the steps in ``lam`` fail
+    With ``grow``, ``u0`` is the first guess of a circle born at a
+    Neimark-Sacker point at ``lam0`` (:func:`~contin.bifurcation.circle_branch.circle_child_start`):
+    size steps grow it (``mode`` ``"grow"``) until ``lam`` has moved away from
+    the point, and the steps in ``lam`` go on the way it moved, towards
+    ``end`` or ``turn_to`` (the side of the point the torus lies on is
+    not known before). With ``turn_to`` (the range's other end), where the steps in ``lam`` fail
     down to ``min_step`` a pass of size steps begins (module docstring):
-    ``mode`` is then ``"size"``, ``pass_lams`` and ``pass_sizes`` are ``lam``
-    and :func:`~contin.bifurcation.circle_fold.circle_size` of the pass's
+    ``mode`` is then ``"size"``, ``pass_lams`` the ``lam`` of the pass's
     circles (the one it began from first). An attempt that turns a fold sets
     ``turned`` (``lam``, ``u``, ``located``, ``interval``, ``back``: how many
     circles before the last the one nearest the turn is), for the caller to
@@ -127,7 +138,7 @@ class CircleStepper:
 
     def __init__(self, problem, u0, lam0: float, step: float, end: float, *, min_step: float = 1e-5,
                  max_step: float | None = None, options: ContinuationOptions | None = None,
-                 turn_to: float | None = None):
+                 turn_to: float | None = None, grow: bool = False):
         step, lam0, end = float(step), float(lam0), float(end)
         if step == 0.0 or (end - lam0) * step < 0.0:
             raise ValueError(f"step_circle: step {step:g} must point from {lam0:g} towards {end:g}")
@@ -148,12 +159,20 @@ class CircleStepper:
         self.size_step = 0.0
         self.last_delta = None  # the size step of the last circle, where it was one (the predictor's secant)
         self.pass_lams: list[float] = []
-        self.pass_sizes: list[float] = []
         self.lam_fail = None  # where the steps in lam failed, for the pass under way
         self.passes = 0  # folds turned
-        self.forward = 0  # passes that went on the same way
+        self.forward = 0  # passes that went on the same way since the last turn
         self.gave_up = False  # a pass that found nothing: the steps end
         self.turned = None
+        self.last_kind = None  # how the last circle was found: "lam", or "size" (a size step, growing or turning)
+        self._before = None  # what a step in lam changed, for undo
+        if grow:
+            if self.turn_to is None:
+                raise ValueError("step_circle: a circle grown from a Neimark-Sacker point needs turn_to, the other "
+                                 "end of the range")
+            # ``u0`` is a first guess at the point itself: it is no circle yet and is not kept
+            self.mode, self.size_step, self.lam_fail = "grow", GROW_STEP, lam0
+            self.pass_lams = [lam0]
 
     @property
     def lam(self) -> float:
@@ -163,13 +182,13 @@ class CircleStepper:
         """Whether another step is to be tried."""
         if self.gave_up:
             return False
-        if self.mode == "size":
+        if self.mode in ("size", "grow"):
             return True
         return (self.end - self.lam) * self.sign > 1e-12 * max(1.0, abs(self.end)) and abs(self.step) >= self.min_step
 
     def attempt(self):
         """One step: the converged Newton result (the circle appended), or None (the step halved)."""
-        if self.mode == "size":
+        if self.mode in ("size", "grow"):
             return self._size_attempt()
         problem, lam = self.problem, self.lam
         h = self.step
@@ -188,6 +207,7 @@ class CircleStepper:
         if not r.converged or spread < COLLAPSED * self.largest:
             self.failed()
             return None
+        self._before = (h, self.lu, self.lu_at, self.largest, self.last_delta)
         if r.lu is not self.lu:
             self.lu, self.lu_at = r.lu, (None if r.lu is None else seen.last)
         self.largest, self.collapsed = max(self.largest, spread), None
@@ -195,13 +215,22 @@ class CircleStepper:
         self.us.append(r.x)
         self.last_delta = None
         self.step = self.sign * min(abs(h) * 1.5, self.max_step)
+        self.last_kind = "lam"
         return r
+
+    def undo(self) -> None:
+        """Take back the circle the last step in ``lam`` appended, as a failed step (the caller refuses it: a step
+        across a fold onto the torus's other half, :func:`~contin.bifurcation.circle_natural.follow_circle_steps`)."""
+        self.lams.pop()
+        self.us.pop()
+        self.step, self.lu, self.lu_at, self.largest, self.last_delta = self._before
+        self.failed()
 
     def failed(self) -> None:
         """A step that failed (or whose evaluation raised): the next one shorter; where the steps in ``lam`` are
         spent, a pass of size steps begins (given ``turn_to``), and where the size steps are, the pass ends."""
         self.failures += 1
-        if self.mode == "size":
+        if self.mode in ("size", "grow"):
             self.size_step /= 2.0
             if abs(self.size_step) < SIZE_STEP_MIN:
                 self.gave_up = True
@@ -214,7 +243,7 @@ class CircleStepper:
             self.mode, self.lam_fail = "size", self.lam
             # the size goes on as it went: across a fold the branch is a graph over it
             self.size_step = SIZE_STEP if sizes[1] >= sizes[0] else -SIZE_STEP
-            self.pass_lams, self.pass_sizes = [self.lam], [sizes[1]]
+            self.pass_lams = [self.lam]
 
     def locking(self) -> bool:
         """Whether the circles end at a locking (the rotation number at ``p/q`` of small ``q``, or heading for it
@@ -230,7 +259,7 @@ class CircleStepper:
         problem, m = self.problem, self.problem.size
         x = np.r_[self.us[-1], self.lam]
         delta = self.size_step
-        if self.last_delta is not None:
+        if self.last_delta is not None and len(self.lams) > 1:
             guess = x + (x - np.r_[self.us[-2], self.lams[-2]]) * (delta / self.last_delta)
         else:
             guess = scaled(problem, x, delta)
@@ -239,14 +268,24 @@ class CircleStepper:
         if not r.converged or circle_spread(problem, u) < COLLAPSED * self.largest:
             self.failed()
             return None
+        if self.mode == "grow" and len(self.pass_lams) == 1:  # the first circle: the guess it grew from is dropped
+            self.lams, self.us, self.largest = [], [], 0.0
         self.largest = max(self.largest, circle_spread(problem, u))
         self.lams.append(lam)
         self.us.append(u)
         self.pass_lams.append(lam)
-        self.pass_sizes.append(circle_size(problem, u))
         self.last_delta = delta
-        self.size_step = float(np.sign(delta)) * min(abs(delta) * 1.5, SIZE_STEP_MAX)
-        self._decide()
+        self.last_kind = "size"
+        top = GROW_STEP_MAX if self.mode == "grow" else SIZE_STEP_MAX
+        # a pass lengthens its steps slowly until lam turns back (towards a fold the discrete branch may be tight
+        # and cornered), then as a growth does
+        L = self.pass_lams
+        back = self.mode == "grow" or (len(L) > 1 and (L[-1] - L[-2]) * self.sign < 0.0)
+        self.size_step = float(np.sign(delta)) * min(abs(delta) * (1.5 if back else 1.2), top)
+        if self.mode == "grow":
+            self._grown()
+        else:
+            self._decide()
         return dataclasses.replace(r, x=u)
 
     def _decide(self) -> None:
@@ -260,11 +299,25 @@ class CircleStepper:
                 self.passes += 1
                 self._turn(k)
                 return
-        if len(L) >= 3 and all((L[i] - L[i - 1]) * way > 0.0 for i in (-1, -2)) and (L[-1] - self.lam_fail) * way > 0:
+        if (len(L) >= 3 and all((L[i] - L[i - 1]) * way > 0.0 for i in (-1, -2))
+                and (L[-1] - self.lam_fail) * way >= PASS_CLEAR * self.min_step):
             self.forward += 1
             self._leave_pass(way)
             return
         if len(L) - 1 >= FOLD_PASS_STEPS:
+            self.gave_up = True
+
+    def _grown(self) -> None:
+        """After a size step of a circle born at a Neimark-Sacker point: the steps in ``lam`` once it has moved
+        away from the point, the way it moved over the last two circles."""
+        L = self.pass_lams
+        way = float(np.sign(L[-1] - L[0]))
+        if (len(L) >= 3 and abs(L[-1] - L[0]) >= TURN_CLEAR * self.min_step
+                and all((L[i] - L[i - 1]) * way > 0.0 for i in (-1, -2))):
+            if (self.end - L[0]) * way < 0.0:  # the torus lies towards turn_to
+                self.end, self.turn_to = self.turn_to, self.end
+            self._leave_pass(way, abs(L[-1] - L[-2]))
+        elif len(L) - 1 >= GROW_STEPS:
             self.gave_up = True
 
     def _turn(self, k: int) -> None:
@@ -287,7 +340,7 @@ class CircleStepper:
             reach = abs(self.lams[-1] - self.lams[-2])
         self.mode, self.sign = "lam", float(way)
         self.step = self.sign * min(max(reach, 2.0 * self.min_step), self.max_step)
-        self.pass_lams, self.pass_sizes, self.lam_fail = [], [], None
+        self.pass_lams, self.lam_fail = [], None
         self.lu = self.lu_at = None  # the factorisation of before the pass is far from here
 
     def reached(self) -> bool:
@@ -317,7 +370,7 @@ class CircleStepper:
                 "lu_u": None if at is None else at[0], "lu_lam": None if at is None else at[1],
                 "sign": self.sign, "end": self.end, "turn_to": self.turn_to, "mode": self.mode,
                 "size_step": self.size_step, "last_delta": self.last_delta, "pass_lams": list(self.pass_lams),
-                "pass_sizes": list(self.pass_sizes), "lam_fail": self.lam_fail, "passes": self.passes,
+                "lam_fail": self.lam_fail, "passes": self.passes,
                 "forward": self.forward, "gave_up": self.gave_up}
 
     def restore(self, lams, us, state: dict) -> None:
@@ -336,7 +389,6 @@ class CircleStepper:
             self.mode, self.size_step = str(state["mode"]), float(state["size_step"])
             self.last_delta = None if state["last_delta"] is None else float(state["last_delta"])
             self.pass_lams = [float(v) for v in state["pass_lams"]]
-            self.pass_sizes = [float(v) for v in state["pass_sizes"]]
             self.lam_fail = None if state["lam_fail"] is None else float(state["lam_fail"])
             self.passes, self.gave_up = int(state["passes"]), bool(state["gave_up"])
             self.forward = int(state["forward"])

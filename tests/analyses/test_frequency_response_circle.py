@@ -129,14 +129,28 @@ def test_a_torus_start_in_natural_steps_reaches_the_balances_torus(tmp_path, run
     assert rows["free_x"][i] == pytest.approx(ref["free_x"], abs=1e-7)
 
 
-def test_natural_steps_start_only_from_a_fitted_torus(tmp_path, capsys):
+def test_tori_born_at_neimark_sacker_points_grow_in_natural_steps_to_the_balances_tori(tmp_path, capsys, runs):
+    """``switch: [ns]`` with ``torus: {continuation: natural}``: each circle grows from its Neimark-Sacker point
+    by steps at a fixed size until ``w`` has moved (the side of the point the torus lies on is not known
+    before) and goes on in steps of ``w`` to the range's end, onto the two-frequency balance's torus there."""
+    _, d = runs
     scene = tmp_path / "s.yaml"
     scene.write_text((ROOT / "scenes/van_der_pol_circle.yaml").read_text().replace(
         "torus: {points: 21}", "torus: {points: 21, continuation: natural}"))
-    assert main(["run", str(scene), "-o", str(tmp_path / "out"), "-q"]) == 2
-    err = capsys.readouterr().err
-    assert "analysis.torus.continuation" in err and "start from a torus fitted" in " ".join(err.split())
-    assert not (tmp_path / "out").exists()
+    assert main(["run", str(scene), "-o", str(tmp_path / "out"), "-q", "--set", "output.plots=false"]) == 0
+    rows = read_csv(tmp_path / "out/branches.csv")
+    branches = json.loads((tmp_path / "out/summary.json").read_text())["analysis"]["branches"]
+    assert [b["status"] for b in branches] == ["range_end"] * 3
+    for j in (1, 2):
+        assert branches[j]["torus"]["continuation"] == "natural"
+        qb, qp = d.branches[j], d.problems[j]
+        mine = np.flatnonzero(rows["branch"] == j)
+        w = np.asarray(rows["w"])[mine]
+        assert np.all(np.diff(w) * np.sign(w[-1] - w[0]) > 0)  # away from the point, one way
+        assert w[-1] == pytest.approx(float(qb.parameter[-1]), abs=1e-12)
+        ref = torus_measures(qp, qb.unknowns[-1], float(qb.parameter[-1]), ["x"], 5)
+        assert rows["frequency2"][mine[-1]] == pytest.approx(ref["frequency2"], abs=1e-8)
+        assert rows["free_x"][mine[-1]] == pytest.approx(ref["free_x"], abs=1e-7)
     scene.write_text(TORUS_START)
     assert main(["run", str(scene), "-o", str(tmp_path / "out2"), "-q", "--set", "analysis.torus.continuation=nat"]) \
         == 2

@@ -176,7 +176,7 @@ def test_a_branch_interrupted_during_the_size_steps_goes_on_to_the_same_circles(
     held = {}
 
     def checkpoint(branch, state):  # killed at the first circle stored while the size steps are under way
-        if state.get("natural", {}).get("mode") == "size" and len(state["natural"]["pass_lams"]) == 3:
+        if state.get("natural", {}).get("mode") == "size" and len(state["natural"]["pass_lams"]) >= 2:
             held.update(branch=branch, state=decode(json.loads(json.dumps(encode(state)))))
             raise _Killed
 
@@ -191,3 +191,82 @@ def test_a_branch_interrupted_during_the_size_steps_goes_on_to_the_same_circles(
     np.testing.assert_array_equal(resumed.unknowns, turned.unknowns)
     assert [(sp.kind, sp.parameter) for sp in resumed.special_points] == \
         [(sp.kind, sp.parameter) for sp in turned.special_points]
+
+
+@pytest.fixture(scope="module")
+def born():
+    """The first guess of the torus born at the forced orbit's Neimark-Sacker point ``a = 0`` (the ``y``
+    oscillator's Hopf point; the orbit by shooting, 256 RK4 steps a period)."""
+    from contin.bifurcation.circle_branch import circle_child_start
+    from contin.timedomain.shooting import ShootingOptions, ShootingProblem, periodic_orbit
+
+    opts = ShootingOptions(steps_per_period=256)
+    X = F / (1 - W ** 2 + 0.1j * W)
+    orbit = periodic_orbit(_model(0.0), {"a": 0.0}, np.array([X.real, 0.0, -W * X.imag, 0.0]), opts)
+    assert orbit.converged
+    return circle_child_start(ShootingProblem(_model(0.0), "a", options=opts), 0.0, orbit.state, 15)
+
+
+#: the way a grown torus goes is found by its growth, whatever the options' direction says
+GROWN = DOWN.replace(direction=1)
+
+
+def test_a_torus_grown_from_its_neimark_sacker_point_turns_at_the_fold(fold_a, born):
+    """The torus born at ``a = 0`` is the small cycle, on the side ``a < 0`` (a subcritical birth). Grown by size
+    steps from the point's first guess, it goes down in ``a``, turns at scipy's fold of cycles and goes up on the
+    large cycle to the range's end."""
+    st = born
+    br = follow_circle_steps(st.problem, st.u, st.lam, (-0.2, 0.05), GROWN, grow=True)
+    assert br.status is BranchStatus.RANGE_END and br.parameter[-1] == pytest.approx(0.05, abs=1e-14)
+    i = int(np.argmin(br.parameter))
+    assert -1e-3 < br.parameter[0] < 0.0 and np.all(np.diff(br.parameter[:i + 1]) < 0)
+    assert np.all(np.diff(br.parameter[i:]) > 0) and np.all(np.diff(br.point_data["circle_spread"]) > 0)
+    folds = [sp for sp in br.special_points if sp.kind is SpecialKind.FOLD]
+    assert len(folds) == 1 and folds[0].parameter == pytest.approx(fold_a, abs=1e-8)
+    for k in range(len(br)):
+        assert np.abs(st.problem.residual(br.unknowns[k], br.parameter[k])).max() < 1e-9
+    # the large cycle at the range's end, against scipy: its period sets rho (the circle born at the point runs
+    # round it the other way: -T / T_c)
+    _, Tc = _cycle(0.05, 1.0, 1.8)
+    assert (-br.unknowns[-1][-1]) % 1.0 == pytest.approx((2 * math.pi / W / Tc) % 1.0, abs=1e-6)
+
+
+def test_a_grown_torus_interrupted_while_it_grows_goes_on_to_the_same_circles(born):
+    st = born
+    ref = follow_circle_steps(st.problem, st.u, st.lam, (-0.2, 0.05), GROWN, grow=True)
+    held = {}
+
+    def checkpoint(branch, state):
+        if state.get("natural", {}).get("mode") == "grow" and len(branch) == 3:
+            held.update(branch=branch, state=decode(json.loads(json.dumps(encode(state)))))
+            raise _Killed
+
+    with pytest.raises(_Killed):
+        follow_circle_steps(st.problem, st.u, st.lam, (-0.2, 0.05), GROWN, grow=True, checkpoint=checkpoint)
+    previous = held["branch"]
+    previous.status = BranchStatus.INTERRUPTED
+    previous.info["restart"] = held["state"]
+    again = follow_circle_steps(st.problem, st.u, st.lam, (-0.2, 0.05), GROWN, grow=True, previous=previous)
+    assert again.status is ref.status and len(again) == len(ref)
+    np.testing.assert_array_equal(again.parameter, ref.parameter)
+    np.testing.assert_array_equal(again.unknowns, ref.unknowns)
+
+
+def test_a_step_in_the_parameter_whose_stability_flips_is_refused_and_taken_shorter(start, turned):
+    """Near a fold both halves of the torus exist on one side, and a step in the parameter may land on the other
+    half: its circle's verdict differs from the last one's. Such a circle is not stored; the step is retried
+    shorter (here a monitor says unstable once, for the first circle below a = -0.115)."""
+    prob, u = start
+    flipped = []
+
+    def verdict(u, lam, Ju=None, Jlam=None):
+        flip = lam < -0.115 and not flipped
+        if flip:
+            flipped.append(lam)
+        return {"evaluated": True, "stable": not flip}
+
+    br = follow_circle_steps(prob, u, A0, (-0.2, 0.05), DOWN, monitors=[verdict])
+    assert len(flipped) == 1 and flipped[0] not in list(br.parameter)
+    assert all(br.point_data["stable"]) and br.status is turned.status
+    assert br.info["n_rejected_steps"] > turned.info["n_rejected_steps"]
+    assert not [sp for sp in br.special_points if sp.kind is SpecialKind.STABILITY]
