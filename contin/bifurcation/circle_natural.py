@@ -143,32 +143,42 @@ def follow_circle_steps(problem, u0, lam0: float, lam_range, options: Continuati
                               + ("" if capped else ": raise max_points (continuation.max_points in a scene)"))
             break
         try:
-            r = stepper.attempt()
+            found = stepper.attempt()
         except NUMERICAL_ERRORS:  # an evaluation that failed is a failed step
             stepper.failed()
             continue
-        if r is None:
+        if not found:
             continue
-        saved = [_state_of(m) for m in mons]
-        values = evaluate_monitors(mons, r.x, stepper.lam, None, None)
-        if stepper.last_kind == "lam" and _flips(branch, values):
-            # a step in lam whose circle's stability differs from the last one's: onto the other half of a fold
-            # of tori (both halves exist on one side of the fold); refused, the steps shorten, and at ds_min the
-            # size steps take the fold (a bifurcation of the torus is passed by them too, and marked)
-            _restore_monitors(mons, saved)
-            stepper.undo()
-            continue
-        if len(branch):
-            secant = np.append(stepper.us[-1] - stepper.us[-2], stepper.lams[-1] - stepper.lams[-2])
-            s = float(branch.arclength[-1]) + float(np.linalg.norm(secant))
-        else:  # the first circle grown from a Neimark-Sacker point: from the guess it grew from
-            secant, s = np.append(r.x, stepper.lam) - guess, 0.0
-        builder.append_point(r.x, stepper.lam, secant / float(np.linalg.norm(secant)), s, r.iterations,
-                             abs(float(secant[-1])), r.residual_norm, values)
-        _stability_change(branch)
+        if stepper.last_kind == "lam":
+            saved = [_state_of(m) for m in mons]
+            values = evaluate_monitors(mons, found[0][1].x, found[0][0], None, None)
+            if _flips(branch, values):
+                # a step in lam whose circle's stability differs from the last one's: onto the other half of a
+                # fold of tori (both halves exist on one side of the fold); refused, the steps shorten, and at
+                # ds_min the size steps take the fold (a bifurcation of the torus is passed by them too, and marked)
+                _restore_monitors(mons, saved)
+                stepper.undo()
+                continue
+            stored = [(*found[0], values)]
+        else:  # a circle grown from its Neimark-Sacker point, or the circles of a pass of size steps
+            stored = [(lam, r, evaluate_monitors(mons, r.x, lam, None, None)) for lam, r in found]
+        for k, (lam, r, values) in enumerate(stored):
+            if len(branch):
+                secant = np.append(r.x - branch.unknowns[-1], lam - float(branch.parameter[-1]))
+                s = float(branch.arclength[-1]) + float(np.linalg.norm(secant))
+            else:  # the first circle grown from a Neimark-Sacker point: from the guess it grew from
+                secant, s = np.append(r.x, lam) - guess, 0.0
+            builder.append_point(r.x, lam, secant / float(np.linalg.norm(secant)), s, r.iterations,
+                                 abs(float(secant[-1])), r.residual_norm, values)
+            _stability_change(branch)
+            if k < len(stored) - 1 and callback is not None and callback(branch, len(branch) - 1) is False:
+                branch.status = BranchStatus.INTERRUPTED
+                branch.message = f"stopped by the callback at {name}={lam:.10g}"
+                return branch
         if stepper.turned is not None:
             _fold(branch, stepper.turned)
             stepper.turned = None
+        # the checkpoint after the last of them: a pass is taken up whole or not at all
         if not _after(branch, callback, checkpoint, stepper, mons):
             return branch
     else:

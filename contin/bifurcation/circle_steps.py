@@ -16,9 +16,10 @@ pass of steps at a fixed size of the circle with ``lam`` free
 (:mod:`contin.bifurcation.circle_fold`) tries to go on, given the range's
 other end (``turn_to``): where ``lam`` turns back in it, the fold is located
 between its circles and the steps in ``lam`` go on the other way; where
-``lam`` goes on the same way past the failure, they go on that way. Where
-that pass fails too, the steps end and say where, with the rational of
-small denominator nearest ``rho`` (a locking tongue, or the breakdown of
+``lam`` goes on the same way past the failure, they go on that way; the
+pass's circles are kept from then on. Where that pass finds neither, it
+takes its circles back and the steps end and say where, with the rational
+of small denominator nearest ``rho`` (a locking tongue, or the breakdown of
 the torus: which one, the rows before it tell). Past a Neimark-Sacker point Newton converges onto the periodic orbit
 itself (all points on it solve the equations at any ``rho``): a circle whose
 size falls below :data:`COLLAPSED` of the largest so far is not kept but
@@ -164,6 +165,8 @@ class CircleStepper:
         self.forward = 0  # passes that went on the same way since the last turn
         self.gave_up = False  # a pass that found nothing: the steps end
         self.turned = None
+        self.held: list = []  # the circles of a pass under way, (lam, result)
+        self._pass_largest = 0.0
         self.last_kind = None  # how the last circle was found: "lam", or "size" (a size step, growing or turning)
         self._before = None  # what a step in lam changed, for undo
         if grow:
@@ -186,8 +189,11 @@ class CircleStepper:
             return True
         return (self.end - self.lam) * self.sign > 1e-12 * max(1.0, abs(self.end)) and abs(self.step) >= self.min_step
 
-    def attempt(self):
-        """One step: the converged Newton result (the circle appended), or None (the step halved)."""
+    def attempt(self) -> list:
+        """One step: ``[(lam, result)]`` for the circle it appended (the converged Newton result, ``x`` the
+        circle's unknowns), ``[]`` where it failed (the step halved), or, where a pass of size steps ends by
+        turning a fold or going on, all the circles of the pass at once (held back until then: a pass that
+        finds nothing takes its circles back)."""
         if self.mode in ("size", "grow"):
             return self._size_attempt()
         problem, lam = self.problem, self.lam
@@ -206,7 +212,7 @@ class CircleStepper:
             self.collapsed = (target, spread)
         if not r.converged or spread < COLLAPSED * self.largest:
             self.failed()
-            return None
+            return []
         self._before = (h, self.lu, self.lu_at, self.largest, self.last_delta)
         if r.lu is not self.lu:
             self.lu, self.lu_at = r.lu, (None if r.lu is None else seen.last)
@@ -216,7 +222,7 @@ class CircleStepper:
         self.last_delta = None
         self.step = self.sign * min(abs(h) * 1.5, self.max_step)
         self.last_kind = "lam"
-        return r
+        return [(target, r)]
 
     def undo(self) -> None:
         """Take back the circle the last step in ``lam`` appended, as a failed step (the caller refuses it: a step
@@ -233,14 +239,14 @@ class CircleStepper:
         if self.mode in ("size", "grow"):
             self.size_step /= 2.0
             if abs(self.size_step) < SIZE_STEP_MIN:
-                self.gave_up = True
+                self._give_up()
             return
         self.step /= 2.0
         if (abs(self.step) < self.min_step and self.collapsed is None and self.turn_to is not None
                 and self.passes < FOLD_PASSES and self.forward < FORWARD_PASSES and len(self.lams) > 1
                 and not self.reached() and not self.locking()):
             sizes = [circle_size(self.problem, u) for u in self.us[-2:]]
-            self.mode, self.lam_fail = "size", self.lam
+            self.mode, self.lam_fail, self.held, self._pass_largest = "size", self.lam, [], self.largest
             # the size goes on as it went: across a fold the branch is a graph over it
             self.size_step = SIZE_STEP if sizes[1] >= sizes[0] else -SIZE_STEP
             self.pass_lams = [self.lam]
@@ -267,7 +273,7 @@ class CircleStepper:
         u, lam = r.x[:m], float(r.x[m])
         if not r.converged or circle_spread(problem, u) < COLLAPSED * self.largest:
             self.failed()
-            return None
+            return []
         if self.mode == "grow" and len(self.pass_lams) == 1:  # the first circle: the guess it grew from is dropped
             self.lams, self.us, self.largest = [], [], 0.0
         self.largest = max(self.largest, circle_spread(problem, u))
@@ -282,11 +288,16 @@ class CircleStepper:
         L = self.pass_lams
         back = self.mode == "grow" or (len(L) > 1 and (L[-1] - L[-2]) * self.sign < 0.0)
         self.size_step = float(np.sign(delta)) * min(abs(delta) * (1.5 if back else 1.2), top)
+        found = (lam, dataclasses.replace(r, x=u))
         if self.mode == "grow":
             self._grown()
-        else:
-            self._decide()
-        return dataclasses.replace(r, x=u)
+            return [found]
+        self.held.append(found)
+        self._decide()
+        if self.mode == "size":
+            return []
+        done, self.held = self.held, []
+        return done
 
     def _decide(self) -> None:
         """After a size step: a turn of ``lam`` (the fold located, the steps in ``lam`` the other way), a pass
@@ -305,7 +316,7 @@ class CircleStepper:
             self._leave_pass(way)
             return
         if len(L) - 1 >= FOLD_PASS_STEPS:
-            self.gave_up = True
+            self._give_up()
 
     def _grown(self) -> None:
         """After a size step of a circle born at a Neimark-Sacker point: the steps in ``lam`` once it has moved
@@ -319,6 +330,14 @@ class CircleStepper:
             self._leave_pass(way, abs(L[-1] - L[-2]))
         elif len(L) - 1 >= GROW_STEPS:
             self.gave_up = True
+
+    def _give_up(self) -> None:
+        """The steps end; a pass of size steps under way takes its circles back (it found neither a fold nor a
+        way past: the branch ends where the steps in lam failed)."""
+        self.gave_up = True
+        if self.mode == "size" and self.held:
+            del self.lams[-len(self.held):], self.us[-len(self.held):]
+            self.largest, self.held = self._pass_largest, []
 
     def _turn(self, k: int) -> None:
         """The fold at the pass's circle ``k``: located between it and its neighbours; the steps in ``lam`` go on
@@ -359,7 +378,7 @@ class CircleStepper:
         near = rational_near(rho)
         where = lam if self.lam_fail is None else self.lam_fail
         tail = ("" if not self.gave_up else
-                f", and steps at a fixed size of the circle from there failed too (at {name}={lam:.10g})")
+                ", and steps at a fixed size of the circle from there found neither a fold nor a way past")
         return (f"Newton at fixed {name} failed at every step down to {self.min_step:g} beyond {name}={where:.10g}"
                 f"{tail}: rho = {rho:.6f}, {rho - float(near):+.1e} from {near}")
 
@@ -465,16 +484,15 @@ def step_circle(problem, u0, lam0: float, step: float, end: float, *, min_step: 
     rows = [measure(stepper.us[0], stepper.lam)] if measure is not None else []
     folds = []
     while stepper.going():
-        r = stepper.attempt()
-        if r is None:
-            continue
+        found = stepper.attempt()
         if stepper.turned is not None:
             folds.append({**stepper.turned, "index": len(stepper.lams) - 1 - stepper.turned["back"]})
             stepper.turned = None
-        its.append(r.iterations)
-        if measure is not None:
-            rows.append(measure(r.x, stepper.lam))
-        if callback is not None:
-            callback(stepper.lam, r.x, r.iterations, rows[-1] if rows else None)
+        for lam, r in found:
+            its.append(r.iterations)
+            if measure is not None:
+                rows.append(measure(r.x, lam))
+            if callback is not None:
+                callback(lam, r.x, r.iterations, rows[-1] if rows else None)
     return CircleSteps(np.asarray(stepper.lams), np.asarray(stepper.us), np.asarray(its, dtype=int),
                        stepper.reached(), stepper.message(), rows, folds)

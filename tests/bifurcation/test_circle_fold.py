@@ -163,8 +163,10 @@ def test_a_pass_that_finds_nothing_ends_the_steps_and_says_so(start, monkeypatch
     monkeypatch.setattr(circle_steps, "size_step", no_circle)
     br = follow_circle_steps(prob, u, A0, (-0.2, 0.05), DOWN)
     assert br.status is BranchStatus.STEP_TOO_SMALL
-    assert "and steps at a fixed size of the circle from there failed too" in br.message
+    assert "and steps at a fixed size of the circle from there found neither a fold nor a way past" in br.message
     assert not [sp for sp in br.special_points if sp.kind is SpecialKind.FOLD]
+    # the branch ends where the steps in a failed, above the fold: nothing of the pass is kept
+    assert br.parameter[-1] > -0.125 and np.all(np.diff(br.parameter) < 0)
 
 
 class _Killed(Exception):
@@ -172,17 +174,24 @@ class _Killed(Exception):
 
 
 def test_a_branch_interrupted_during_the_size_steps_goes_on_to_the_same_circles(start, turned):
+    """The circles of a pass of size steps are stored together once it has turned the fold, and the checkpoint
+    follows the last: a run killed among them resumes from before the pass, and takes it again whole."""
+    import copy
+
     prob, u = start
     held = {}
 
-    def checkpoint(branch, state):  # killed at the first circle stored while the size steps are under way
-        if state.get("natural", {}).get("mode") == "size" and len(state["natural"]["pass_lams"]) >= 2:
-            held.update(branch=branch, state=decode(json.loads(json.dumps(encode(state)))))
+    def checkpoint(branch, state):
+        held.update(branch=copy.deepcopy(branch), state=decode(json.loads(json.dumps(encode(state)))))
+
+    def callback(branch, i):  # killed at the second circle of a pass (stored with no checkpoint between)
+        if "branch" in held and len(branch) >= len(held["branch"]) + 2:
             raise _Killed
 
     with pytest.raises(_Killed):
-        follow_circle_steps(prob, u, A0, (-0.2, 0.05), DOWN, checkpoint=checkpoint)
+        follow_circle_steps(prob, u, A0, (-0.2, 0.05), DOWN, checkpoint=checkpoint, callback=callback)
     previous = held["branch"]
+    assert not [sp for sp in previous.special_points if sp.kind is SpecialKind.FOLD]  # from before the pass
     previous.status = BranchStatus.INTERRUPTED
     previous.info["restart"] = held["state"]
     resumed = follow_circle_steps(prob, u, A0, (-0.2, 0.05), DOWN, previous=previous)
