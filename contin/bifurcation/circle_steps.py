@@ -420,7 +420,7 @@ class CircleStepper:
 
 def rational_near(rho: float) -> Fraction:
     """The ``p/q`` of smallest ``q <= CLOSE_DENOMINATOR`` within ``1 / (10 q^2)`` of ``rho``, else the one nearest
-    ``rho`` with ``q <= NEAREST_DENOMINATOR`` (:data:`CLOSE_DENOMINATOR`)."""
+    ``rho`` with ``q <= NEAREST_DENOMINATOR``."""
     for q in range(1, CLOSE_DENOMINATOR + 1):
         p = round(rho * q)
         if abs(rho - p / q) <= 0.1 / q ** 2:

@@ -103,28 +103,18 @@ JUMP_MARGIN = 2.0
 KINK_FLOOR = 1e-6
 
 
-def _secant_zero(points) -> tuple[float, float] | None:
-    """The zero of the secant through the two latest ``(s, value)`` of ``points`` and the secant's slope; None if
-    there is none."""
-    if len(points) < 2:
-        return None
-    (s0, v0), (s1, v1) = points[-2], points[-1]
-    if not (math.isfinite(v0) and math.isfinite(v1)) or v1 == v0 or s1 == s0:
-        return None
-    slope = (v1 - v0) / (s1 - s0)
-    return s1 - v1 / slope, slope
-
-
 def _one_sided(points, s_lo: float, s_hi: float, s_last: float, reach: float) -> float | None:
     """The next point by the secant through the two latest ``(s, value)`` of one side (``points``): its zero,
     moved towards the bracket's end farther from it by a hundredth of its distance from the latest point
     ``s_last``, and at least by ``reach``. Where the side is straight the ends come next to the zero in turn, a
     hundredfold closer each time; where the secant's side flattens towards the change (a dip past a grazing),
     its points crowd at the zero and ``reach`` brings the far end in. None without a secant."""
-    found = _secant_zero(points)
-    if found is None:
+    if len(points) < 2:
         return None
-    t = found[0]
+    (s0, v0), (s1, v1) = points[-2], points[-1]
+    if not (math.isfinite(v0) and math.isfinite(v1)) or v1 == v0 or s1 == s0:
+        return None
+    t = s1 - v1 / ((v1 - v0) / (s1 - s0))  # the arithmetic the measurements in docs/benchmarks.md ran
     far = s_lo if abs(t - s_lo) > abs(s_hi - t) else s_hi
     return t + math.copysign(max(0.01 * abs(t - s_last), reach), far - t)
 

@@ -12,6 +12,7 @@ period). The large stable cycle and the small unstable one are born together at 
 ``y`` equation and root finding on its return map), the circles from contin's integrator.
 """
 
+import copy
 import json
 import math
 
@@ -22,6 +23,7 @@ from scipy.optimize import brentq, minimize_scalar
 
 from contin.api.system import System
 from contin.bifurcation import circle_steps
+from contin.bifurcation.circle_branch import circle_child_start
 from contin.bifurcation.circle_fold import circle_size, fold_vertex, scaled, shape_direction
 from contin.bifurcation.circle_natural import follow_circle_steps
 from contin.bifurcation.circle_steps import step_circle
@@ -30,6 +32,7 @@ from contin.engine.newton import NewtonResult
 from contin.engine.options import ContinuationOptions
 from contin.output.checkpoint import decode, encode
 from contin.timedomain.invariant_circle import CircleOptions, InvariantCircleProblem
+from contin.timedomain.shooting import ShootingOptions, ShootingProblem, periodic_orbit
 
 MU, W, F, A0 = 0.2, 1.3, 0.5, -0.1
 DOWN = ContinuationOptions(ds=0.01, ds_max=0.01, ds_min=1e-4, direction=-1, newton_tol=1e-10, locate_tol=1e-9)
@@ -176,8 +179,6 @@ class _Killed(Exception):
 def test_a_branch_interrupted_during_the_size_steps_goes_on_to_the_same_circles(start, turned):
     """The circles of a pass of size steps are stored together once it has turned the fold, and the checkpoint
     follows the last: a run killed among them resumes from before the pass, and takes it again whole."""
-    import copy
-
     prob, u = start
     held = {}
 
@@ -206,9 +207,6 @@ def test_a_branch_interrupted_during_the_size_steps_goes_on_to_the_same_circles(
 def born():
     """The first guess of the torus born at the forced orbit's Neimark-Sacker point ``a = 0`` (the ``y``
     oscillator's Hopf point; the orbit by shooting, 256 RK4 steps a period)."""
-    from contin.bifurcation.circle_branch import circle_child_start
-    from contin.timedomain.shooting import ShootingOptions, ShootingProblem, periodic_orbit
-
     opts = ShootingOptions(steps_per_period=256)
     X = F / (1 - W ** 2 + 0.1j * W)
     orbit = periodic_orbit(_model(0.0), {"a": 0.0}, np.array([X.real, 0.0, -W * X.imag, 0.0]), opts)
