@@ -152,7 +152,7 @@ def follow_circle_steps(problem, u0, lam0: float, lam_range, options: Continuati
         if stepper.last_kind == "lam":
             saved = [_state_of(m) for m in mons]
             values = evaluate_monitors(mons, found[0][1].x, found[0][0], None, None)
-            if _flips(branch, values):
+            if _flips(branch, values, stepper.leap):
                 # a step in lam whose circle's stability differs from the last one's: onto the other half of a
                 # fold of tori (both halves exist on one side of the fold); refused, the steps shorten, and at
                 # ds_min the size steps take the fold (a bifurcation of the torus is passed by them too, and marked)
@@ -209,13 +209,22 @@ def _fold(branch: Branch, turned: dict) -> None:
 
 #: a verdict decides a refusal (:func:`_flips`) where its normal exponent is this many times its error from zero
 DECISIVE = 3.0
+#: an undecided circle is refused where its exponent lies on the other side of zero than the last decisive verdict
+#: and it landed more than this many of its predictor's steps from the predictor (:func:`_flips`)
+LEAP = 2.0
 
 
-def _flips(branch: Branch, values: dict) -> bool:
+def _flips(branch: Branch, values: dict, leap: float | None = None) -> bool:
     """Whether the monitors' ``values`` of a new circle give a stability verdict other than the last stored
     circle's that has one, both decisive (where the monitor gives the normal exponent and its error, the
     exponent :data:`DECISIVE` times its error from zero: near a fold of tori, and near a Neimark-Sacker
-    point, it is near zero, and a verdict there may go either way)."""
+    point, it is near zero, and a verdict there may go either way).
+
+    Near a fold both halves' exponents are near zero, so a step that lands on the other half gets no decisive
+    verdict; it lands off the predictor's line, though (``leap``: its distance from the predictor over the
+    predictor's from the last circle, :attr:`~contin.bifurcation.circle_steps.CircleStepper.leap`). An
+    undecided circle whose exponent lies on the other side of zero than the last decisive verdict is refused
+    where ``leap`` exceeds :data:`LEAP` (a corner of the branch leaps too, but keeps its side)."""
     pd = branch.point_data
     if not len(branch) or "stable" not in pd or "stable" not in values or not values.get("evaluated"):
         return False
@@ -223,13 +232,16 @@ def _flips(branch: Branch, values: dict) -> bool:
     def decisive(exponent, error) -> bool:
         return exponent is None or not np.isfinite(exponent) or abs(exponent) > DECISIVE * error
 
-    if not decisive(values.get("normal_exponent"), values.get("normal_exponent_error", 0.0)):
+    last = next((bool(pd["stable"][k]) for k in range(len(branch) - 1, -1, -1)
+                 if pd["evaluated"][k] and decisive(pd["normal_exponent"][k] if "normal_exponent" in pd else None,
+                                                    pd["normal_exponent_error"][k] if "normal_exponent" in pd
+                                                    else 0.0)), None)
+    exponent = values.get("normal_exponent")
+    if last is None:
         return False
-    for k in range(len(branch) - 1, -1, -1):
-        if pd["evaluated"][k] and decisive(pd["normal_exponent"][k] if "normal_exponent" in pd else None,
-                                           pd["normal_exponent_error"][k] if "normal_exponent" in pd else 0.0):
-            return bool(pd["stable"][k]) != bool(values["stable"])
-    return False
+    if decisive(exponent, values.get("normal_exponent_error", 0.0)):
+        return last != bool(values["stable"])
+    return leap is not None and leap > LEAP and exponent != 0.0 and (exponent < 0.0) != last
 
 
 def _stability_change(branch: Branch) -> None:

@@ -67,9 +67,10 @@ DIVERGED = 100.0
 FOLD_PASS_STEPS = 16
 #: ... a branch turns at most this many folds (a closed family of tori would turn for ever) ...
 FOLD_PASSES = 4
-#: ... and at most this many passes that went on the same way since the last turn (at the edge of a tongue of large
-#: ``q`` the passes would creep along it, a pass each time)
-FORWARD_PASSES = 1
+#: ... and at most this many passes that went on the same way since the last turn, or since a step in ``lam`` as long
+#: as ``max_step`` (at the edge of a tongue of large ``q`` the passes would creep along it, a pass each time, the
+#: steps between them never long)
+FORWARD_PASSES = 2
 #: the size steps, relative: the first, the largest, and the smallest before a pass gives up
 SIZE_STEP, SIZE_STEP_MAX, SIZE_STEP_MIN = 1e-2, 5e-2, 1e-3
 #: after a turn the steps in ``lam`` take over once ``lam`` is this many ``min_step`` back from the fold, and ...
@@ -169,6 +170,9 @@ class CircleStepper:
         self._pass_largest = 0.0
         self.last_kind = None  # how the last circle was found: "lam", or "size" (a size step, growing or turning)
         self._before = None  # what a step in lam changed, for undo
+        #: the last step in lam's circle, its distance from the predictor over the predictor's distance from the
+        #: circle before (None without a secant): a leap onto another branch lands far off the line
+        self.leap = None
         if grow:
             if self.turn_to is None:
                 raise ValueError("step_circle: a circle grown from a Neimark-Sacker point needs turn_to, the other "
@@ -214,6 +218,9 @@ class CircleStepper:
             self.failed()
             return []
         self._before = (h, self.lu, self.lu_at, self.largest, self.last_delta)
+        # how far Newton moved from the predictor, in the predictor's own steps from the last circle
+        reach = float(np.linalg.norm(guess - self.us[-1]))
+        self.leap = float(np.linalg.norm(r.x - guess)) / reach if len(self.lams) > 1 and reach > 0.0 else None
         if r.lu is not self.lu:
             self.lu, self.lu_at = r.lu, (None if r.lu is None else seen.last)
         self.largest, self.collapsed = max(self.largest, spread), None
@@ -221,6 +228,8 @@ class CircleStepper:
         self.us.append(r.x)
         self.last_delta = None
         self.step = self.sign * min(abs(h) * 1.5, self.max_step)
+        if abs(h) >= self.max_step:  # clear of the place the last pass went past: passes allowed again
+            self.forward = 0
         self.last_kind = "lam"
         return [(target, r)]
 

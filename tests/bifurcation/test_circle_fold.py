@@ -22,7 +22,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq, minimize_scalar
 
 from contin.api.system import System
-from contin.bifurcation import circle_steps
+from contin.bifurcation import circle_natural, circle_steps
 from contin.bifurcation.circle_branch import circle_child_start
 from contin.bifurcation.circle_fold import circle_size, fold_vertex, scaled, shape_direction
 from contin.bifurcation.circle_natural import follow_circle_steps
@@ -277,3 +277,58 @@ def test_a_step_in_the_parameter_whose_stability_flips_is_refused_and_taken_shor
     assert all(br.point_data["stable"]) and br.status is turned.status
     assert br.info["n_rejected_steps"] > turned.info["n_rejected_steps"]
     assert not [sp for sp in br.special_points if sp.kind is SpecialKind.STABILITY]
+
+
+def test_an_undecided_step_that_leaps_onto_the_other_half_is_refused(born, monkeypatch):
+    """Near a fold neither half's exponent is decisive, so a step landing on the other half is told by where it
+    lands: far off its predictor's line, its exponent across zero from the last decisive verdict. Here the
+    first step below a = -0.1 is sent to the large cycle (its guess scaled about the centre); refused, the
+    steps go down the small cycle to the fold and up the large one. Without the refusal the branch jumps
+    there, turns at the fold and walks back down the small cycle to the Hopf point."""
+    st = born
+
+    def amplitude(u):
+        return float(st.problem.blocks(u)[0][:, 1].max())
+
+    def verdict(u, lam, Ju=None, Jlam=None):
+        e = 0.05 * (1.0 - amplitude(u))  # unstable inside, stable outside; decisive only far from the fold
+        return {"evaluated": True, "stable": bool(e < 0), "normal_exponent": e,
+                "normal_exponent_error": 1e-3 if amplitude(u) < 0.8 else 1.0}
+
+    solve, sent = circle_steps.solve_at_parameter, []
+
+    def leaping(problem, guess, lam, *args, **kwargs):
+        if lam < -0.1 and not sent:
+            U = st.problem.blocks(guess)[0].copy()
+            c = U.mean(axis=0)
+            U[:, [1, 3]] = c[[1, 3]] + 1.35 * (U[:, [1, 3]] - c[[1, 3]])
+            guess = st.problem.unknowns(U, guess[-1])
+            sent.append(lam)
+        return solve(problem, guess, lam, *args, **kwargs)
+
+    monkeypatch.setattr(circle_steps, "solve_at_parameter", leaping)
+    opts = GROWN.replace(ds=0.02, ds_max=0.02, ds_min=1e-3)
+    br = follow_circle_steps(st.problem, st.u, st.lam, (-0.2, 0.05), opts, grow=True, monitors=[verdict])
+    assert len(sent) == 1 and br.status is BranchStatus.RANGE_END
+    A = np.array([amplitude(u) for u in br.unknowns])
+    i = int(np.argmin(br.parameter))
+    assert np.all(np.diff(br.parameter[:i + 1]) < 0) and np.all(np.diff(br.parameter[i:]) > 0)
+    assert np.all(np.diff(A) > 0)  # the small cycle down to the fold, the large one up from it
+
+    sent.clear()
+    monkeypatch.setattr(circle_natural, "LEAP", math.inf)
+    jumped = follow_circle_steps(st.problem, st.u, st.lam, (-0.2, 0.05), opts, grow=True, monitors=[verdict])
+    A = np.array([amplitude(u) for u in jumped.unknowns])
+    assert len(sent) == 1 and np.any(np.diff(A) < 0) and jumped.parameter[-1] > -0.01
+
+
+@pytest.mark.parametrize("step, reset", [(-0.005, True), (-0.002, False)])
+def test_a_step_as_long_as_the_largest_allows_passes_again(start, step, reset):
+    """The passes that went on the same way are counted (at a tongue's edge they would creep along it) until a
+    step in the parameter as long as ``max_step`` shows the steps clear of the place."""
+    prob, u = start
+    stepper = circle_steps.CircleStepper(prob, u, A0, step, -0.2, min_step=1e-3, max_step=0.005,
+                                         options=DOWN, turn_to=0.05)
+    stepper.forward = circle_steps.FORWARD_PASSES
+    assert stepper.attempt()
+    assert stepper.forward == (0 if reset else circle_steps.FORWARD_PASSES)
