@@ -74,10 +74,7 @@ def rng():
 
 #: example scenes whose run falls short, exit 1, and the words each of their shortfalls holds: branches that end
 #: at a grazing point harmonic balance cannot pass, leaving part of the range (docs/reference/outcomes.md)
-FALLS_SHORT = {# shooting, handed the nu = 2 halves at their grazing points, takes the lower one to the period
-               # doubling but crawls in the upper one's grazing cascade (yet)
-               "rotor_f0_02.yaml": ("ended step_too_small",),
-               # harmonic balance alone (method: hb): its branches stop at grazing points
+FALLS_SHORT = {# harmonic balance alone (method: hb): its branches stop at grazing points
                "rotor_fe_rig.yaml": ("ended at a grazing point", "stopped at a point it cannot pass"),
                # natural steps of its tori end at tongues of large q, where no locking of small q is in reach
                "rotor_fig3.yaml": ("ended step_too_small",)}

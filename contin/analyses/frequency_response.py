@@ -31,6 +31,7 @@ from contin.analyses.branch_summary import condition_summary as _condition_summa
 from contin.analyses.branch_summary import interval_or_none as _interval_or_none
 from contin.analyses.branch_summary import stability_summary as _stability_summary
 from contin.analyses.handover import boundary_gap, follow_and_hand_over, hand_over
+from contin.analyses.recut import recut
 from contin.analyses.shooting_rows import (METHODS, ShootingSettings, analysis_method, is_shooting, shooting_problem,
                                            shooting_start, stored_shooting_problem)
 from contin.analyses.stability_hooks import stability_setup
@@ -393,6 +394,8 @@ def _run(plan: FrequencyResponsePlan, ctx) -> Outcome:
                 results += setup.follow(problem, u0, lam0, (lo, hi), opts, rec, ctx, previous, first_id=first)
                 if setup.method == "auto":  # branches that harmonic balance could not take past a grazing point
                     results = hand_over(results, first, setup, rec, ctx, previous, (lo, hi))
+            # shooting branches that crawled, continued with their orbits cut at another section
+            results = recut(results, first, setup, rec, ctx, previous, (lo, hi))
             if len(results) > first and results[first][0].status == BranchStatus.START_FAILED:
                 results[first][0].message += start_advice(sc, hb_i, lam0)
             if ctx.stop_requested or any(b.status == BranchStatus.INTERRUPTED for b, _ in results):
@@ -416,7 +419,8 @@ def _run(plan: FrequencyResponsePlan, ctx) -> Outcome:
             "uncovered": _interval_or_none(branch.info.get("uncovered")) or boundary_gap(branch, (lo, hi)),
             "torus": meta.get("torus"),
             "method": meta.get("method", "hb"),
-            **({k: meta[k] for k in ("handed_over_to", "handed_over_from", "handover_failed", "end") if k in meta}),
+            **({k: meta[k] for k in ("handed_over_to", "handed_over_from", "handover_failed", "recut_to", "recut_from",
+                                     "end") if k in meta}),
             **({"returned": branch.info["returned"]} if "returned" in branch.info else {}),
         })
     ctx.timings["continuation"] = time.perf_counter() - t0
@@ -424,7 +428,8 @@ def _run(plan: FrequencyResponsePlan, ctx) -> Outcome:
     ctx.interrupted = ctx.interrupted or interrupted
     # a grazing end is an end as asked only where the orbit itself grazes and goes no further
     t_ends = time.perf_counter()
-    checked = {j: p for j, p in rec.problems.items() if j < len(results) and "handed_over_to" not in results[j][1]}
+    checked = {j: p for j, p in rec.problems.items()
+               if j < len(results) and "handed_over_to" not in results[j][1] and "recut_to" not in results[j][1]}
     end_shortfalls = [] if ctx.interrupted or ctx.stop_requested else branch_end_checks(
         results, checked, branches_info, (lo, hi), max(s.options.newton_tol for s in plan.starts), hb.parameter)
     ctx.timings["end_checks"] = time.perf_counter() - t_ends

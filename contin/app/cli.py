@@ -225,6 +225,8 @@ def _branch_line(b: dict) -> str:
     status = b["status"]
     if b.get("handed_over_to") is not None:  # the end of one method, not of the branch: say who goes on
         status += f", continued by shooting as branch {b['handed_over_to']}"
+    if b.get("recut_to") is not None:  # a crawl, continued with the orbits cut at another section
+        status += f", continued at another section of its orbits as branch {b['recut_to']}"
     return f"branch {b['branch']} (nu={b['nu']}): {b['points']} points, {status}: {b['message']}"
 
 

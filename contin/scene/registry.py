@@ -158,7 +158,9 @@ def shortfalls(branches: list[dict], parameter: str, failed_switches=(), what: s
     short when it leaves part of its range uncovered (its ``uncovered``),
     unless it was handed over to shooting (``end: handover``) or is a torus
     that locked and goes on as its periodic orbits' branches (``end: locking``)
-    or collapsed onto its periodic orbit at a Neimark-Sacker point (``end: collapse``).
+    or collapsed onto its periodic orbit at a Neimark-Sacker point (``end: collapse``). A shooting branch
+    that crawled and goes on with its orbits cut at another section (``end: recut``) is no shortfall: the
+    continuation's end decides.
 
     Parameters
     ----------
@@ -187,8 +189,8 @@ def shortfalls(branches: list[dict], parameter: str, failed_switches=(), what: s
             out.append(f"{name} stopped at a point it cannot pass ({b.get('message', '')}); {parameter} in "
                        f"[{gap[0]:.10g}, {gap[1]:.10g}] not covered{tip}")
             continue
-        if status is BranchStatus.INTERRUPTED or status.as_asked:
-            continue
+        if status is BranchStatus.INTERRUPTED or status.as_asked or b.get("end") == "recut":
+            continue  # a crawl continued at another section of the orbits: the continuation's end decides
         gap = b.get("uncovered")
         where = f"; {parameter} in [{gap[0]:.10g}, {gap[1]:.10g}] not covered" if gap else ""
         name = f"{what} {b.get('branch', i)}" + (f" (nu={b['nu']})" if "nu" in b else "")
