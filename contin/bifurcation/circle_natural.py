@@ -224,7 +224,8 @@ def _flips(branch: Branch, values: dict, leap: float | None = None) -> bool:
     verdict; it lands off the predictor's line, though (``leap``: its distance from the predictor over the
     predictor's from the last circle, :attr:`~contin.bifurcation.circle_steps.CircleStepper.leap`). An
     undecided circle whose exponent lies on the other side of zero than the last decisive verdict is refused
-    where ``leap`` exceeds :data:`LEAP` (a corner of the branch leaps too, but keeps its side)."""
+    where ``leap`` exceeds :data:`LEAP` (a corner of the branch leaps too, but keeps its side). The verdicts
+    compared are those stored since the last fold the size steps turned (across it the stability changes)."""
     pd = branch.point_data
     if not len(branch) or "stable" not in pd or "stable" not in values or not values.get("evaluated"):
         return False
@@ -232,7 +233,9 @@ def _flips(branch: Branch, values: dict, leap: float | None = None) -> bool:
     def decisive(exponent, error) -> bool:
         return exponent is None or not np.isfinite(exponent) or abs(exponent) > DECISIVE * error
 
-    last = next((bool(pd["stable"][k]) for k in range(len(branch) - 1, -1, -1)
+    # the circles since the last fold turned: across it the stability changes as it should
+    turned = max((sp.index for sp in branch.special_points if sp.event == "circle fold"), default=-1)
+    last = next((bool(pd["stable"][k]) for k in range(len(branch) - 1, turned, -1)
                  if pd["evaluated"][k] and decisive(pd["normal_exponent"][k] if "normal_exponent" in pd else None,
                                                     pd["normal_exponent_error"][k] if "normal_exponent" in pd
                                                     else 0.0)), None)
