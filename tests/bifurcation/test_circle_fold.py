@@ -332,3 +332,35 @@ def test_a_step_as_long_as_the_largest_allows_passes_again(start, step, reset):
     stepper.forward = circle_steps.FORWARD_PASSES
     assert stepper.attempt()
     assert stepper.forward == (0 if reset else circle_steps.FORWARD_PASSES)
+
+
+
+class _Verdicts:
+    """What :func:`contin.bifurcation.circle_natural._flips` reads of a branch: its length, the verdicts stored
+    and the special points."""
+
+    def __init__(self, special_points, stable, evaluated):
+        n = len(stable)
+        self.special_points = special_points
+        self.point_data = {"stable": np.asarray(stable), "evaluated": np.asarray(evaluated),
+                           "normal_exponent": np.where(stable, -0.1, 0.1), "normal_exponent_error": np.full(n, 1e-3)}
+
+    def __len__(self):
+        return len(self.point_data["stable"])
+
+
+def test_verdicts_are_compared_since_the_last_fold_turned(turned):
+    """Across a fold turned by size steps the stability changes as it should: a circle's verdict is compared
+    with those stored since, not with the other half's."""
+    from contin.bifurcation.circle_natural import _flips
+
+    fold = next(sp.index for sp in turned.special_points if sp.event == "circle fold")
+    before = np.arange(len(turned)) <= fold
+    unstable = {"evaluated": True, "stable": False, "normal_exponent": 0.1, "normal_exponent_error": 1e-3}
+    stable = {"evaluated": True, "stable": True, "normal_exponent": -0.1, "normal_exponent_error": 1e-3}
+    br = _Verdicts(turned.special_points, before, np.ones(len(turned), bool))
+    assert not _flips(br, unstable) and _flips(br, stable)  # the new half's verdicts are the reference
+    only_old = _Verdicts(turned.special_points, before, before)
+    assert not _flips(only_old, unstable) and not _flips(only_old, stable)  # none since the fold: no reference
+    no_fold = _Verdicts([], before, before)
+    assert _flips(no_fold, unstable)  # without a fold turned, the old half's verdicts are the reference
