@@ -79,8 +79,10 @@ def test_auto_passes_the_grazing_point_by_shooting_and_covers_the_range(tmp_path
         assert _closes(states[int(j)][:2], float(rows["w"][j])) < 1e-6
 
 
-@pytest.mark.slow  # the run twice, once interrupted in its shooting branch (~4 s)
-def test_a_run_interrupted_after_the_handover_resumes_to_the_same_rows(tmp_path, monkeypatch):
+def interrupted_and_resumed(tmp_path, monkeypatch, interrupt):
+    """The stop oscillator run through, and run again with a Ctrl-C once ``interrupt(progress lines so far)`` says
+    so, then resumed: ``(rows of the first, rows of the resumed, the progress lines of the interrupted)``, both
+    runs' float columns checked equal."""
     import signal
 
     from contin.app.cli import main
@@ -93,13 +95,12 @@ def test_a_run_interrupted_after_the_handover_resumes_to_the_same_rows(tmp_path,
 
     def ctrl_c(self, text, **kwargs):
         calls.append(text)
-        if len(calls) == 25:  # the shooting branch's 7th point
+        if interrupt(calls):
             signal.raise_signal(signal.SIGINT)
         update(self, text, **kwargs)
 
     monkeypatch.setattr(Progress, "update", ctrl_c)
     assert main(["run", str(scene), "-o", str(tmp_path / "run"), "-q"]) == 130
-    assert calls[24].startswith("branch 1 (nu=1)")
     monkeypatch.setattr(Progress, "update", update)
     assert main(["run", str(scene), "-o", str(tmp_path / "run"), "-q", "--resume"]) == 0
     a, b = read_csv(tmp_path / "ref" / "branches.csv"), read_csv(tmp_path / "run" / "branches.csv")
@@ -107,6 +108,13 @@ def test_a_run_interrupted_after_the_handover_resumes_to_the_same_rows(tmp_path,
     for col in a:
         if a[col].dtype.kind == "f":
             np.testing.assert_allclose(b[col], a[col], rtol=1e-9, atol=1e-12, err_msg=col)
+    return a, b, calls
+
+
+@pytest.mark.slow  # the run twice, once interrupted in its shooting branch (~4 s)
+def test_a_run_interrupted_after_the_handover_resumes_to_the_same_rows(tmp_path, monkeypatch):
+    _, _, calls = interrupted_and_resumed(tmp_path, monkeypatch, lambda calls: len(calls) == 25)
+    assert calls[24].startswith("branch 1 (nu=1)")  # the shooting branch's 7th point
 
 
 @pytest.mark.slow  # a harmonic-balance branch and the handover's tries (~3 s)
