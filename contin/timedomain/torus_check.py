@@ -34,7 +34,8 @@ import numpy as np
 
 from contin.timedomain.simulation import simulate
 
-__all__ = ["CIRCLE_GROWTH", "SETTLED", "TorusVerdict", "check_circle", "circle_distance", "torus_distance", "check_torus"]
+__all__ = ["CIRCLE_GROWTH", "SETTLED", "TorusVerdict", "check_circle", "circle_distance", "torus_distance",
+           "check_torus"]
 
 #: growth of the separation of two trajectories beyond which the torus repels
 GROWN_UNSTABLE = 1e3
