@@ -27,7 +27,8 @@ from contin.scene.sweep_plan import runs_from_start
 from contin.stability import orbit_state
 from contin.util.workers import threads
 
-__all__ = ["HANDOVER_AGREEMENT", "HANDOVER_BACK", "boundary_gap", "follow_and_hand_over", "hand_over", "handover_start"]
+__all__ = ["HANDOVER_AGREEMENT", "HANDOVER_BACK", "boundary_gap", "follow_and_hand_over", "follow_jobs", "hand_over",
+           "handover_start", "shooting_options"]
 
 
 def _direction(branch) -> int:
@@ -59,10 +60,16 @@ def _job(i: int, br, meta: dict, prob, setup, ctx):
                                    "more, analysis.shooting.steps_per_period)")
         return None
     u0, lam, direction = start
+    return i, meta, sp, u0, lam, shooting_options(setup, direction)
+
+
+def shooting_options(setup, direction: int):
+    """The start's continuation options for a shooting branch that goes on from another branch the way
+    ``direction``: through grazing corners (:func:`~contin.bifurcation.grazing_steps.through_grazing`), a
+    scale per unknown dropped (the unknowns are states now)."""
     su = setup.options.unknown_scale
-    opts = through_grazing(setup.options.replace(direction=direction,
+    return through_grazing(setup.options.replace(direction=direction,
                                                  unknown_scale=su if su is None or np.ndim(su) == 0 else None))
-    return i, meta, sp, u0, lam, opts
 
 
 def _follow_job(job, setup, lam_range, previous: dict, first_id: int):
@@ -107,19 +114,25 @@ def hand_over(results: list, first: int, setup, rec, ctx, previous: dict, lam_ra
             if (job := _job(i, *results[i], rec.problems.get(i), setup, ctx)) is not None]
     if not jobs or ctx.stop_requested:
         return out
+    for job, new in zip(jobs, follow_jobs(jobs, len(out), setup, rec, ctx, previous, lam_range)):
+        _attach(out, job, new)
+    return out
+
+
+def follow_jobs(jobs: list, first_id: int, setup, rec, ctx, previous: dict, lam_range) -> list:
+    """The shooting branches of ``jobs`` (``(i, meta, problem, u0, lam, options)`` each), numbered from
+    ``first_id``: side by side (:mod:`contin.analyses.side_by_side`) unless the start switches (then how many
+    branches each gives is known only at its end, and so are the ids of the next). A list of their results."""
     if setup.scene.analysis["switch"]:
         news = []
         for job in jobs:
-            news.append(_follow_job(job, setup, lam_range, previous, len(out) + sum(len(n) for n in news))(rec, ctx))
+            news.append(_follow_job(job, setup, lam_range, previous, first_id + sum(len(n) for n in news))(rec, ctx))
             if ctx.stop_requested or interrupted(news[-1]):
                 break
-    else:  # one branch each: their ids are known before they run
-        ids = [len(out) + k for k in range(len(jobs))]
-        news = side_by_side([_follow_job(job, setup, lam_range, previous, j) for job, j in zip(jobs, ids)], rec,
-                            ctx, "branches " + ", ".join(str(j) for j in ids))
-    for job, new in zip(jobs, news):
-        _attach(out, job, new)
-    return out
+        return news
+    ids = [first_id + k for k in range(len(jobs))]  # one branch each: their ids are known before they run
+    return side_by_side([_follow_job(job, setup, lam_range, previous, j) for job, j in zip(jobs, ids)], rec, ctx,
+                        "branches " + ", ".join(str(j) for j in ids))
 
 
 def follow_and_hand_over(setup, problem, u0, lam0: float, lam_range, rec, ctx, first: int) -> list | None:

@@ -18,8 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from contin.analyses.side_by_side import interrupted, side_by_side
-from contin.bifurcation.grazing_steps import through_grazing
+from contin.analyses.handover import follow_jobs, shooting_options
+from contin.analyses.side_by_side import interrupted
 from contin.engine.branch import BranchStatus
 from contin.model.periodic import is_shooting
 
@@ -48,10 +48,7 @@ def _job(i: int, br, meta: dict, prob, setup, ctx):
     t = float(np.asarray(br.tangents[-1], dtype=float)[-1])
     lam_prev = float(br.parameter[-2]) if len(br) > 1 else lam
     direction = (1 if t > 0 else -1) if t != 0.0 else (1 if lam >= lam_prev else -1)
-    su = setup.options.unknown_scale
-    opts = through_grazing(setup.options.replace(direction=direction,
-                                                 unknown_scale=su if su is None or np.ndim(su) == 0 else None))
-    return i, meta, cut, u0, lam, opts
+    return i, meta, cut, u0, lam, shooting_options(setup, direction)
 
 
 def recut(results: list, first: int, setup, rec, ctx, previous: dict, lam_range) -> list:
@@ -77,22 +74,7 @@ def recut(results: list, first: int, setup, rec, ctx, previous: dict, lam_range)
         jobs = [job for i in todo if (job := _job(i, *out[i], rec.problems.get(i), setup, ctx)) is not None]
         if not jobs:
             break
-        ids = [len(out) + k for k in range(len(jobs))]
-
-        def call(job, j):
-            _, _, cut, u0, lam, opts = job
-            return lambda recorder, context: setup.follow(cut, u0, lam, lam_range, opts, recorder, context,
-                                                          previous, first_id=j, both_ways=False)
-
-        if setup.scene.analysis["switch"]:  # the ids of a branch's switches are known at its end only
-            news = []
-            for job in jobs:
-                news.append(call(job, len(out) + sum(len(n) for n in news))(rec, ctx))
-                if ctx.stop_requested or interrupted(news[-1]):
-                    break
-        else:
-            news = side_by_side([call(job, j) for job, j in zip(jobs, ids)], rec, ctx,
-                                "branches " + ", ".join(str(j) for j in ids))
+        news = follow_jobs(jobs, len(out), setup, rec, ctx, previous, lam_range)
         start = len(out)
         for (i, meta, cut, _, lam, _), new in zip(jobs, news):
             if not new:
