@@ -211,45 +211,23 @@ def _gap_switch(X, V, d, g, k, c, side, clip, S, off):
 
 
 @njit(cache=True)
-def _gap_force_jac(X, V, d, g, k, c, side, active_plus, active_minus, DX, DXD):
-    """Jacobian of :func:`_gap_force` (the frozen mode's law: ``k`` and ``c`` on the diagonal where active)."""
-    if side >= 0 and active_plus != 0:
-        DX[0, d, d] += k
-        DXD[0, d, d] += c
-    if side <= 0 and active_minus != 0:
-        DX[0, d, d] += k
-        DXD[0, d, d] += c
-
-
-@njit(cache=True)
-def _gap_switch_grad(X, V, d, g, k, c, side, clip, G, off):
-    """Gradients of :func:`_gap_switch` in ``y = (x, x')``, rows ``off`` and ``off + 1`` of ``G``.
-
-    With ``clip`` the branch of the ``min`` that gives the value gives the gradient
-    (the force's, ``(k, c)/k``, where it is the smaller).
-    """
-    n = X.shape[1]
-    x = X[0, d]
-    v = V[0, d]
+def _gap_switch_grad(x, v, g, k, c, s, clip):
+    """Gradient of a gap's switching function on the side ``s`` (+1: ``x - g``, -1: ``-x - g``) in ``(x, x')``:
+    ``(gx, gv, clipped)``; with ``clip`` the branch of the ``min`` that gives the value gives the gradient
+    (the force's, ``(k, c)/k``, where it is the smaller; only that branch has a velocity part)."""
     kref = k if k > 0.0 else 1.0
-    for i in range(2):
-        s = 1.0 if i == 0 else -1.0
-        if (i == 0 and side < 0) or (i == 1 and side > 0):
-            continue  # an absent side: a constant -1
-        pen = s * x - g
-        if clip and (k * pen + s * c * v) / kref < pen:
-            G[off + i, d] = s * k / kref
-            G[off + i, n + d] = s * c / kref
-        else:
-            G[off + i, d] = s
+    pen = s * x - g
+    if clip and (k * pen + s * c * v) / kref < pen:
+        return s * k / kref, s * c / kref, True
+    return s, 0.0, False
 
 
 class GapForm(ContactForm):
     """The gap in the generated simulation module: the frozen mode's law and the two switching functions."""
 
     n_switch = 2
-    imports = ("from contin.model.elements.gap import _gap_force, _gap_force_jac, _gap_switch, _gap_switch_grad",)
-    kernels = (_gap_force, _gap_switch, _gap_force_jac, _gap_switch_grad)
+    imports = ("from contin.model.elements.gap import _gap_force, _gap_switch, _gap_switch_grad",)
+    kernels = (_gap_force, _gap_switch, _gap_switch_grad)
 
     def dofs(self):
         return (self.element.dof,)
@@ -264,12 +242,28 @@ class GapForm(ContactForm):
         return [f"_gap_switch(X, V, {e.dof}, cst[{c}], cst[{c + 1}], cst[{c + 2}], {e.side}, "
                 f"cst[{c + 3}] != 0.0, S, {m})"]
 
+    def _sides(self):
+        # (switching function, sign) of the gap's present sides
+        side = self.element.side
+        return [(i, s) for i, s in ((0, 1.0), (1, -1.0)) if (side >= 0 if i == 0 else side <= 0)]
+
+    # the Jacobian lines and the gradients' are written out, their kernel takes numbers (see radial_gap.py: an
+    # array passed to a compiled function is reference-counted at each call)
     def jacobian_lines(self, tag, c, m):
-        e = self.element
-        return [f"_gap_force_jac(X, V, {e.dof}, cst[{c}], cst[{c + 1}], cst[{c + 2}], {e.side}, mode[{m}], "
-                f"mode[{m + 1}], DX, DXD)"]
+        d = self.element.dof
+        lines = []
+        for i, _ in self._sides():  # the frozen mode's law: k and c on the diagonal where active
+            lines += [f"if mode[{m + i}] != 0:", f"    DX[0, {d}, {d}] += cst[{c + 1}]",
+                      f"    DXD[0, {d}, {d}] += cst[{c + 2}]"]
+        return lines
 
     def switch_gradient_lines(self, tag, c, m):
-        e = self.element
-        return [f"_gap_switch_grad(X, V, {e.dof}, cst[{c}], cst[{c + 1}], cst[{c + 2}], {e.side}, "
-                f"cst[{c + 3}] != 0.0, G, {m})"]
+        d = self.element.dof
+        lines = []
+        for i, s in self._sides():  # an absent side is a constant -1: no gradient
+            lines += [f"{tag}gx, {tag}gv, {tag}clipped = _gap_switch_grad(X[0, {d}], V[0, {d}], cst[{c}], "
+                      f"cst[{c + 1}], cst[{c + 2}], {s!r}, cst[{c + 3}] != 0.0)",
+                      f"G[{m + i}, {d}] = {tag}gx",
+                      f"if {tag}clipped:",
+                      f"    G[{m + i}, N + {d}] = {tag}gv"]
+        return lines

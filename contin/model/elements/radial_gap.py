@@ -211,25 +211,27 @@ class RadialGapForce(ContactForce):
 
 
 # ---------------------------------------------------------------- time simulation
+# The Jacobian's and the gradient's kernels take and return numbers, not arrays: an array passed to a compiled
+# function that is not inlined is reference-counted at each call (two atomic operations), and they run at every
+# stage of a linearisation's RK4 steps. The force's and the switching function's keep their arrays: with numbers
+# the plain flow's loop compiled slower (docs/howto/custom-models.md, the compiled kernels).
 @njit(cache=True, inline="always")
-def _radial_frame(X, V, ix, iy):
+def _radial_frame(x, y, vx, vy):
     """``(r, ex, ey, vn)``: the radius, the radial unit vector and the radial velocity (``r = 0``: zeros)."""
-    x = X[0, ix]
-    y = X[0, iy]
     r = np.sqrt(x * x + y * y)
     if r == 0.0:
         return 0.0, 0.0, 0.0, 0.0
     ex_ = x / r
     ey_ = y / r
-    return r, ex_, ey_, V[0, ix] * ex_ + V[0, iy] * ey_
+    return r, ex_, ey_, vx * ex_ + vy * ey_
 
 
 @njit(cache=True)
 def _radial_force(X, V, ix, iy, delta, k, c, active, F):
-    """Radial contact force of the frozen mode (law of :class:`RadialGapForce`, paper eq. 3)."""
+    """Radial contact force of the frozen mode (law of :class:`RadialGapForce`, paper eq. 3), added to ``F``."""
     if active == 0:
         return
-    r, ex_, ey_, vn = _radial_frame(X, V, ix, iy)
+    r, ex_, ey_, vn = _radial_frame(X[0, ix], X[0, iy], V[0, ix], V[0, iy])
     if r == 0.0:
         return
     Fn = k * (r - delta) + c * vn
@@ -239,7 +241,7 @@ def _radial_force(X, V, ix, iy, delta, k, c, active, F):
 
 @njit(cache=True)
 def _radial_switch(X, V, ix, iy, delta, k, c, clip, S, off):
-    """Switching function ``r - delta`` (with ``clip``: ``min(r - delta, Fn/k)``)."""
+    """Switching function ``r - delta`` (with ``clip``: ``min(r - delta, Fn/k)``), into ``S[off]``."""
     x = X[0, ix]
     y = X[0, iy]
     r = np.sqrt(x * x + y * y)
@@ -252,15 +254,14 @@ def _radial_switch(X, V, ix, iy, delta, k, c, clip, S, off):
 
 
 @njit(cache=True)
-def _radial_force_jac(X, V, ix, iy, delta, k, c, active, DX, DXD):
-    """Jacobian of :func:`_radial_force` (as in :func:`_radial_kernel`, without its test of the side)."""
+def _radial_force_jac(x, y, vx, vy, delta, k, c, active):
+    """Jacobian of :func:`_radial_force` (as in :func:`_radial_kernel`, without its test of the side):
+    ``(on, dF/dx (xx, xy, yx, yy), dF/dx' (xx, xy, yx, yy))``, ``on`` False where it adds nothing."""
     if active == 0:
-        return
-    r, ex_, ey_, vn = _radial_frame(X, V, ix, iy)
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    r, ex_, ey_, vn = _radial_frame(x, y, vx, vy)
     if r == 0.0:
-        return
-    vx = V[0, ix]
-    vy = V[0, iy]
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     Fn = k * (r - delta) + c * vn
     # the radial direction turns with the position
     dexdx = ey_ * ey_ / r
@@ -270,44 +271,31 @@ def _radial_force_jac(X, V, ix, iy, delta, k, c, active, DX, DXD):
     dvndy = vx * dexdy + vy * deydy
     dFndx = k * ex_ + c * dvndx
     dFndy = k * ey_ + c * dvndy
-    DX[0, ix, ix] += dFndx * ex_ + Fn * dexdx
-    DX[0, ix, iy] += dFndy * ex_ + Fn * dexdy
-    DX[0, iy, ix] += dFndx * ey_ + Fn * dexdy
-    DX[0, iy, iy] += dFndy * ey_ + Fn * deydy
-    DXD[0, ix, ix] += c * ex_ * ex_
-    DXD[0, ix, iy] += c * ex_ * ey_
-    DXD[0, iy, ix] += c * ey_ * ex_
-    DXD[0, iy, iy] += c * ey_ * ey_
+    return (True, dFndx * ex_ + Fn * dexdx, dFndy * ex_ + Fn * dexdy, dFndx * ey_ + Fn * dexdy,
+            dFndy * ey_ + Fn * deydy, c * ex_ * ex_, c * ex_ * ey_, c * ey_ * ex_, c * ey_ * ey_)
 
 
 @njit(cache=True)
-def _radial_switch_grad(X, V, ix, iy, delta, k, c, clip, G, off):
-    """Gradient of :func:`_radial_switch` in ``y = (x, x')``, row ``off`` of ``G`` (the branch of the ``min``)."""
-    n = X.shape[1]
-    x = X[0, ix]
-    y = X[0, iy]
+def _radial_switch_grad(x, y, vx, vy, delta, k, c, clip):
+    """Gradient of :func:`_radial_switch` in ``(x, y, vx, vy)`` (the branch of the ``min``):
+    ``(which, gx, gy, gvx, gvy)``, ``which`` 0 at the centre (no direction: the surface is far), 1 for
+    ``r - delta`` (no velocity part), 2 for the clipped branch."""
     r = np.sqrt(x * x + y * y)
     if r == 0.0:
-        return  # the centre: no direction (the surface is far)
+        return 0, 0.0, 0.0, 0.0, 0.0
     ex_ = x / r
     ey_ = y / r
     pen = r - delta
     if clip:
         kref = k if k > 0.0 else 1.0
-        vx = V[0, ix]
-        vy = V[0, iy]
         vn = vx * ex_ + vy * ey_
         if (k * pen + c * vn) / kref < pen:
             dexdx = ey_ * ey_ / r
             dexdy = -ex_ * ey_ / r
             deydy = ex_ * ex_ / r
-            G[off, ix] = (k * ex_ + c * (vx * dexdx + vy * dexdy)) / kref
-            G[off, iy] = (k * ey_ + c * (vx * dexdy + vy * deydy)) / kref
-            G[off, n + ix] = c * ex_ / kref
-            G[off, n + iy] = c * ey_ / kref
-            return
-    G[off, ix] = ex_
-    G[off, iy] = ey_
+            return (2, (k * ex_ + c * (vx * dexdx + vy * dexdy)) / kref,
+                    (k * ey_ + c * (vx * dexdy + vy * deydy)) / kref, c * ex_ / kref, c * ey_ / kref)
+    return 1, ex_, ey_, 0.0, 0.0
 
 
 class RadialGapForm(ContactForm):
@@ -322,6 +310,12 @@ class RadialGapForm(ContactForm):
         # the radial direction may point along either dof
         return (self.element.ix, self.element.iy)
 
+    def _call(self, kernel, c, last):
+        # the kernel's arguments: the bearing's displacement and velocity, the law's constants and ``last``
+        e = self.element
+        return (f"{kernel}(X[0, {e.ix}], X[0, {e.iy}], V[0, {e.ix}], V[0, {e.iy}], cst[{c}], cst[{c + 1}], "
+                f"cst[{c + 2}], {last})")
+
     def force_lines(self, tag, c, m):
         e = self.element
         return [f"_radial_force(X, V, {e.ix}, {e.iy}, cst[{c}], cst[{c + 1}], cst[{c + 2}], mode[{m}], F)"]
@@ -333,9 +327,21 @@ class RadialGapForm(ContactForm):
 
     def jacobian_lines(self, tag, c, m):
         e = self.element
-        return [f"_radial_force_jac(X, V, {e.ix}, {e.iy}, cst[{c}], cst[{c + 1}], cst[{c + 2}], mode[{m}], DX, DXD)"]
+        names = [f"{tag}j{i}" for i in range(8)]
+        lines = [f"{tag}on, {', '.join(names)} = {self._call('_radial_force_jac', c, f'mode[{m}]')}",
+                 f"if {tag}on:"]
+        cells = [(a, b) for a in (e.ix, e.iy) for b in (e.ix, e.iy)]
+        lines += [f"    DX[0, {a}, {b}] += {name}" for (a, b), name in zip(cells, names[:4])]
+        lines += [f"    DXD[0, {a}, {b}] += {name}" for (a, b), name in zip(cells, names[4:])]
+        return lines
 
     def switch_gradient_lines(self, tag, c, m):
         e = self.element
-        return [f"_radial_switch_grad(X, V, {e.ix}, {e.iy}, cst[{c}], cst[{c + 1}], cst[{c + 2}], "
-                f"cst[{c + 3}] != 0.0, G, {m})"]
+        return [f"{tag}w, {tag}gx, {tag}gy, {tag}gvx, {tag}gvy = "
+                f"{self._call('_radial_switch_grad', c, f'cst[{c + 3}] != 0.0')}",
+                f"if {tag}w != 0:",
+                f"    G[{m}, {e.ix}] = {tag}gx",
+                f"    G[{m}, {e.iy}] = {tag}gy",
+                f"if {tag}w == 2:",
+                f"    G[{m}, N + {e.ix}] = {tag}gvx",
+                f"    G[{m}, N + {e.iy}] = {tag}gvy"]

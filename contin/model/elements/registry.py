@@ -181,7 +181,10 @@ class CompiledForm:
     ``mode[m + i] != 0``), not of the state's own side of the surface: the
     integrator locates the crossings (:mod:`contin.timedomain.simulation`).
     Lines may call numba kernels imported by :attr:`imports`, or be plain
-    numba-compilable statements (nested blocks indented by four spaces).
+    numba-compilable statements (nested blocks indented by four spaces). An
+    array passed to a kernel that is not inlined is reference-counted at each
+    call: the Jacobian and gradient lines, which run at every RK4 stage of a
+    linearisation, do best to pass numbers (docs/howto/custom-models.md).
     """
 
     #: number of switching functions of the element
