@@ -14,11 +14,11 @@ Three measurements, side by side in one run, with one BLAS thread:
    ``subharmonic`` (period 2) or ``neither``. Each speed's classes are
    printed beside what the diagram says there (the stable branches through
    it), with the verdict: they agree when every class a start reached is
-   one the diagram has there. Where the starts reach something else than
-   the diagram's stable harmonic solution, the simulation is run once more
-   from that solution (a stored point near the speed, at its own speed):
-   if it stays there, both attractors coexist and the starts missed the
-   diagram's. The ratio brute force / diagram is the point of the tool.
+   one the diagram has there. Where no start reaches a stable solution of
+   the diagram (harmonic or 1/2-subharmonic), the simulation is run once
+   more from that solution (a stored point near the speed, at its own
+   speed): if it stays there, both attractors coexist and the starts missed
+   the diagram's. The ratio brute force / diagram is the point of the tool.
 3. **The floor** of the main job: its number of stored points times the cost
    of one LU of its bordered corrector matrix plus one monodromy (on the
    branches handed to shooting, one linearisation: the variational flow,
@@ -91,28 +91,44 @@ def brute_force(model, w: float, starts, revolutions: int) -> tuple[set, float]:
     return found, time.perf_counter() - t0
 
 
-def from_the_diagram(outdir: Path, scene, rows, w: float, revolutions: int):
-    """Simulate from the stored stable harmonic orbit nearest to w, at its own speed: does it persist?
+CLASS_NU = {"harmonic": 1, "subharmonic": 2}
 
-    Returns ``(class, w_point)``, or None where the diagram has no stable harmonic point near w.
+
+def from_the_diagram(outdir: Path, scene, rows, w: float, revolutions: int, kind: str = "harmonic"):
+    """Simulate from the stored stable orbit of class ``kind`` (``harmonic`` or ``subharmonic``) nearest to w,
+    at its own speed: does it persist?
+
+    A harmonic-balance row gives its state at t = 0 from its coefficients, a shooting row its first segment's
+    start. Returns ``(class, w_point)``, or None where the diagram has no stable point of that class near w.
     """
     from contin.analyses.frequency_response import build_problem
     from contin.app.pointplot import load_state_row
     from contin.timedomain.poincare import steady_state
     from contin.output.expansion import StoredExpansion
     from contin.scene.build import build_model
+    from contin.scene.parse import Scene
     from contin.stability import orbit_state
 
-    ok = (np.asarray(rows["nu"]) == 1) & np.array([bool(s) for s in rows["stable"]])
+    nu = CLASS_NU[kind]
+    ok = (np.asarray(rows["nu"]) == nu) & np.array([bool(s) for s in rows["stable"]])
+    if nu == 2:  # a nu = 2 row with a +w/2 whirl (diagram_classes)
+        ok &= np.asarray(rows["whirl_fwd_half_disc"], dtype=float) >= 1e-3
     if not ok.any():
         return None
     row = int(np.flatnonzero(ok)[np.argmin(np.abs(np.asarray(rows["w"])[ok] - w))])
     rec = load_state_row(outdir, row)
+    header = rec["branch_record"]
     model = build_model(scene)
-    hb = build_problem(scene, model)
-    u = StoredExpansion(hb)(rec["branch_record"], rec["u"], rec["lam"])  # the full coefficients
-    z = orbit_state(getattr(hb, "full", hb), u, float(rec["lam"]), 0.0)
     n = model.n_dof
+    if header.get("method") == "shooting":
+        z = np.asarray(rec["u"], dtype=float)[:2 * n]  # the first segment's start, at t = 0
+    else:
+        a = {**scene.analysis, "subharmonic": nu, "harmonics": int(rec.get("H") or scene.analysis["harmonics"]),
+             "starts": []}
+        sub = Scene({**scene.data, "analysis": a}, scene.source, scene.lines)
+        hb = build_problem(sub, build_model(sub))
+        u = StoredExpansion(hb)(header, rec["u"], rec["lam"])  # the full coefficients
+        z = orbit_state(getattr(hb, "full", hb), u, float(rec["lam"]), 0.0)
     _, res = steady_state(model, {"w": float(rec["lam"])}, x0=z[:n], v0=z[n:], transient=revolutions - RECORD,
                           record=RECORD)
     return {1: "harmonic", 2: "subharmonic"}.get(res.period if res is not None else None, "neither"), rec["lam"]
@@ -232,19 +248,19 @@ def main(argv=None) -> int:
         dg = diagram_classes(rows, w)
         ok = found <= dg
         n_agree += ok
-        if not ok and "harmonic" in dg:
-            differ.append(w)
+        if not ok:
+            differ += [(w, kind) for kind in sorted(dg & set(CLASS_NU)) if kind not in found]
         print(f"{w:8.4f} {'+'.join(sorted(found)):>24s} {'+'.join(sorted(dg)):>24s} {'yes' if ok else 'NO':>6s} {dt:7.2f}")
     total = float(np.sum(t_bf)) * len(grid) / len(simulated)
     how = "measured" if len(simulated) == len(grid) else f"extrapolated from {len(simulated)} speeds"
     print(f"same classes at {n_agree} of {len(simulated)} speeds (every class a start reached is a stable branch "
           "of the diagram there)")
-    for w in differ:
+    for w, kind in differ:
         # the starts missed the diagram's attractor, or the diagram is wrong: integrate from its orbit to tell
-        got = from_the_diagram(outdir, scene, rows, w, args.revolutions)
+        got = from_the_diagram(outdir, scene, rows, w, args.revolutions, kind)
         if got is not None:
-            print(f"  w = {w:.4f}: from the diagram's stable harmonic orbit at w = {got[1]:.4f} the simulation stays "
-                  f"{got[0]} ({'coexisting attractors' if got[0] == 'harmonic' else 'THE DIAGRAM IS WRONG THERE'})")
+            print(f"  w = {w:.4f}: from the diagram's stable {kind} orbit at w = {got[1]:.4f} the simulation stays "
+                  f"{got[0]} ({'coexisting attractors' if got[0] == kind else 'THE DIAGRAM IS WRONG THERE'})")
     print(f"brute force {total:.1f} s ({how}); main job {t_diagram:.2f} s; "
           f"ratio brute force / main job = {total / t_diagram:.1f}x")
 
