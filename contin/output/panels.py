@@ -319,6 +319,8 @@ def draw_panels(fig, panels, parameter: str, *, zoom: ZoomWindow | None = None, 
             if renderer is not None:
                 legend.remove()
                 home, legend = None, None
+        else:  # a legend inside a panel leaves the layout as it was laid out
+            renderer = laid_out
     if not numbered:
         return axes
     if renderer is None:  # the final layout (the numbers take no room in it): run once for every panel

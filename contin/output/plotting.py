@@ -247,6 +247,12 @@ def _fontsize() -> float:
 def laid_out_renderer(fig):
     """The renderer of ``fig`` after its layout has run (the axes in their final place)."""
     fig.draw_without_rendering()  # runs the layout: the axes have their final place
+    return text_renderer(fig)
+
+
+def text_renderer(fig):
+    """A renderer of ``fig`` as it stands, its layout not run: enough to measure texts, whose extents do not
+    depend on where the axes are."""
     get = getattr(fig.canvas, "get_renderer", None)
     return get() if get is not None else fig._get_renderer()
 
@@ -312,7 +318,7 @@ def special_table(ax, points, parameter, symbols, short_names, units) -> list:
     """
     fig = ax.figure
     fontsize = _fontsize()
-    renderer = laid_out_renderer(fig)
+    renderer = text_renderer(fig)  # the widths of texts alone
     values = _value_texts([sp["parameter"] for sp in points])
     for sp, v in zip(points, values):
         sp["value_text"] = v
