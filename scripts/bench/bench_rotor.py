@@ -128,7 +128,7 @@ def from_the_diagram(outdir: Path, scene, rows, w: float, revolutions: int, kind
         sub = Scene({**scene.data, "analysis": a}, scene.source, scene.lines)
         hb = build_problem(sub, build_model(sub))
         u = StoredExpansion(hb)(header, rec["u"], rec["lam"])  # the full coefficients
-        z = orbit_state(getattr(hb, "full", hb), u, float(rec["lam"]), 0.0)
+        z = orbit_state(hb.full, u, float(rec["lam"]), 0.0)
     _, res = steady_state(model, {"w": float(rec["lam"])}, x0=z[:n], v0=z[n:], transient=revolutions - RECORD,
                           record=RECORD)
     return {1: "harmonic", 2: "subharmonic"}.get(res.period if res is not None else None, "neither"), rec["lam"]
@@ -157,7 +157,7 @@ def floor_per_point(outdir: Path, scene) -> dict:
         rec = next((r for r in recs if int(r["nu"]) == nu), None)
         if rec is None or nu in out:
             continue
-        full = getattr(hb, "full", hb)
+        full = hb.full
         u, lam = np.array(rec["u"]), float(rec["lam"])  # the engine's unknowns (kept dofs when condensed)
         problem = engine_problem(sub, hb)
         u_full = problem.expand(u, lam) if problem is not hb else u
