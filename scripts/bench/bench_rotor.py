@@ -98,16 +98,17 @@ def from_the_diagram(outdir: Path, scene, rows, w: float, revolutions: int, kind
     """Simulate from the stored stable orbit of class ``kind`` (``harmonic`` or ``subharmonic``) nearest to w,
     at its own speed: does it persist?
 
-    A harmonic-balance row gives its state at t = 0 from its coefficients, a shooting row its first segment's
-    start. Returns ``(class, w_point)``, or None where the diagram has no stable point of that class near w.
+    The state at t = 0 from the row's problem (:class:`contin.model.periodic.PeriodicProblem`'s ``orbit``): a
+    harmonic-balance row's coefficients, a shooting row's segment starts (cut at its own section). Returns
+    ``(class, w_point)``, or None where the diagram has no stable point of that class near w.
     """
     from contin.analyses.frequency_response import build_problem
+    from contin.analyses.shooting_rows import stored_shooting_problem
     from contin.app.pointplot import load_state_row
     from contin.timedomain.poincare import steady_state
     from contin.output.expansion import StoredExpansion
     from contin.scene.build import build_model
     from contin.scene.parse import Scene
-    from contin.stability import orbit_state
 
     nu = CLASS_NU[kind]
     ok = (np.asarray(rows["nu"]) == nu) & np.array([bool(s) for s in rows["stable"]])
@@ -118,18 +119,17 @@ def from_the_diagram(outdir: Path, scene, rows, w: float, revolutions: int, kind
     row = int(np.flatnonzero(ok)[np.argmin(np.abs(np.asarray(rows["w"])[ok] - w))])
     rec = load_state_row(outdir, row)
     header = rec["branch_record"]
-    model = build_model(scene)
-    n = model.n_dof
+    H = int(rec.get("H") or header.get("H") or scene.analysis["harmonics"])
+    sub = Scene({**scene.data, "analysis": {**scene.analysis, "subharmonic": nu, "harmonics": H, "starts": []}},
+                scene.source, scene.lines)
+    model = build_model(sub)
+    hb = build_problem(sub, model)
     if header.get("method") == "shooting":
-        z = np.asarray(rec["u"], dtype=float)[:2 * n]  # the first segment's start, at t = 0
+        problem, u = stored_shooting_problem(hb, {**header, "nu": nu}), np.asarray(rec["u"], dtype=float)
     else:
-        a = {**scene.analysis, "subharmonic": nu, "harmonics": int(rec.get("H") or scene.analysis["harmonics"]),
-             "starts": []}
-        sub = Scene({**scene.data, "analysis": a}, scene.source, scene.lines)
-        hb = build_problem(sub, build_model(sub))
-        u = StoredExpansion(hb)(header, rec["u"], rec["lam"])  # the full coefficients
-        z = orbit_state(hb.full, u, float(rec["lam"]), 0.0)
-    _, res = steady_state(model, {"w": float(rec["lam"])}, x0=z[:n], v0=z[n:], transient=revolutions - RECORD,
+        problem, u = hb.full, StoredExpansion(hb)(header, rec["u"], rec["lam"])  # the full coefficients
+    x, xd = problem.orbit(u, float(rec["lam"]), np.zeros(1))
+    _, res = steady_state(model, {"w": float(rec["lam"])}, x0=x[:, 0], v0=xd[:, 0], transient=revolutions - RECORD,
                           record=RECORD)
     return {1: "harmonic", 2: "subharmonic"}.get(res.period if res is not None else None, "neither"), rec["lam"]
 
