@@ -48,6 +48,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 RECORD = 40  # revolutions classified at the end of each simulation
+HALF_WHIRL = 1e-3  # a nu = 2 row counts as subharmonic from this disc whirl at +w/2 on
 
 
 def run(name, overrides, outdir):
@@ -68,7 +69,7 @@ def diagram_classes(rows, w: float) -> set:
         for i in range(len(ws) - 1):
             if min(ws[i], ws[i + 1]) <= w <= max(ws[i], ws[i + 1]):
                 j = i if abs(ws[i] - w) <= abs(ws[i + 1] - w) else i + 1  # the nearer stored point
-                if st[j] and not (nu == 2 and rows["whirl_fwd_half_disc"][m][j] < 1e-3):
+                if st[j] and not (nu == 2 and rows["whirl_fwd_half_disc"][m][j] < HALF_WHIRL):
                     out.add({1: "harmonic", 2: "subharmonic"}[nu])
     return out or {"neither"}
 
@@ -112,8 +113,8 @@ def from_the_diagram(outdir: Path, scene, rows, w: float, revolutions: int, kind
 
     nu = CLASS_NU[kind]
     ok = (np.asarray(rows["nu"]) == nu) & np.array([bool(s) for s in rows["stable"]])
-    if nu == 2:  # a nu = 2 row with a +w/2 whirl (diagram_classes)
-        ok &= np.asarray(rows["whirl_fwd_half_disc"], dtype=float) >= 1e-3
+    if nu == 2:
+        ok &= np.asarray(rows["whirl_fwd_half_disc"], dtype=float) >= HALF_WHIRL
     if not ok.any():
         return None
     row = int(np.flatnonzero(ok)[np.argmin(np.abs(np.asarray(rows["w"])[ok] - w))])
